@@ -1,0 +1,88 @@
+"""Client proxy: what user code holds for a node (`arm.get_state()`, `arm.send_request(...)`).
+
+It is an instance of the node class built with the same config (to learn layouts and client-side
+methods) whose buffers are the middleware's client-side objects. Only `__api__` names are exposed;
+client-side ones run here, the others become remote calls. Every access first checks that the
+server is alive, so a dead node is an error, never a silently stale value.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .middleware.base import ClientTransport
+from .node import Node, is_client_side
+
+
+class _Checked:
+    """Forwards buffer methods to the transport's object after a (throttled) liveness check."""
+
+    __slots__ = ("_obj", "_check")
+
+    def __init__(self, obj: Any, check: Any):
+        self._obj, self._check = obj, check
+
+    def __getattr__(self, attr: str) -> Any:
+        target = getattr(self._obj, attr)
+        if not callable(target):
+            return target
+        check = self._check
+
+        def checked(*args: Any, **kwargs: Any) -> Any:
+            check()
+            return target(*args, **kwargs)
+
+        return checked
+
+
+class NodeClient:
+    """Proxy for a running node. Use as a context manager, or call `close()`."""
+
+    def __init__(self, node: Node, transport: ClientTransport):
+        self._node, self._transport = node, transport
+        self.name = node.name
+        node.ring_buffer = _Checked(transport.ring_buffer, transport.check_alive) if transport.ring_buffer is not None else None
+        node.request_queue = _Checked(transport.request_queue, transport.check_alive) if transport.request_queue is not None else None
+        cls = type(node)
+        self._api: dict[str, Any] = {}
+        for m in cls.__api__:
+            if is_client_side(cls, m):
+                self._api[m] = getattr(node, m)
+            else:
+                self._api[m] = self._remote(m)
+
+    def _remote(self, method: str) -> Any:
+        call = self._transport.call
+
+        def remote(*args: Any, **kwargs: Any) -> Any:
+            return call(method, args, kwargs)
+
+        remote.__name__ = method
+        remote.__doc__ = getattr(type(self._node), method).__doc__
+        return remote
+
+    def __getattr__(self, attr: str) -> Any:
+        api = self.__dict__.get("_api", {})
+        if attr in api:
+            return api[attr]
+        raise AttributeError(
+            f"node '{self.__dict__.get('name', '?')}' has no API method '{attr}'; its __api__ is {sorted(api)}"
+        )
+
+    def __dir__(self) -> list[str]:
+        return sorted(set(super().__dir__()) | set(self._api))
+
+    def check_alive(self) -> None:
+        self._transport.check_alive()
+
+    def close(self) -> None:
+        self._transport.close()
+
+    def __enter__(self) -> NodeClient:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"<NodeClient '{self.name}' ({type(self._node).__name__}) api={sorted(self._api)}>"

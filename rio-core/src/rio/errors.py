@@ -1,0 +1,62 @@
+"""Errors a user of RIO can act on. Each names the node (and field) it is about."""
+
+from __future__ import annotations
+
+
+class RioError(Exception):
+    """Base class of every RIO error."""
+
+
+class InvalidRequest(RioError, ValueError):
+    """A request or sample does not match the node's declared example (key, shape, dtype, NaN/inf)."""
+
+    def __init__(self, node: str, field: str | None, problem: str):
+        self.node, self.field, self.problem = node, field, problem
+        where = f"field '{field}'" if field else "request"
+        super().__init__(f"node '{node}': {where}: {problem}")
+
+
+class NodeError(RioError):
+    """An exception raised inside a node, carried to the client that called it."""
+
+    def __init__(self, node: str, exc_type: str, message: str, remote_traceback: str = ""):
+        self.node, self.exc_type, self.message = node, exc_type, message
+        self.remote_traceback = remote_traceback
+        super().__init__(f"node '{node}' raised {exc_type}: {message}")
+
+    def __str__(self) -> str:
+        base = super().__str__()
+        if self.remote_traceback:
+            return f"{base}\n--- traceback inside node '{self.node}' ---\n{self.remote_traceback.rstrip()}"
+        return base
+
+
+class NodeDiedError(RioError):
+    """The server side of a node is gone (process exited or stopped answering)."""
+
+    def __init__(self, node: str, detail: str = ""):
+        self.node, self.detail = node, detail
+        super().__init__(f"node '{node}' is not running" + (f": {detail}" if detail else ""))
+
+
+class NodeTimeout(RioError, TimeoutError):
+    """A node did not answer within the allotted time while still apparently alive."""
+
+    def __init__(self, node: str, what: str, timeout: float):
+        self.node = node
+        super().__init__(f"node '{node}': {what} timed out after {timeout:.3g} s")
+
+
+class QueueFull(RioError):
+    """A request queue stayed full for longer than the put timeout: the node is not keeping up."""
+
+    def __init__(self, node: str, capacity: int, timeout: float):
+        self.node = node
+        super().__init__(
+            f"node '{node}': request queue full ({capacity} slots) for {timeout:.3g} s; "
+            "the node is not consuming requests (raise its rate or request_capacity)"
+        )
+
+
+class ConfigError(RioError, ValueError):
+    """A station file, plugin spec or middleware option is wrong; the message names where."""

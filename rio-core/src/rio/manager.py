@@ -1,0 +1,307 @@
+"""`serve`, `connect` and `ServerManager`: start node servers, connect clients, clean up always.
+
+Process-per-node middlewares run each server in a *spawned* child (never forked: zenoh and zmq own
+threads that fork would corrupt) whose SIGINT is ignored, so Ctrl+C in the main program stops nodes
+through `ServerManager.__exit__` (closing hardware) rather than killing them mid-write. Resources
+that must outlive a crash (shared memory, the run directory) are created and removed by the manager,
+so a SIGKILLed child leaves nothing behind. A child whose parent dies stops itself (parent-death
+signal plus control-pipe EOF).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import multiprocessing as mp
+import os
+import shutil
+import signal
+import tempfile
+import threading
+import uuid
+from dataclasses import dataclass, field
+from typing import Any
+
+from . import time as rtime
+from .client import NodeClient
+from .errors import ConfigError, NodeDiedError, RioError
+from .middleware.base import Middleware, NodeLayouts
+from .node import Node
+from .runtime import Dispatcher, NodeRunner
+
+log = logging.getLogger("rio.manager")
+
+# Addresses of nodes served from this process: (middleware, station, node) -> address dict.
+_ADDRESSES: dict[tuple[str, str, str], dict[str, Any]] = {}
+
+
+def _middleware(mw: str | Middleware, station: str, options: dict | None = None) -> Middleware:
+    if isinstance(mw, Middleware):
+        return mw
+    from .plugins import get_middleware
+
+    return get_middleware(mw)(station=station, **(options or {}))
+
+
+def _build_node(cls: type[Node], name: str | None, config: dict[str, Any]) -> Node:
+    if not (isinstance(cls, type) and issubclass(cls, Node)):
+        raise ConfigError(f"{cls!r} is not a rio.Node subclass")
+    node = cls(**config)
+    node.name = name or node.name
+    return node
+
+
+@dataclass
+class ServerSpec:
+    """What to serve; started by `ServerManager`."""
+
+    cls: type[Node]
+    name: str
+    config: dict[str, Any] = field(default_factory=dict)
+    mw: str | Middleware | None = None
+
+
+def serve(cls: type[Node], mw: str | Middleware | None = None, *, name: str | None = None, **config: Any) -> ServerSpec:
+    node = _build_node(cls, name, config)  # fail early on a bad config, in the caller's process
+    return ServerSpec(cls, node.name, config, mw)
+
+
+def connect(cls: type[Node], mw: str | Middleware, *, name: str | None = None, station: str = "rio",
+            address: dict[str, Any] | None = None, **config: Any) -> NodeClient:
+    """Client proxy for a running node. The address is found automatically for nodes served by a
+    ServerManager in this process; pass `address` for a server elsewhere."""
+    node = _build_node(cls, name, config)
+    mwo = _middleware(mw, station)
+    addr = address or _ADDRESSES.get((mwo.name, mwo.station, node.name))
+    if addr is None:
+        raise NodeDiedError(node.name, f"no '{mwo.name}' server for it is running in station '{mwo.station}' "
+                                       "(start it with ServerManager, or pass address=)")
+    return NodeClient(node, mwo.make_client(node, NodeLayouts.of(node), addr))
+
+
+# -- child process ----------------------------------------------------------------------------------
+def _set_parent_death_signal() -> None:
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
+def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middleware], station: str,
+                mw_options: dict, resources: dict, conn: Any, parent_pid: int) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _set_parent_death_signal()
+    node = None
+
+    def report(kind: str, **payload: Any) -> None:
+        try:
+            conn.send_bytes(json.dumps({"kind": kind, **payload}).encode())
+        except OSError:
+            pass
+
+    try:
+        if os.getppid() != parent_pid:
+            return
+        node = _build_node(cls, name, config)
+        signal.signal(signal.SIGTERM, lambda *_: node.exit_event.set())
+        mw = mw_cls(station=station, **mw_options)
+        layouts = NodeLayouts.of(node)
+        transport = mw.make_server(node, layouts, resources)
+        node.ring_buffer, node.request_queue = transport.ring_buffer, transport.request_queue
+        runner = NodeRunner(node)
+        address = transport.start(Dispatcher(node, runner.lock))
+        address["pid"] = os.getpid()
+
+        def control() -> None:
+            try:
+                conn.recv_bytes()
+            except (EOFError, OSError):
+                pass
+            node.exit_event.set()
+
+        threading.Thread(target=control, name=f"rio-{name}-control", daemon=True).start()
+        try:
+            runner.run(on_ready=lambda: report("ready", address=address))
+        finally:
+            transport.close()
+    except BaseException as e:  # reported to the manager by name, then the child exits non-zero
+        import traceback
+
+        report("error", type=type(e).__name__, message=str(e), traceback=traceback.format_exc())
+        raise SystemExit(1) from None
+
+
+# -- handles ----------------------------------------------------------------------------------------
+class _ThreadHandle:
+    def __init__(self, spec: ServerSpec, mw: Middleware):
+        self.name, self.mw = spec.name, mw
+        self.node = _build_node(spec.cls, spec.name, spec.config)
+        self.transport = mw.make_server(self.node, NodeLayouts.of(self.node), {})
+        self.node.ring_buffer = self.transport.ring_buffer
+        self.node.request_queue = self.transport.request_queue
+        self.runner = NodeRunner(self.node)
+        self.address = self.transport.start(Dispatcher(self.node, self.runner.lock))
+        self.ready = threading.Event()
+        self.error: str | None = None
+        self.thread = threading.Thread(target=self._run, name=f"rio-{spec.name}", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        try:
+            self.runner.run(on_ready=self.ready.set)
+        except BaseException as e:
+            log.exception("node '%s' failed", self.name)
+            self.error = f"{type(e).__name__}: {e}"
+            self.transport.ended = self.error
+        finally:
+            self.transport.close()
+
+    def poll_ready(self) -> bool:
+        if self.error:
+            raise RioError(f"node '{self.name}' failed to start: {self.error}")
+        return self.ready.is_set()
+
+    def stop(self, timeout: float) -> None:
+        self.node.exit_event.set()
+        self.thread.join(timeout)
+        if self.thread.is_alive():
+            log.warning("node '%s' did not stop within %.1f s (thread left running)", self.name, timeout)
+
+
+class _ProcessHandle:
+    def __init__(self, spec: ServerSpec, mw: Middleware, run_dir: str):
+        self.name, self.mw = spec.name, mw
+        node = _build_node(spec.cls, spec.name, spec.config)
+        self.resources = mw.prepare(NodeLayouts.of(node), run_dir)
+        ctx = mp.get_context("spawn")
+        self.conn, child_conn = ctx.Pipe(duplex=True)
+        self.proc = ctx.Process(
+            target=_child_main, name=f"rio-{spec.name}", daemon=False,
+            args=(spec.cls, spec.name, spec.config, type(mw), mw.station,
+                  mw.options.model_dump(), self.resources, child_conn, os.getpid()),
+        )
+        self.proc.start()
+        child_conn.close()
+        self.address: dict[str, Any] | None = None
+
+    def poll_ready(self) -> bool:
+        if self.address is not None:
+            return True
+        if self.conn.poll(0):
+            try:
+                msg = json.loads(self.conn.recv_bytes())
+            except EOFError:
+                msg = {"kind": "error", "type": "exit", "message": "exited before ready", "traceback": ""}
+            if msg["kind"] == "ready":
+                self.address = msg["address"]
+                return True
+            raise RioError(f"node '{self.name}' failed to start: {msg['type']}: {msg['message']}\n{msg['traceback']}")
+        if not self.proc.is_alive():
+            raise RioError(f"node '{self.name}' exited during start-up (exit code {self.proc.exitcode})")
+        return False
+
+    def stop(self, timeout: float) -> None:
+        try:
+            self.conn.send_bytes(b"stop")
+        except OSError:
+            pass
+        self.proc.join(timeout)
+        if self.proc.is_alive():
+            log.warning("node '%s' did not stop within %.1f s; terminating", self.name, timeout)
+            self.proc.terminate()
+            self.proc.join(1.0)
+        if self.proc.is_alive():
+            self.proc.kill()
+            self.proc.join(1.0)
+        self.conn.close()
+        self.mw.release(self.resources)
+
+
+class ServerManager:
+    """Start servers, block until every one is ready, and always clean up.
+
+    `ServerManager(servers)` or the paper's `ServerManager(mw, servers)`; a spec's own middleware
+    wins over the manager's default.
+    """
+
+    def __init__(self, mw_or_servers: Any, servers: Any = None, *, station: str = "rio",
+                 mw_options: dict[str, Any] | None = None, ready_timeout: float = 60.0,
+                 stop_timeout: float = 5.0):
+        if servers is None:
+            default_mw, servers = None, mw_or_servers
+        else:
+            default_mw = mw_or_servers
+        self.specs: list[ServerSpec] = list(servers.values() if isinstance(servers, dict) else servers)
+        names = [s.name for s in self.specs]
+        dupes = sorted({n for n in names if names.count(n) > 1})
+        if dupes:
+            raise ConfigError(f"two servers share the name(s) {dupes}; give each a distinct name=")
+        self.station, self.default_mw, self.mw_options = station, default_mw, mw_options or {}
+        self.ready_timeout, self.stop_timeout = ready_timeout, stop_timeout
+        self.handles: list[_ThreadHandle | _ProcessHandle] = []
+        self.run_dir: str | None = None
+        self._mws: dict[str, Middleware] = {}
+
+    def _mw_for(self, spec: ServerSpec) -> Middleware:
+        mw = spec.mw or self.default_mw
+        if mw is None:
+            raise ConfigError(f"no middleware given for node '{spec.name}'")
+        if isinstance(mw, Middleware):
+            return mw
+        if mw not in self._mws:
+            self._mws[mw] = _middleware(mw, self.station, self.mw_options)
+        return self._mws[mw]
+
+    def __enter__(self) -> ServerManager:
+        self.run_dir = tempfile.mkdtemp(prefix=f"rio-{uuid.uuid4().hex[:8]}-")
+        try:
+            for spec in self.specs:
+                mw = self._mw_for(spec)
+                if mw.process_per_node:
+                    self.handles.append(_ProcessHandle(spec, mw, self.run_dir))
+                else:
+                    self.handles.append(_ThreadHandle(spec, mw))
+            self._wait_ready()
+        except BaseException:
+            self._stop_all()
+            raise
+        return self
+
+    def _wait_ready(self) -> None:
+        deadline = rtime.now() + self.ready_timeout
+        pending = list(self.handles)
+        while pending:
+            pending = [h for h in pending if not h.poll_ready()]
+            if pending and rtime.now() > deadline:
+                raise RioError(f"nodes not ready after {self.ready_timeout:.0f} s: {[h.name for h in pending]}")
+            if pending:
+                rtime.precise_wait(rtime.now() + 0.002)
+        for h in self.handles:
+            _ADDRESSES[(h.mw.name, h.mw.station, h.name)] = h.address
+
+    def address(self, name: str) -> dict[str, Any]:
+        for h in self.handles:
+            if h.name == name:
+                return h.address
+        raise KeyError(name)
+
+    def pids(self) -> dict[str, int]:
+        return {h.name: h.proc.pid for h in self.handles if isinstance(h, _ProcessHandle)}
+
+    def _stop_all(self) -> None:
+        for h in self.handles:
+            _ADDRESSES.pop((h.mw.name, h.mw.station, h.name), None)
+        for h in reversed(self.handles):
+            try:
+                h.stop(self.stop_timeout)
+            except Exception:
+                log.exception("while stopping node '%s'", h.name)
+        self.handles.clear()
+        if self.run_dir:
+            shutil.rmtree(self.run_dir, ignore_errors=True)
+            self.run_dir = None
+
+    def __exit__(self, *exc: Any) -> None:
+        self._stop_all()

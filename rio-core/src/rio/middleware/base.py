@@ -1,0 +1,142 @@
+"""The one interface every middleware implements (built-in or third-party).
+
+A middleware answers four questions, nothing else:
+- `prepare` / `release` (in the process that runs `ServerManager`): create and destroy what must
+  outlive a crashed server (shared-memory segments, a run directory).
+- `make_server` (where the node runs): the ring buffer the node writes, the request queue it reads,
+  and `start(dispatch)` to begin answering API calls; returns an address (plain JSON-able dict).
+- `make_client` (anywhere): a local ring buffer mirror that reads never block on, a request sender,
+  `call()` for remote API methods, and `check_alive()` that turns a dead server into NodeDiedError.
+"""
+
+from __future__ import annotations
+
+import os
+import select
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from pydantic import BaseModel, ConfigDict
+
+from .. import time as rtime
+from ..errors import NodeDiedError
+from ..layout import Layout
+from ..node import Node
+
+
+class MiddlewareOptions(BaseModel):
+    """Options every middleware accepts; subclasses add their own (validated from the station file)."""
+
+    model_config = ConfigDict(extra="forbid")
+    #: Seconds a remote API call may take before NodeTimeout.
+    call_timeout: float = 10.0
+
+
+@dataclass
+class NodeLayouts:
+    name: str
+    data: Layout | None
+    request: Layout | None
+    buffer_capacity: int
+    request_capacity: int
+
+    @classmethod
+    def of(cls, node: Node) -> NodeLayouts:
+        data, req = node.layouts()
+        return cls(node.name, data, req, node.buffer_capacity, node.request_capacity)
+
+    def fingerprint(self) -> list[int]:
+        return [self.data.fingerprint if self.data else 0, self.request.fingerprint if self.request else 0]
+
+
+class ServerTransport(ABC):
+    ring_buffer: Any = None
+    request_queue: Any = None
+
+    @abstractmethod
+    def start(self, dispatch: Any) -> dict[str, Any]:
+        """Begin serving requests and API calls; return the address clients connect to."""
+
+    def close(self) -> None:
+        pass
+
+
+class ClientTransport(ABC):
+    ring_buffer: Any = None
+    request_queue: Any = None
+
+    @abstractmethod
+    def call(self, method: str, args: tuple, kwargs: dict) -> Any:
+        """Run a remote API method; raise NodeError / NodeDiedError / NodeTimeout."""
+
+    @abstractmethod
+    def check_alive(self) -> None:
+        """Raise NodeDiedError if the server is known to be gone. Must be cheap (called on reads)."""
+
+    def close(self) -> None:
+        pass
+
+
+class Middleware(ABC):
+    name: ClassVar[str]
+    #: False: nodes run as threads of the calling process (the thread middleware).
+    process_per_node: ClassVar[bool] = True
+    Options: ClassVar[type[MiddlewareOptions]] = MiddlewareOptions
+
+    def __init__(self, station: str = "rio", **options: Any):
+        self.station = station
+        self.options = self.Options(**options)
+
+    def prepare(self, layouts: NodeLayouts, run_dir: str) -> dict[str, Any]:
+        """Create resources that must survive the server (parent side). Default: none."""
+        return {}
+
+    def release(self, resources: dict[str, Any]) -> None:
+        """Destroy what `prepare` created, even if the server was SIGKILLed."""
+
+    @abstractmethod
+    def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> ServerTransport: ...
+
+    @abstractmethod
+    def make_client(self, node: Node, layouts: NodeLayouts, address: dict[str, Any]) -> ClientTransport: ...
+
+
+class ProcessWatch:
+    """Knows, cheaply and exactly, whether a local process has exited (pidfd; polled fallback)."""
+
+    def __init__(self, pid: int, node: str, check_every_s: float = 0.02):
+        self.pid, self.node, self.check_every_s = pid, node, check_every_s
+        self._t_next = 0.0
+        self._dead = False
+        self.fd: int | None = None
+        try:
+            self.fd = os.pidfd_open(pid)
+        except (AttributeError, OSError):
+            self.fd = None
+
+    def dead(self) -> bool:
+        if self._dead:
+            return True
+        if self.fd is not None:
+            r, _, _ = select.select([self.fd], [], [], 0)
+            self._dead = bool(r)
+        else:
+            try:
+                os.kill(self.pid, 0)
+            except ProcessLookupError:
+                self._dead = True
+        return self._dead
+
+    def check(self) -> None:
+        """Throttled: at most one syscall per `check_every_s` on the hot read path."""
+        t = rtime.now()
+        if self._dead or t >= self._t_next:
+            self._t_next = t + self.check_every_s
+            if self.dead():
+                raise NodeDiedError(self.node, f"server process {self.pid} exited")
+
+    def close(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)
+            self.fd = None

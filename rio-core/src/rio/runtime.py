@@ -1,0 +1,127 @@
+"""Runs a node's loop on the server side, the same way under every middleware.
+
+The middleware supplies the ring buffer the node writes, the request queue it reads and the thread
+or process it runs in; this module supplies the loop (publish-only, request-only, combined, with the
+complementary half optionally in a worker thread), its timing, the ready signal and API dispatch.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from . import time as rtime
+from .errors import InvalidRequest
+from .node import Node
+
+log = logging.getLogger("rio.runtime")
+
+_IDLE_WAIT_S = 0.05  # how often a blocked request loop re-checks the exit event
+
+
+class Dispatcher:
+    """Executes remote `__api__` calls inside the node, serialized with its loop by one lock."""
+
+    def __init__(self, node: Node, lock: threading.RLock):
+        self.node, self.lock = node, lock
+        self.allowed = type(node).remote_methods()
+
+    def __call__(self, method: str, args: list | tuple, kwargs: dict) -> Any:
+        if method not in self.allowed:
+            client = set(type(self.node).__api__) - self.allowed
+            hint = " (it is client-side)" if method in client else f"; remote API: {sorted(self.allowed)}"
+            raise AttributeError(f"'{method}' is not a remote API method of node '{self.node.name}'{hint}")
+        with self.lock:
+            return getattr(self.node, method)(*args, **kwargs)
+
+
+class NodeRunner:
+    """The loop around a node. `run()` blocks until `exit_event` is set or the node raises."""
+
+    def __init__(self, node: Node, *, lock: threading.RLock | None = None):
+        self.node = node
+        self.lock = lock or threading.RLock()
+        self.shape = node.loop_shape()
+        self.rejected = 0
+        self._worker_error: BaseException | None = None
+
+    # -- one step of each half ----------------------------------------------------------------------
+    def _publish_once(self) -> None:
+        with self.lock:
+            sample = self.node.read_state()
+        if sample is not None:
+            self.node.ring_buffer.put(sample)
+
+    def _handle_pending(self) -> None:
+        for req in self.node.request_queue.get_all():
+            with self.lock:
+                try:
+                    self.node.handle_request(req)
+                except InvalidRequest as e:  # the node refused it: report, keep serving
+                    self.rejected += 1
+                    log.warning("%s", e)
+
+    # -- loops --------------------------------------------------------------------------------------
+    def _pub_loop(self, with_requests: bool) -> None:
+        rate = rtime.Rate(self.node.rate_hz)
+        ev = self.node.exit_event
+        while not ev.is_set():
+            if with_requests:
+                self._handle_pending()
+            self._publish_once()
+            rate.sleep()
+        self.overruns = rate.overruns
+
+    def _req_loop(self) -> None:
+        q, ev = self.node.request_queue, self.node.exit_event
+        while not ev.is_set():
+            if q.wait(_IDLE_WAIT_S):
+                self._handle_pending()
+
+    def _idle_loop(self) -> None:
+        self.node.exit_event.wait()
+
+    def _guarded(self, fn: Callable[[], None]) -> Callable[[], None]:
+        def run() -> None:
+            try:
+                fn()
+            except BaseException as e:  # surfaced by run(); stop the main loop too
+                self._worker_error = e
+                self.node.exit_event.set()
+        return run
+
+    def run(self, on_ready: Callable[[], None]) -> None:
+        node = self.node
+        node.open()
+        try:
+            has_pub = node.ring_buffer is not None
+            has_req = node.request_queue is not None
+            if has_pub:
+                self._publish_once()  # clients may read as soon as the node is ready
+            main: Callable[[], None]
+            worker: Callable[[], None] | None = None
+            if has_pub and has_req and node.worker == "req":
+                main, worker = (lambda: self._pub_loop(False)), self._req_loop
+            elif has_pub and has_req and node.worker == "pub":
+                main, worker = self._req_loop, (lambda: self._pub_loop(False))
+            elif has_pub and (self.shape != "req" or not has_req):
+                main = lambda: self._pub_loop(has_req and self.shape == "pubreq")  # noqa: E731
+            elif has_req:
+                main = self._req_loop
+            else:
+                main = self._idle_loop
+            t = None
+            if worker is not None:
+                t = threading.Thread(target=self._guarded(worker), name=f"rio-{node.name}-worker", daemon=True)
+                t.start()
+            on_ready()
+            main()
+            if t is not None:
+                node.exit_event.set()
+                t.join(timeout=2.0)
+            if self._worker_error is not None:
+                raise self._worker_error
+        finally:
+            node.close()
