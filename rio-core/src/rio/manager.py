@@ -93,6 +93,7 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
                 mw_options: dict, resources: dict, conn: Any, parent_pid: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _set_parent_death_signal()
+    rtime.set_timer_slack()
     node = None
 
     def report(kind: str, **payload: Any) -> None:

@@ -19,6 +19,9 @@ from .node import Node
 log = logging.getLogger("rio.runtime")
 
 _IDLE_WAIT_S = 0.05  # how often a blocked request loop re-checks the exit event
+#: Node loops spin only this long before a deadline (node processes set a 1 ns timer slack, so the
+#: OS sleep is already close); a longer spin would contend for the GIL with the API thread.
+NODE_SPIN_S = 0.0002
 
 
 class Dispatcher:
@@ -65,7 +68,7 @@ class NodeRunner:
 
     # -- loops --------------------------------------------------------------------------------------
     def _pub_loop(self, with_requests: bool) -> None:
-        rate = rtime.Rate(self.node.rate_hz)
+        rate = rtime.Rate(self.node.rate_hz, spin_s=NODE_SPIN_S)
         ev = self.node.exit_event
         while not ev.is_set():
             if with_requests:

@@ -7,6 +7,8 @@ Object arrays are refused at both ends.
 
 from __future__ import annotations
 
+import struct
+import threading
 import traceback
 from typing import Any
 
@@ -14,35 +16,62 @@ import msgpack
 import numpy as np
 
 _EXT_NDARRAY = 1
+_SEND_KINDS = frozenset("biufcSU")
+_DTYPES: dict[bytes, np.dtype] = {}
 
 
 def _default(obj: Any) -> Any:
+    """ndarray / numpy scalar -> ext(1): [len(dtype str), ndim, is_scalar] dtype-str shape(u32...) data.
+    A flat struct header rather than nested msgpack: this runs on every API call."""
     if isinstance(obj, (np.ndarray, np.generic)):
-        arr = np.asarray(obj)
-        if arr.dtype.kind not in "biufcSU" or arr.dtype.hasobject:
-            raise TypeError(f"cannot send numpy dtype {arr.dtype} (object arrays are refused)")
-        arr = np.ascontiguousarray(arr)
-        head = msgpack.packb([arr.dtype.str, list(arr.shape), isinstance(obj, np.generic)])
-        return msgpack.ExtType(_EXT_NDARRAY, len(head).to_bytes(2, "little") + head + arr.tobytes())
+        arr = obj if isinstance(obj, np.ndarray) else np.asarray(obj)
+        dt = arr.dtype
+        if dt.kind not in _SEND_KINDS or dt.hasobject:
+            raise TypeError(f"cannot send numpy dtype {dt} (object arrays are refused)")
+        if not arr.flags.c_contiguous:
+            arr = np.ascontiguousarray(arr)
+        ds = dt.str.encode()
+        head = bytes((len(ds), arr.ndim, isinstance(obj, np.generic))) + ds + struct.pack(f"<{arr.ndim}I", *arr.shape)
+        return msgpack.ExtType(_EXT_NDARRAY, b"".join((head, arr.data.cast("B") if arr.ndim and arr.size else arr.tobytes())))
     if isinstance(obj, (set, frozenset)):
         return list(obj)
     raise TypeError(f"cannot send object of type {type(obj).__name__} (send arrays, numbers, str, lists, dicts)")
 
 
+def _dtype(ds: bytes) -> np.dtype:
+    dt = _DTYPES.get(ds)
+    if dt is None:
+        dt = np.dtype(ds.decode())
+        if dt.hasobject or dt.kind not in _SEND_KINDS:
+            raise ValueError(f"refused dtype {dt}")
+        if len(_DTYPES) < 256:
+            _DTYPES[ds] = dt
+    return dt
+
+
 def _ext_hook(code: int, data: bytes) -> Any:
     if code != _EXT_NDARRAY:
         raise ValueError(f"unknown extension type {code}")
-    n = int.from_bytes(data[:2], "little")
-    dtype_str, shape, is_scalar = msgpack.unpackb(data[2:2 + n])
-    dt = np.dtype(dtype_str)
-    if dt.hasobject:
-        raise ValueError("object arrays are refused")
-    arr = np.frombuffer(data, dtype=dt, offset=2 + n).reshape(shape).copy()
+    n, ndim, is_scalar = data[0], data[1], data[2]
+    dt = _dtype(data[3:3 + n])
+    off = 3 + n
+    shape = struct.unpack_from(f"<{ndim}I", data, off)
+    arr = np.frombuffer(data, dtype=dt, offset=off + 4 * ndim).reshape(shape).copy()
     return arr[()] if is_scalar else arr
 
 
+_local = threading.local()
+
+
 def pack(obj: Any) -> bytes:
-    return msgpack.packb(obj, default=_default, use_bin_type=True)
+    packer = getattr(_local, "packer", None)
+    if packer is None:  # a Packer per thread: creating one per message costs more than packing 2 KB
+        packer = _local.packer = msgpack.Packer(default=_default, use_bin_type=True)
+    try:
+        return packer.pack(obj)
+    except BaseException:
+        packer.reset()
+        raise
 
 
 def unpack(data: bytes | memoryview) -> Any:
