@@ -130,7 +130,9 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
     except BaseException as e:  # reported to the manager by name, then the child exits non-zero
         import traceback
 
-        report("error", type=type(e).__name__, message=str(e), traceback=traceback.format_exc())
+        tb = traceback.format_exc()
+        log.error("node '%s' stopped with an error:\n%s", name, tb)  # visible even after start-up
+        report("error", type=type(e).__name__, message=str(e), traceback=tb)
         raise SystemExit(1) from None
 
 

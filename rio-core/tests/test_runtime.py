@@ -1,0 +1,129 @@
+"""The node runtime's loop shapes, worker threads, client-side vs remote methods and error paths.
+Run on the thread middleware: these are properties of the runtime, not of a transport."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import rio
+from rio import Node, ServerManager, client_side, connect, serve
+
+
+class PubOnly(Node):
+    __api__ = ("get_state",)
+
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self.example_data = {"i": 0}
+        self.i = 0
+
+    def read_state(self):
+        self.i += 1
+        return {"i": self.i}
+
+
+class ReqOnly(Node):
+    __api__ = ("send_request", "seen", "loop_thread")
+
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self.example_request = {"v": 0.0}
+        self.values = []
+        self.threads = set()
+
+    def handle_request(self, r):
+        self.values.append(float(r["v"]))
+        self.threads.add(threading.current_thread().name)
+
+    def seen(self):
+        return self.values
+
+    def loop_thread(self):
+        return sorted(self.threads)
+
+
+class Both(ReqOnly):
+    __api__ = ("get_state", "send_request", "seen", "loop_thread", "move")
+    worker = "req"
+
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self.example_data = {"v": 0.0}
+
+    def read_state(self):
+        return {"v": self.values[-1] if self.values else 0.0}
+
+    @client_side
+    def move(self, v):
+        """Client-side convenience wrapper: validates and enqueues, never blocks."""
+        self.send_request(v=v)
+
+
+class Crashes(PubOnly):
+    def read_state(self):
+        if self.i >= 5:
+            raise RuntimeError("encoder read failed")
+        return super().read_state()
+
+
+def wait_until(pred, timeout=3.0):
+    t_end = time.monotonic() + timeout
+    while not pred():
+        assert time.monotonic() < t_end, "timed out"
+        time.sleep(0.002)
+
+
+def test_publish_only_loop_runs_at_its_rate():
+    with ServerManager("thread", [serve(PubOnly, name="p", rate_hz=100)]):
+        with connect(PubOnly, "thread", name="p") as c:
+            i0, t0 = c.get_state()["i"], time.monotonic()
+            time.sleep(0.3)
+            n = c.get_state()["i"] - i0
+            assert 10 <= n <= 0.3 * 100 * 1.5 + 2, n  # ran, and not faster than asked
+
+
+def test_request_only_loop_wakes_on_requests():
+    with ServerManager("thread", [serve(ReqOnly, name="r")]):
+        with connect(ReqOnly, "thread", name="r") as c:
+            for v in range(10):
+                c.send_request(v=float(v))
+            wait_until(lambda: len(c.seen()) == 10)
+            assert c.seen() == [float(v) for v in range(10)]
+
+
+def test_combined_with_request_worker_thread_and_client_side_method():
+    with ServerManager("thread", [serve(Both, name="b", rate_hz=200)]):
+        with connect(Both, "thread", name="b") as c:
+            c.move(2.5)
+            wait_until(lambda: c.get_state()["v"] == 2.5)
+            assert c.loop_thread() == ["rio-b-worker"]  # requests handled in the worker thread
+            with pytest.raises(rio.InvalidRequest, match="'v'"):
+                c.move(float("nan"))
+
+
+def test_error_in_loop_is_reported_by_name_to_clients():
+    with ServerManager("thread", [serve(Crashes, name="enc", rate_hz=200)]):
+        with connect(Crashes, "thread", name="enc") as c:
+            with pytest.raises(rio.NodeDiedError, match="enc.*encoder read failed"):
+                wait_until(lambda: c.get_state() is None, timeout=3)
+
+
+def test_duplicate_server_names_rejected():
+    with pytest.raises(rio.errors.ConfigError, match="'x'"):
+        ServerManager("thread", [serve(PubOnly, name="x"), serve(PubOnly, name="x")])
+
+
+def test_bad_node_config_fails_in_caller():
+    with pytest.raises(TypeError):
+        serve(PubOnly, name="x", nonsense=1)
+
+
+def test_get_state_k_and_out_on_client():
+    with ServerManager("thread", [serve(PubOnly, name="p", rate_hz=500)]):
+        with connect(PubOnly, "thread", name="p") as c:
+            wait_until(lambda: c.get_state()["i"] > 4)
+            out = {"i": np.zeros(3, np.int64)}
+            c.get_state(k=3, out=out)
+            assert np.all(np.diff(out["i"]) == 1)
