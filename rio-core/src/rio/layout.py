@@ -44,7 +44,7 @@ class Layout:
         self.names: tuple[str, ...] = self.dtype.names
         self.itemsize = self.dtype.itemsize
         self.fingerprint = zlib.crc32(repr(self.dtype.descr).encode())
-        self._float_fields = tuple(n for n in self.names if self.dtype[n].kind in "fc")
+        self._float_fields = tuple(n for n in self.names if self.dtype[n].base.kind in "fc")
         self._shapes = {n: self.dtype[n].shape for n in self.names}
 
     def describe(self) -> dict[str, tuple[str, tuple[int, ...]]]:

@@ -17,46 +17,60 @@ import numpy as np
 
 _EXT_NDARRAY = 1
 _SEND_KINDS = frozenset("biufcSU")
-_DTYPES: dict[bytes, np.dtype] = {}
+# Headers of recently seen (dtype, shape) pairs, both ways: robot traffic repeats a few layouts
+# forever, and building/parsing a header cost more than copying a 2 KB payload.
+_HEADS: dict[tuple, bytes] = {}
+_PARSED: dict[bytes, tuple[np.dtype, tuple[int, ...], bool]] = {}
+_CACHE_MAX = 512
 
 
-def _default(obj: Any) -> Any:
-    """ndarray / numpy scalar -> ext(1): [len(dtype str), ndim, is_scalar] dtype-str shape(u32...) data.
-    A flat struct header rather than nested msgpack: this runs on every API call."""
-    if isinstance(obj, (np.ndarray, np.generic)):
-        arr = obj if isinstance(obj, np.ndarray) else np.asarray(obj)
+def _head(arr: np.ndarray, is_scalar: bool) -> bytes:
+    key = (arr.dtype, arr.shape, is_scalar)
+    head = _HEADS.get(key)
+    if head is None:
         dt = arr.dtype
         if dt.kind not in _SEND_KINDS or dt.hasobject:
             raise TypeError(f"cannot send numpy dtype {dt} (object arrays are refused)")
-        if not arr.flags.c_contiguous:
-            arr = np.ascontiguousarray(arr)
         ds = dt.str.encode()
-        head = bytes((len(ds), arr.ndim, isinstance(obj, np.generic))) + ds + struct.pack(f"<{arr.ndim}I", *arr.shape)
-        return msgpack.ExtType(_EXT_NDARRAY, b"".join((head, arr.data.cast("B") if arr.ndim and arr.size else arr.tobytes())))
+        head = bytes((len(ds), arr.ndim, is_scalar)) + ds + struct.pack(f"<{arr.ndim}I", *arr.shape)
+        if len(_HEADS) < _CACHE_MAX:
+            _HEADS[key] = head
+    return head
+
+
+def _default(obj: Any) -> Any:
+    """ndarray / numpy scalar -> ext(1): [len(dtype str), ndim, is_scalar] dtype-str shape(u32...) data."""
+    if isinstance(obj, np.ndarray):
+        if not obj.flags.c_contiguous:
+            obj = np.ascontiguousarray(obj)
+        return msgpack.ExtType(_EXT_NDARRAY, _head(obj, False) + obj.tobytes())
+    if isinstance(obj, np.generic):
+        arr = np.asarray(obj)
+        return msgpack.ExtType(_EXT_NDARRAY, _head(arr, True) + arr.tobytes())
     if isinstance(obj, (set, frozenset)):
         return list(obj)
     raise TypeError(f"cannot send object of type {type(obj).__name__} (send arrays, numbers, str, lists, dicts)")
 
 
-def _dtype(ds: bytes) -> np.dtype:
-    dt = _DTYPES.get(ds)
-    if dt is None:
-        dt = np.dtype(ds.decode())
+def _parse_head(head: bytes) -> tuple[np.dtype, tuple[int, ...], bool]:
+    parsed = _PARSED.get(head)
+    if parsed is None:
+        n, ndim, is_scalar = head[0], head[1], bool(head[2])
+        dt = np.dtype(head[3:3 + n].decode())
         if dt.hasobject or dt.kind not in _SEND_KINDS:
             raise ValueError(f"refused dtype {dt}")
-        if len(_DTYPES) < 256:
-            _DTYPES[ds] = dt
-    return dt
+        parsed = (dt, struct.unpack_from(f"<{ndim}I", head, 3 + n), is_scalar)
+        if len(_PARSED) < _CACHE_MAX:
+            _PARSED[head] = parsed
+    return parsed
 
 
 def _ext_hook(code: int, data: bytes) -> Any:
     if code != _EXT_NDARRAY:
         raise ValueError(f"unknown extension type {code}")
-    n, ndim, is_scalar = data[0], data[1], data[2]
-    dt = _dtype(data[3:3 + n])
-    off = 3 + n
-    shape = struct.unpack_from(f"<{ndim}I", data, off)
-    arr = np.frombuffer(data, dtype=dt, offset=off + 4 * ndim).reshape(shape).copy()
+    hlen = 3 + data[0] + 4 * data[1]
+    dt, shape, is_scalar = _parse_head(data[:hlen])
+    arr = np.frombuffer(data, dtype=dt, offset=hlen).reshape(shape).copy()  # copy: writable, owns memory
     return arr[()] if is_scalar else arr
 
 

@@ -1,0 +1,388 @@
+"""Middleware latency benchmark (`rio bench middleware`, or `python bench/middleware_latency.py`).
+
+Method (the RIO paper's, after the Open Messaging Benchmark): a 2048-byte payload
+(`np.zeros(2048, np.uint8)`), a warm-up, then `--n` timed round trips (>= 1000 for the method;
+default 2000). One-way latency = RTT / 2. Reported, all one-way, in microseconds:
+
+- `half_rtt_us`: median RTT / 2 of the full node API call `client.echo(payload)` (EchoNode served
+  by ServerManager, client from `connect`), which is the headline figure;
+- `mean_us` ± `std_us`: mean and standard deviation of RTT / 2 after dropping samples below the
+  1st and above the 99th percentile;
+- `p99_us`: the 99th percentile of RTT / 2;
+- `raw_half_rtt_us`: median RTT / 2 of the bare transport the middleware is built on, with the same
+  payload and the same timing loop, in the same run (`rio.benchmarks.raw_transports`);
+- `ratio`: `half_rtt_us / raw_half_rtt_us`, the overhead the node API adds over its transport.
+
+The image section serves ImageNode (640x480x3 uint8 frames) at `--image-rate` Hz for
+`--image-seconds`; the client polls `get_state()` and counts distinct `frame` values per second
+(`fps`); a frame's latency is the time the client first sees it minus the frame's `timestamp`
+(both `rio.time.now()`, one monotonic clock system-wide), so it includes up to one poll interval.
+
+A middleware whose plugin fails to import or whose node fails to start is skipped, with the reason
+on stderr. `--json` prints exactly one JSON object on stdout; progress always goes to stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import gc
+import json
+import os
+import sys
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+
+#: The RIO paper's one-way latencies (mean, microseconds) for a 2048-byte payload, by our middleware
+#: name; the paper's ZeroRpc is compared with our zmq middleware.
+PAPER_US: dict[str, tuple[str, float]] = {
+    "zenoh": ("Zenoh", 428.7),
+    "shm": ("Shared Memory", 541.3),
+    "thread": ("Thread", 987.7),
+    "zmq": ("ZeroRpc", 1047.6),
+    "portal": ("Portal", 1969.9),
+}
+
+RESULT_KEYS = ("half_rtt_us", "raw_half_rtt_us", "ratio", "p99_us", "mean_us", "std_us")
+IMAGE_KEYS = ("fps", "latency_ms_p50", "latency_ms_p99")
+
+
+def _progress(msg: str) -> None:
+    print(f"[rio bench] {msg}", file=sys.stderr, flush=True)
+
+
+# -- timing and statistics -------------------------------------------------------------------------
+def time_roundtrips(roundtrip: Callable[[np.ndarray], Any], payload: np.ndarray, n: int,
+                    warmup: int) -> np.ndarray:
+    """Warm up, then time `n` calls of `roundtrip(payload)`; RTTs in seconds. The first reply is
+    checked against the payload, so a transport that does not really echo cannot look fast."""
+    reply = roundtrip(payload)
+    got = np.asarray(reply)
+    if got.shape != payload.shape or not np.array_equal(got, payload):
+        raise RuntimeError(f"echo returned something else than the payload: {type(reply).__name__} "
+                           f"shape {getattr(got, 'shape', '?')}")
+    for _ in range(max(warmup - 1, 0)):
+        roundtrip(payload)
+    rtts = np.empty(n, np.float64)
+    clock = time.perf_counter
+    gc.collect()
+    gc_was_enabled = gc.isenabled()
+    gc.disable()  # a collection inside one call would land on whichever side it happens to hit
+    try:
+        for i in range(n):
+            t0 = clock()
+            roundtrip(payload)
+            rtts[i] = clock() - t0
+    finally:
+        if gc_was_enabled:
+            gc.enable()
+    return rtts
+
+
+def summarize(rtts_s: np.ndarray) -> dict[str, float]:
+    """One-way (RTT / 2) statistics in microseconds."""
+    one_way = np.asarray(rtts_s, np.float64) / 2.0 * 1e6
+    lo, hi = np.percentile(one_way, [1.0, 99.0])
+    kept = one_way[(one_way >= lo) & (one_way <= hi)]
+    if kept.size == 0:  # tiny samples
+        kept = one_way
+    return {
+        "half_rtt_us": float(np.median(one_way)),
+        "mean_us": float(kept.mean()),
+        "std_us": float(kept.std()),
+        "p99_us": float(hi),
+    }
+
+
+# -- one middleware --------------------------------------------------------------------------------
+@contextlib.contextmanager
+def _keep_start_method() -> Iterator[None]:
+    from .raw_transports import keep_start_method
+
+    with keep_start_method():
+        yield
+
+
+def node_api_rtts(mw: str, station: str, payload: np.ndarray, n: int, warmup: int) -> np.ndarray:
+    from ..manager import ServerManager, connect, serve
+    from ..testing import EchoNode
+
+    cfg = {"payload_bytes": int(payload.nbytes)}
+    with ServerManager(mw, [serve(EchoNode, name="echo", **cfg)], station=station, ready_timeout=60.0):
+        with connect(EchoNode, mw, name="echo", station=station, **cfg) as client:
+            return time_roundtrips(client.echo, payload, n, warmup)
+
+
+def raw_rtts(mw: str, payload: np.ndarray, n: int, warmup: int) -> np.ndarray:
+    from .raw_transports import RAW
+
+    with RAW[mw].open(payload) as roundtrip:
+        return time_roundtrips(roundtrip, payload, n, warmup)
+
+
+def image_stream(mw: str, station: str, seconds: float, rate_hz: float, poll_s: float,
+                 settle_s: float = 0.3) -> dict[str, float]:
+    from .. import time as rtime
+    from ..errors import NodeDiedError, RioError
+    from ..manager import ServerManager, connect, serve
+    from ..testing import ImageNode
+
+    cfg = {"rate_hz": float(rate_hz)}
+    with ServerManager(mw, [serve(ImageNode, name="camera", **cfg)], station=station, ready_timeout=60.0):
+        with connect(ImageNode, mw, name="camera", station=station, **cfg) as cam:
+            deadline = rtime.now() + 10.0
+            while True:  # a network mirror may not hold a frame yet right after start-up
+                try:
+                    cam.get_state()
+                    break
+                except NodeDiedError:
+                    raise
+                except RioError:
+                    if rtime.now() > deadline:
+                        raise
+                    time.sleep(0.01)
+            last = -1
+            t_settle = rtime.now() + settle_s
+            while rtime.now() < t_settle:
+                last = int(cam.get_state()["frame"])
+                time.sleep(poll_s)
+            latencies: list[float] = []
+            t_start = rtime.now()
+            t_end = t_start + seconds
+            while True:
+                state = cam.get_state()
+                t_seen = rtime.now()
+                frame = int(state["frame"])
+                if frame != last:
+                    last = frame
+                    latencies.append(t_seen - float(state["timestamp"]))
+                if t_seen >= t_end:
+                    break
+                time.sleep(poll_s)
+            elapsed = rtime.now() - t_start
+    lat_ms = np.asarray(latencies) * 1e3
+    if lat_ms.size == 0:
+        raise RuntimeError(f"no new frame in {seconds:.1f} s")
+    return {
+        "fps": len(latencies) / elapsed,
+        "latency_ms_p50": float(np.median(lat_ms)),
+        "latency_ms_p99": float(np.percentile(lat_ms, 99.0)),
+    }
+
+
+def _reason(e: BaseException) -> str:
+    text = f"{type(e).__name__}: {e}".strip()
+    first = text.splitlines()[0] if text else type(e).__name__
+    return first if len(first) <= 300 else first[:297] + "..."
+
+
+# -- command line ----------------------------------------------------------------------------------
+def registered_middlewares() -> list[str]:
+    try:
+        from ..plugins import specs
+
+        return [s.name for s in specs("rio_middlewares")]
+    except Exception as e:  # a broken third-party plugin must not hide the built-in ones
+        _progress(f"could not list registered middlewares ({_reason(e)}); using the built-in names")
+        from .raw_transports import RAW
+
+        return list(RAW)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="rio bench middleware",
+        description="One-way latency of the node API (client.echo) on each middleware, against the raw "
+                    "transport underneath it, plus an image-stream test.",
+    )
+    p.add_argument("--middlewares", "-m", default=None,
+                   help="comma-separated names (default: every registered middleware)")
+    p.add_argument("--n", type=int, default=2000, help="timed round trips per measurement (default 2000)")
+    p.add_argument("--warmup", type=int, default=200, help="untimed round trips first (default 200)")
+    p.add_argument("--payload-bytes", type=int, default=2048, help="payload size (default 2048)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    p.add_argument("--images", action=argparse.BooleanOptionalAction, default=True,
+                   help="run the image-stream test (default on)")
+    p.add_argument("--image-seconds", type=float, default=3.0, help="image-stream duration (default 3 s)")
+    p.add_argument("--image-rate", type=float, default=200.0, help="ImageNode publishing rate (default 200 Hz)")
+    p.add_argument("--image-poll-ms", type=float, default=0.2,
+                   help="client sleep between get_state() polls (default 0.2 ms)")
+    return p
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr() -> Iterator[None]:
+    """Keep stdout clean for the result: anything a library or a child process prints while we
+    measure goes to stderr (file descriptor 1 too, which spawned children inherit)."""
+    out = sys.stdout
+    saved_fd = fd = None
+    try:
+        out.flush()
+        sys.stderr.flush()
+        fd, err_fd = out.fileno(), sys.stderr.fileno()
+        saved_fd = os.dup(fd)
+        os.dup2(err_fd, fd)
+    except (AttributeError, OSError, ValueError):  # not a real file (pytest capture, IDE consoles)
+        saved_fd = None
+    sys.stdout = sys.stderr
+    try:
+        yield
+    finally:
+        sys.stderr.flush()
+        sys.stdout = out
+        if saved_fd is not None:
+            os.dup2(saved_fd, fd)
+            os.close(saved_fd)
+
+
+def run(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Measure; returns (results for JSON, extra details for the table)."""
+    from .raw_transports import RAW
+
+    names = ([m.strip() for m in args.middlewares.split(",") if m.strip()] if args.middlewares
+             else registered_middlewares())
+    payload = np.zeros(args.payload_bytes, np.uint8)
+    station = f"bench{os.getpid()}"
+    results: dict[str, Any] = {}
+    images: dict[str, Any] = {}
+    details: dict[str, Any] = {"skipped": {}, "raw": {}, "images_skipped": {}}
+    poll_s = max(args.image_poll_ms, 0.0) / 1e3
+
+    for name in names:
+        t0 = time.monotonic()
+        with _keep_start_method():
+            try:
+                from ..plugins import get_middleware
+
+                get_middleware(name)
+            except BaseException as e:
+                if isinstance(e, KeyboardInterrupt):
+                    raise
+                details["skipped"][name] = f"did not import: {_reason(e)}"
+                _progress(f"{name}: skipped ({details['skipped'][name]})")
+                continue
+            _progress(f"{name}: node API client.echo(), {args.warmup} warm-up + {args.n} round trips ...")
+            try:
+                node = summarize(node_api_rtts(name, station, payload, args.n, args.warmup))
+            except BaseException as e:
+                if isinstance(e, KeyboardInterrupt):
+                    raise
+                details["skipped"][name] = f"node API failed: {_reason(e)}"
+                _progress(f"{name}: skipped ({details['skipped'][name]})")
+                continue
+            raw: dict[str, float] | None = None
+            if name in RAW:
+                _progress(f"{name}: raw transport ({RAW[name].description}) ...")
+                try:
+                    raw = summarize(raw_rtts(name, payload, args.n, args.warmup))
+                except BaseException as e:
+                    if isinstance(e, KeyboardInterrupt):
+                        raise
+                    details["raw"][name] = {"error": _reason(e)}
+                    _progress(f"{name}: raw transport failed ({_reason(e)}); ratio left out")
+            else:
+                details["raw"][name] = {"error": "no raw transport known for this middleware"}
+            if raw is not None:
+                details["raw"][name] = raw
+            results[name] = {
+                "half_rtt_us": node["half_rtt_us"],
+                "raw_half_rtt_us": raw["half_rtt_us"] if raw else None,
+                "ratio": node["half_rtt_us"] / raw["half_rtt_us"] if raw and raw["half_rtt_us"] > 0 else None,
+                "p99_us": node["p99_us"],
+                "mean_us": node["mean_us"],
+                "std_us": node["std_us"],
+            }
+            if args.images:
+                _progress(f"{name}: image stream, ImageNode at {args.image_rate:g} Hz for {args.image_seconds:g} s ...")
+                try:
+                    images[name] = image_stream(name, station, args.image_seconds, args.image_rate, poll_s)
+                except BaseException as e:
+                    if isinstance(e, KeyboardInterrupt):
+                        raise
+                    details["images_skipped"][name] = _reason(e)
+                    _progress(f"{name}: image stream failed ({_reason(e)})")
+        _progress(f"{name}: done in {time.monotonic() - t0:.1f} s")
+
+    if args.images:
+        results["images"] = images
+    return results, details
+
+
+def _fmt(x: float | None, spec: str = ".1f") -> str:
+    return "-" if x is None else format(x, spec)
+
+
+def format_table(results: dict[str, Any], details: dict[str, Any], args: argparse.Namespace) -> str:
+    from .raw_transports import RAW
+
+    lines = [
+        f"RIO middleware latency: {args.payload_bytes}-byte payload, {args.warmup} warm-up + {args.n} timed "
+        "round trips; one-way latency = RTT/2, microseconds",
+        "  node = client.echo(payload) through ServerManager + connect; raw = the bare transport underneath;",
+        "  mean ± std after dropping the 1st and 99th percentiles; paper = the RIO paper's one-way mean",
+    ]
+    if args.n < 1000:
+        lines.append(f"  (n={args.n} is below the method's 1000 round trips: a smoke run, not a measurement)")
+    lines.append("")
+    head = (f"{'middleware':<11}{'node p50':>10}{'raw p50':>10}{'ratio':>8}{'node mean ± std':>20}{'p99':>10}"
+            f"   {'paper mean':<22}{'speed-up':>9}")
+    lines += [head, "-" * len(head)]
+    for name, r in results.items():
+        if name == "images":
+            continue
+        paper = PAPER_US.get(name)
+        paper_s = f"{paper[1]:.1f} ({paper[0]})" if paper else "-"
+        speed = f"{paper[1] / r['mean_us']:.1f}x" if paper and r["mean_us"] > 0 else "-"
+        ms = f"{r['mean_us']:.1f} ± {r['std_us']:.1f}"
+        lines.append(f"{name:<11}{_fmt(r['half_rtt_us']):>10}{_fmt(r['raw_half_rtt_us']):>10}"
+                     f"{_fmt(r['ratio'], '.2f'):>8}{ms:>20}{_fmt(r['p99_us']):>10}   {paper_s:<22}{speed:>9}")
+    lines.append("")
+    lines.append("raw transports:")
+    for name in results:
+        if name == "images":
+            continue
+        raw = details["raw"].get(name, {})
+        desc = RAW[name].description if name in RAW else "-"
+        extra = f" [failed: {raw['error']}]" if "error" in raw else ""
+        lines.append(f"  {name:<8} {desc}{extra}")
+    if "thread" in results:
+        lines.append("  (thread: the node API is a direct call in the caller's thread under the node's lock; "
+                     "the raw figure includes two thread switches, so its ratio can be below 1)")
+    if "images" in results:
+        lines += ["", f"image stream: ImageNode 640x480x3 uint8 at {args.image_rate:g} Hz for "
+                  f"{args.image_seconds:g} s; client polls get_state() every ~{args.image_poll_ms:g} ms; "
+                  "latency = first seen - frame timestamp"]
+        ih = f"{'middleware':<11}{'fps':>8}{'latency p50 (ms)':>19}{'p99 (ms)':>10}"
+        lines += [ih, "-" * len(ih)]
+        for name, r in results["images"].items():
+            lines.append(f"{name:<11}{r['fps']:>8.1f}{r['latency_ms_p50']:>19.2f}{r['latency_ms_p99']:>10.2f}")
+        for name, why in details["images_skipped"].items():
+            lines.append(f"{name:<11}  failed: {why}")
+    if details["skipped"]:
+        lines += ["", "skipped:"]
+        lines += [f"  {name}: {why}" for name, why in details["skipped"].items()]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.n < 1 or args.warmup < 0 or args.payload_bytes < 1:
+        print("rio bench middleware: --n and --payload-bytes must be >= 1, --warmup >= 0", file=sys.stderr)
+        return 2
+    t0 = time.monotonic()
+    with _stdout_to_stderr():
+        results, details = run(args)
+    _progress(f"finished in {time.monotonic() - t0:.1f} s")
+    if args.json:
+        print(json.dumps(results))
+    else:
+        print(format_table(results, details, args))
+    sys.stdout.flush()
+    return 0 if any(k != "images" for k in results) else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
