@@ -1,0 +1,225 @@
+"""The zenoh middleware on its own: state mirror, requests, API calls, failures, routing."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+pytest.importorskip("zenoh")
+
+import rio  # noqa: E402
+from rio import ServerManager, connect, serve  # noqa: E402
+from rio.errors import ConfigError  # noqa: E402
+from rio.middleware.base import NodeLayouts  # noqa: E402
+from rio.middleware.zenoh import _SESSIONS, ZenohMiddleware, _config, _free_port  # noqa: E402
+from rio.testing import EchoNode, ImageNode  # noqa: E402
+
+
+def wait_until(pred, timeout: float = 3.0, what: str = "condition") -> None:
+    t_end = time.monotonic() + timeout
+    while not pred():
+        if time.monotonic() > t_end:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.002)
+
+
+@pytest.fixture(scope="module")
+def echo():
+    with ServerManager("zenoh", [serve(EchoNode, name="echo")]) as mgr:
+        with connect(EchoNode, "zenoh", name="echo") as c:
+            yield mgr, c
+
+
+def test_import_does_not_load_zenoh():
+    code = "import sys, rio.middleware.zenoh; assert 'zenoh' not in sys.modules, 'zenoh imported eagerly'"
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_address_is_loopback_by_default(echo):
+    mgr, _ = echo
+    addr = mgr.address("echo")
+    assert addr["prefix"] == "rio/rio/echo"
+    assert all(e.startswith("tcp/127.0.0.1:") for e in addr["endpoints"]), addr
+    json.dumps(addr)  # plain JSON
+
+
+def test_latest_state_and_last_k(echo):
+    _, c = echo
+    s1 = c.get_state()
+    wait_until(lambda: c.get_state()["tick"] > s1["tick"] + 5, what="new samples")
+    s2 = c.get_state()
+    np.testing.assert_array_equal(s2["q"], np.full(6, float(s2["tick"])))
+    last = c.get_state(k=5)
+    assert last["q"].shape == (5, 6) and last["tick"].shape == (5,)
+    assert np.all(np.diff(last["tick"]) == 1), last["tick"]
+    assert np.all(np.diff(last["timestamp"]) > 0)
+
+
+def test_requests_arrive_in_order(echo):
+    _, c = echo
+    before = len(c.handled())
+    for i in range(50):
+        c.send_request(q=np.full(6, float(i)), client=3, seq=i)
+    wait_until(lambda: np.allclose(c.get_state()["last"], 49.0), what="last request applied")
+    got = [tuple(x) for x in c.handled()[before:]]
+    assert got == [(3, i) for i in range(50)]
+
+
+def test_echo_round_trips_2048_bytes(echo):
+    _, c = echo
+    payload = np.ones(256)
+    got = c.echo(payload)
+    assert got.dtype == np.float64 and got.nbytes == 2048
+    np.testing.assert_array_equal(got, payload)
+    assert c.echo({"a": [1, "x"], "b": None}) == {"a": [1, "x"], "b": None}
+
+
+def test_exception_in_node_names_it(echo):
+    _, c = echo
+    with pytest.raises(rio.NodeError) as ei:
+        c.fail("x")
+    assert ei.value.node == "echo" and ei.value.exc_type == "ValueError" and "echo" in str(ei.value)
+    assert c.echo(5) == 5
+
+
+def test_bad_requests_rejected_and_node_keeps_serving(echo):
+    _, c = echo
+    with pytest.raises(rio.InvalidRequest, match="NaN"):
+        c.send_request(q=np.array([0, np.nan, 0, 0, 0, 0.0]), client=0, seq=0)
+    with pytest.raises(rio.InvalidRequest) as ei:
+        c.send_request(q=np.zeros(5), client=0, seq=0)
+    assert ei.value.field == "q"
+    # The server re-checks what crosses the network: bypass the client's validation.
+    layout = c._node.layouts()[1]
+    rec = layout.encode({"q": np.zeros(6), "client": 0, "seq": 0}, fill_timestamp=0.0)
+    rec["q"][2] = np.nan
+    pub = c._transport._req_pub
+    pub.put(rec.tobytes())
+    pub.put(b"\x00" * 7)  # wrong size
+    good = np.full(6, 0.75)
+    c.send_request(q=good, client=4, seq=1)
+    wait_until(lambda: np.allclose(c.get_state()["last"], good), what="valid request after rejects")
+    assert not np.isnan(c.get_state(k=10)["last"]).any()
+
+
+def test_call_timeout_then_late_reply_is_ignored(echo):
+    mgr, _ = echo
+    with connect(EchoNode, ZenohMiddleware(call_timeout=0.2), name="echo") as c:
+        t0 = time.monotonic()
+        with pytest.raises(rio.NodeTimeout):
+            c.sleep(0.6)
+        assert time.monotonic() - t0 < 0.5
+        time.sleep(0.6)  # the late reply of sleep() arrives meanwhile
+        assert c.echo(11) == 11  # ... and is skipped by its call id
+
+
+def test_clients_share_one_session(echo):
+    _, c0 = echo
+    n_before = len(_SESSIONS._open)
+    with connect(EchoNode, "zenoh", name="echo") as c1:
+        assert len(_SESSIONS._open) == n_before
+        assert c1._transport.session is c0._transport.session
+        assert c1.echo(1) == 1
+    assert c0.echo(2) == 2  # closing one client leaves the other working
+
+
+def test_layout_mismatch_is_a_config_error(echo):
+    with pytest.raises(ConfigError, match="echo"):
+        connect(EchoNode, "zenoh", name="echo", n=7)
+
+
+def test_remote_client_uses_heartbeats(echo):
+    """A client on 'another machine' cannot watch the pid: a silent server (SIGSTOP) must be
+    reported from missing heartbeats, also while a call is waiting, and forgiven once it resumes."""
+    mgr, _ = echo
+    addr = {**mgr.address("echo"), "boot_id": "another-machine"}
+    node = EchoNode()
+    node.name = "echo"
+    t = ZenohMiddleware().make_client(node, NodeLayouts.of(node), addr)
+    client = rio.NodeClient(node, t)
+    pid = mgr.pids()["echo"]
+    try:
+        assert t._watch is None
+        assert client.echo(3) == 3
+        time.sleep(0.3)
+        client.get_state()  # heartbeats keep it alive while idle
+        os.kill(pid, signal.SIGSTOP)
+        t0 = time.monotonic()
+        with pytest.raises(rio.NodeDiedError, match="heartbeat"):
+            client.echo(4)
+        assert time.monotonic() - t0 <= 1.0
+        with pytest.raises(rio.NodeDiedError):
+            client.get_state()
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    wait_until(lambda: _alive(client), what="heartbeats after SIGCONT")
+    assert client.echo(5) == 5
+    client.close()
+
+
+def _alive(client) -> bool:
+    try:
+        client.check_alive()
+        return True
+    except rio.NodeDiedError:
+        return False
+
+
+def test_image_stream():
+    with ServerManager("zenoh", [serve(ImageNode, name="cam", rate_hz=30)]):
+        with connect(ImageNode, "zenoh", name="cam") as cam:
+            f1 = cam.get_state()
+            assert f1["rgb"].shape == (480, 640, 3)
+            wait_until(lambda: cam.get_state()["frame"] >= f1["frame"] + 5, what="new frames")
+            s = cam.get_state()
+            assert s["rgb"][0, 0, 0] == s["frame"] % 4
+
+
+def test_sigkill_reported_within_one_second():
+    with ServerManager("zenoh", [serve(EchoNode, name="echo")]) as mgr:
+        key = tuple(mgr.address("echo")["endpoints"])
+        with connect(EchoNode, "zenoh", name="echo") as c:
+            assert c.echo(1) == 1
+            assert key in _SESSIONS._open
+            os.kill(mgr.pids()["echo"], signal.SIGKILL)
+            t0 = time.monotonic()
+            with pytest.raises(rio.NodeDiedError, match="echo"):
+                while time.monotonic() - t0 < 5:
+                    c.get_state()
+                    time.sleep(0.001)
+            assert time.monotonic() - t0 <= 1.0
+            t1 = time.monotonic()
+            with pytest.raises(rio.NodeDiedError):
+                c.echo(2)
+            with pytest.raises(rio.NodeDiedError):
+                c.send_request(q=np.zeros(6), client=0, seq=0)
+            assert time.monotonic() - t1 <= 1.0
+    assert key not in _SESSIONS._open, "client session left open"
+
+
+def test_through_a_router():
+    """Multi-machine layout: the server has no listening socket and reaches clients only through a
+    zenoh router (here a router-mode session in this process)."""
+    import zenoh
+
+    port = _free_port("127.0.0.1")
+    router_ep = f"tcp/127.0.0.1:{port}"
+    cfg = _config("router", [router_ep], [], 5.0)
+    router = zenoh.open(cfg)
+    try:
+        opts = {"mode": "client", "connect": [router_ep]}
+        with ServerManager("zenoh", [serve(EchoNode, name="echo")], station="lab", mw_options=opts) as mgr:
+            assert mgr.address("echo")["endpoints"] == [router_ep]
+            with connect(EchoNode, "zenoh", name="echo", station="lab") as c:
+                assert c.echo(9) == 9
+                c.send_request(q=np.full(6, 2.0), client=0, seq=0)
+                wait_until(lambda: np.allclose(c.get_state()["last"], 2.0), what="request via router")
+    finally:
+        router.close()
