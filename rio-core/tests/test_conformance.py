@@ -30,6 +30,13 @@ def running(request: pytest.FixtureRequest):
             yield mw, mgr, client
 
 
+def assert_no_shm_left(mgr: ServerManager, before: set[str]) -> None:
+    """No new /dev/shm entry remains. Entries are attributed by the manager's run id, because other
+    programs on the machine may create and remove their own segments meanwhile."""
+    ours = {e for e in shm_entries() - before if mgr.run_id in e}
+    assert not ours, f"/dev/shm entries left behind: {ours}"
+
+
 def wait_until(pred, timeout: float = 3.0, what: str = "condition") -> None:
     t_end = time.monotonic() + timeout
     while not pred():
@@ -175,27 +182,28 @@ def test_sigkill_reported_within_one_second_and_cleaned_up(mw):
             with pytest.raises(rio.NodeDiedError):
                 c.send_request(q=np.zeros(6), client=0, seq=0)
     assert child_pids() <= children_before, "child process left behind"
-    assert shm_entries() <= shm_before, f"/dev/shm entries left behind: {shm_entries() - shm_before}"
+    assert_no_shm_left(mgr, shm_before)
 
 
 def test_clean_exit_leaves_nothing(mw):
     shm_before, children_before = shm_entries(), child_pids()
-    with ServerManager(mw, [serve(EchoNode, name="a"), serve(ImageNode, name="b")]):
+    with ServerManager(mw, [serve(EchoNode, name="a"), serve(ImageNode, name="b")]) as mgr:
         with connect(EchoNode, mw, name="a") as a, connect(ImageNode, mw, name="b") as b:
             a.send_request(q=np.ones(6), client=0, seq=0)
             assert b.get_state()["rgb"].shape == (480, 640, 3)
     assert child_pids() <= children_before
-    assert shm_entries() <= shm_before
+    assert_no_shm_left(mgr, shm_before)
 
 
 def test_startup_failure_names_node_and_cleans_up(mw):
     shm_before, children_before = shm_entries(), child_pids()
+    mgr = ServerManager(mw, [serve(EchoNode, name="ok"), serve(FailingOpenNode, name="cam0")])
     with pytest.raises(rio.RioError) as ei:
-        with ServerManager(mw, [serve(EchoNode, name="ok"), serve(FailingOpenNode, name="cam0")]):
+        with mgr:
             pass
     assert "cam0" in str(ei.value) and "/dev/ttyFAKE" in str(ei.value)
     assert child_pids() <= children_before
-    assert shm_entries() <= shm_before
+    assert_no_shm_left(mgr, shm_before)
 
 
 def test_connect_without_server_is_clear(mw):

@@ -244,6 +244,8 @@ class ServerManager:
         self.station, self.default_mw, self.mw_options = station, default_mw, mw_options or {}
         self.ready_timeout, self.stop_timeout = ready_timeout, stop_timeout
         self.handles: list[_ThreadHandle | _ProcessHandle] = []
+        #: Tags everything this manager creates (run directory, shared-memory names).
+        self.run_id = uuid.uuid4().hex[:8]
         self.run_dir: str | None = None
         self._mws: dict[str, Middleware] = {}
 
@@ -258,7 +260,7 @@ class ServerManager:
         return self._mws[mw]
 
     def __enter__(self) -> ServerManager:
-        self.run_dir = tempfile.mkdtemp(prefix=f"rio-{uuid.uuid4().hex[:8]}-")
+        self.run_dir = tempfile.mkdtemp(prefix=f"rio-{self.run_id}-")
         try:
             for spec in self.specs:
                 mw = self._mw_for(spec)

@@ -322,7 +322,10 @@ class ShmMiddleware(Middleware):
     name = "shm"
 
     def prepare(self, layouts: NodeLayouts, run_dir: str) -> dict[str, Any]:
-        token = uuid.uuid4().hex[:12]
+        # The run directory is named rio-<run id>-*: carrying the run id in segment names lets a
+        # person (or a test) tell which manager a /dev/shm entry belongs to.
+        run_id = os.path.basename(run_dir).split("-")[1] if os.path.basename(run_dir).startswith("rio-") else "x"
+        token = f"{run_id}_{uuid.uuid4().hex[:8]}"
         res: dict[str, Any] = {"fingerprint": layouts.fingerprint()}
         try:
             if layouts.data is not None:
