@@ -1,18 +1,50 @@
-"""RIO: real-time robot I/O for robot learning."""
+"""RIO: real-time robot I/O for robot learning.
 
-from importlib.metadata import PackageNotFoundError, version
+Public names are imported lazily (PEP 562): `import rio` must stay cheap, because the `rio` command
+line and every plugin's entry point import this package, and `rio plugins list` must answer fast
+without loading numpy, pydantic or a middleware.
+"""
 
-from .client import NodeClient
-from .errors import InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull, RioError
-from .manager import ServerManager, ServerSpec, connect, serve
-from .node import Node, client_side
+from __future__ import annotations
 
-try:
-    __version__ = version("rio-core")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0.0.0+unknown"
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+_EXPORTS = {
+    "NodeClient": ".client",
+    "RioError": ".errors", "InvalidRequest": ".errors", "NodeDiedError": ".errors", "NodeError": ".errors",
+    "NodeTimeout": ".errors", "QueueFull": ".errors",
+    "ServerManager": ".manager", "ServerSpec": ".manager", "connect": ".manager", "serve": ".manager",
+    "Node": ".node", "client_side": ".node",
+}
 
 __all__ = [
     "Node", "client_side", "serve", "connect", "ServerManager", "ServerSpec", "NodeClient",
     "RioError", "InvalidRequest", "NodeError", "NodeDiedError", "NodeTimeout", "QueueFull",
 ]
+
+if TYPE_CHECKING:
+    from .client import NodeClient
+    from .errors import InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull, RioError
+    from .manager import ServerManager, ServerSpec, connect, serve
+    from .node import Node, client_side
+
+
+def __getattr__(name: str) -> Any:
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("rio-core")
+        except PackageNotFoundError:  # running from a source tree without installation
+            value = "0.0.0+unknown"
+    elif name in _EXPORTS:
+        value = getattr(import_module(_EXPORTS[name], __name__), name)
+    else:
+        raise AttributeError(f"module 'rio' has no attribute '{name}'")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_EXPORTS, "__version__"])

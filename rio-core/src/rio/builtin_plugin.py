@@ -1,5 +1,5 @@
-"""The core's own plugin: the built-in middlewares, registered through the same hook a
-third-party middleware uses."""
+"""The core's own plugin: the built-in middlewares, embodiments and fake devices, registered through
+the same hooks a third-party plugin uses (so nothing in core is special-cased)."""
 
 from __future__ import annotations
 
@@ -20,4 +20,33 @@ def rio_middlewares() -> list[Spec]:
              "eclipse-zenoh 1.x; multi-machine through routers; key expressions rio/<station>/<node>/*"),
         Spec("portal", "middleware", "rio.middleware.portal:PortalMiddleware",
              "danijar's portal RPC, as in the RIO paper"),
+    ]
+
+
+@hookimpl
+def rio_embodiments() -> list[Spec]:
+    return [
+        Spec("single_arm", "embodiment", "rio.embodiments.single_arm:SingleArm",
+             "arm [+ gripper] [+ hand] -> SingleArmObs", config="rio.embodiments.single_arm:ArmOptions"),
+        Spec("bimanual", "embodiment", "rio.embodiments.bimanual:Bimanual",
+             "arm + arm2, each [+ gripper] [+ hand] -> BimanualObs", config="rio.embodiments.single_arm:ArmOptions"),
+        Spec("humanoid", "embodiment", "rio.embodiments.humanoid:Humanoid",
+             "humanoid [+ hand, hand2] -> HumanoidObs"),
+    ]
+
+
+_FAKE = "in-process fake, no hardware or simulator (tests, examples)"
+
+
+@hookimpl
+def rio_drivers() -> list[Spec]:
+    t = "rio.testing"
+    return [
+        Spec("rio.fake_arm", "arm", f"{t}:FakeArm", f"arm: {_FAKE}", config=f"{t}:FakeArmConfig"),
+        Spec("rio.fake_gripper", "gripper", f"{t}:FakeGripper", f"gripper: {_FAKE}", config=f"{t}:FakeGripperConfig"),
+        Spec("rio.fake_camera", "camera", f"{t}:FakeCamera", f"camera: {_FAKE}", config=f"{t}:FakeCameraConfig"),
+        Spec("rio.fake_teleop", "teleop", f"{t}:FakeTeleop", f"teleop: {_FAKE}", config=f"{t}:FakeTeleopConfig"),
+        Spec("rio.fake_hand", "hand", f"{t}:FakeHand", f"hand: {_FAKE}", config=f"{t}:FakeHandConfig"),
+        Spec("rio.fake_humanoid", "humanoid", f"{t}:FakeHumanoid", f"humanoid: {_FAKE}",
+             config=f"{t}:FakeHumanoidConfig"),
     ]

@@ -1,7 +1,13 @@
-"""Hook specifications: what a RIO plugin can provide. Each hook returns a list of `Spec`s
-(name, kind, import path, config model, one-line description), never an imported driver."""
+"""Hook specifications: what a RIO plugin can provide.
+
+Every spec-returning hook returns a list of `Spec`s (name, kind, import path, config model, one-line
+description), never an imported driver, so listing what is installed stays fast and needs no vendor
+SDK. A plugin module implements any subset of these with `@rio.hookspecs.hookimpl`.
+"""
 
 from __future__ import annotations
+
+from typing import Any
 
 import pluggy
 
@@ -13,9 +19,39 @@ hookimpl = pluggy.HookimplMarker("rio")
 
 @hookspec
 def rio_middlewares() -> list[Spec]:
-    """Middlewares (kind 'middleware'); target is a `rio.middleware.Middleware` subclass."""
+    """Middlewares (kind 'middleware'); target is a `rio.middleware.Middleware` subclass whose
+    `Options` model validates the station file's `[middleware]` table."""
 
 
 @hookspec
 def rio_drivers() -> list[Spec]:
-    """Device drivers: arm, gripper, hand, humanoid, camera, teleop, sensor. Target is a Node class."""
+    """Device drivers: arm, gripper, hand, humanoid, camera, teleop, sensor. Target is a Node class;
+    config is a pydantic model whose fields are the node's constructor keyword arguments."""
+
+
+@hookspec
+def rio_policies() -> list[Spec]:
+    """Policies (kind 'policy'); target is a Node class hosting the model, config as for drivers."""
+
+
+@hookspec
+def rio_dataset_formats() -> list[Spec]:
+    """Dataset formats (kind 'dataset_format') for export and import."""
+
+
+@hookspec
+def rio_embodiments() -> list[Spec]:
+    """Embodiments (kind 'embodiment'); target is a `rio.embodiments.Embodiment` subclass. The
+    embodiment of a station is inferred from the roles its class requires."""
+
+
+@hookspec
+def rio_stations() -> list[Spec]:
+    """Packaged station files (kind 'station'); target is an absolute path of a .toml file or a
+    package resource 'package:relative/path.toml' (read with importlib.resources)."""
+
+
+@hookspec
+def rio_cli(app: Any) -> Any:
+    """Extra `rio` subcommands. Receives the root typer app: call `app.add_typer(sub, name="so100")`
+    (so `rio so100 calibrate` works), or return a dict {name: typer.Typer} to mount."""

@@ -1,0 +1,68 @@
+"""`rio drivers list [--kind arm]`: registered drivers and policies, without importing any of them."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+app = typer.Typer(help="Registered device drivers and policies.", no_args_is_help=True)
+
+
+@app.command("list")
+def list_drivers(
+    kind: Annotated[str | None, typer.Option("--kind", "-k", help="Only this kind (arm, camera, ...).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
+) -> None:
+    """List drivers (and policies) by name, kind and plugin."""
+    from ..errors import ConfigError
+    from ..plugins import get_registry
+    from ..specs import DRIVER_KINDS
+    from ..suggest import unknown
+    from .output import print_json, table, warn_problems
+
+    kinds = (*DRIVER_KINDS, "policy")
+    if kind is not None and kind not in kinds:
+        raise ConfigError(unknown("kind", kind, kinds))
+    reg = get_registry()
+    specs = [s for s in reg.specs("rio_drivers") + reg.specs("rio_policies") if kind in (None, s.kind)]
+    if as_json:
+        print_json([{"name": s.name, "kind": s.kind, "plugin": s.plugin, "target": s.target,
+                     "description": s.description} for s in specs])
+        return
+    rows = [(s.name, s.kind, s.plugin, s.description) for s in sorted(specs, key=lambda s: (s.kind, s.name))]
+    title = "RIO policies" if kind == "policy" else f"RIO {kind or 'driver'}s"
+    table(title, ("name", "kind", "plugin", "description"), rows)
+    warn_problems(reg)
+
+
+@app.command("show")
+def show(name: Annotated[str, typer.Argument(help="Registered driver or policy name, e.g. rio.fake_arm.")]) -> None:
+    """The station-file fields a driver accepts (its config model): name, type, default, description.
+    Imports the driver's config model (not its SDK, if the plugin keeps them apart)."""
+    from pydantic_core import PydanticUndefined
+
+    from ..config import model_from_signature
+    from ..errors import ConfigError
+    from ..plugins import get_registry
+    from ..suggest import unknown
+    from .output import console, table
+
+    reg = get_registry()
+    specs = {s.name: s for s in reg.specs("rio_drivers") + reg.specs("rio_policies")}
+    if name not in specs:
+        raise ConfigError(unknown("driver", name, specs))
+    spec = specs[name]
+    model = spec.load_config() or model_from_signature(spec.load())
+    rows = []
+    for field, info in model.model_fields.items():
+        if info.default_factory is not None:
+            default = repr(info.default_factory())
+        else:
+            default = "(required)" if info.default is PydanticUndefined else repr(info.default)
+        ann = info.annotation
+        type_name = ann.__name__ if isinstance(ann, type) else str(ann).replace("typing.", "")
+        rows.append((field, type_name, default, info.description or ""))
+    console().print(f"{spec.name} ({spec.kind}, plugin {spec.plugin}): {spec.description}\n"
+                    f"node: {spec.target}", markup=False)
+    table(f"[components.<role>] fields (driver = \"{spec.name}\")", ("field", "type", "default", "description"), rows)

@@ -1,0 +1,50 @@
+"""`rio stations list` (packaged station files) and `rio stations check` (validate one fully)."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+app = typer.Typer(help="Station files.", no_args_is_help=True)
+
+
+@app.command("list")
+def list_stations(as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False) -> None:
+    """List the station files that plugins ship (use the name wherever a station path is accepted)."""
+    from ..plugins import get_registry
+    from .output import print_json, table, warn_problems
+
+    reg = get_registry()
+    specs = reg.specs("rio_stations")
+    if as_json:
+        print_json([{"name": s.name, "plugin": s.plugin, "target": s.target, "description": s.description}
+                    for s in specs])
+        return
+    table("RIO stations", ("name", "plugin", "description", "file"),
+          [(s.name, s.plugin, s.description, s.target) for s in sorted(specs, key=lambda s: s.name)])
+    warn_problems(reg)
+
+
+@app.command("check")
+def check(
+    station: Annotated[str, typer.Argument(help="Station name (see `rio stations list`) or path of a .toml file.")],
+    middleware: Annotated[str | None, typer.Option("--middleware", "-m", help="Use this middleware instead.")] = None,
+) -> None:
+    """Validate a station completely (drivers, their fields, middleware options, embodiment) and show
+    what it contains; imports the drivers' code but starts nothing."""
+    from ..station import load_station
+    from ..station.build import load_node_class, resolve_embodiment, resolve_middleware
+    from .output import console, table
+
+    st = load_station(station)
+    mw = resolve_middleware(st, middleware)
+    emb, options = resolve_embodiment(st)
+    for role in st.components:
+        load_node_class(st, role)
+    rows = [(role, c.kind, c.driver, c.spec.plugin,
+             ", ".join(f"{k}={v!r}" for k, v in c.kwargs().items())) for role, c in st.components.items()]
+    table(f"station '{st.name}' ({st.source})", ("role", "kind", "driver", "plugin", "config"), rows)
+    emb_text = f"{emb.name} ({options.model_dump()})" if emb else "none (no arm or humanoid role)"
+    console().print(f"middleware: {mw.name} {mw.options.model_dump()}\ncontrol rate: {st.rate_hz:g} Hz\n"
+                    f"embodiment: {emb_text}\nok", markup=False)

@@ -1,0 +1,94 @@
+"""The Embodiment: a robot morphology assembled from station roles.
+
+It turns the clients of its roles into one observation (`observe()`, an `Observation` subclass) and
+splits one flat action vector back into per-component commands (`apply()`). Which embodiment a
+station gets is decided by `required_roles` (see `rio.embodiments.infer`), so a plugin adds a new
+morphology (a mobile manipulator: `{"arm", "base"}`) by registering a subclass, with no core edit.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict
+
+from ..schema import Observation
+
+
+class EmbodimentOptions(BaseModel):
+    """Options from the station's `[embodiment]` table."""
+
+    model_config = ConfigDict(extra="forbid")
+
+
+class Embodiment:
+    name: ClassVar[str] = ""
+    #: Roles that must all be present for this embodiment to apply; the most specific match wins.
+    required_roles: ClassVar[frozenset[str]] = frozenset()
+    #: Roles it uses when present.
+    optional_roles: ClassVar[frozenset[str]] = frozenset()
+    Options: ClassVar[type[EmbodimentOptions]] = EmbodimentOptions
+
+    def __init__(self, clients: dict[str, Any], options: EmbodimentOptions | None = None):
+        self.clients = dict(clients)
+        self.options = options or self.Options()
+        #: Sample timestamp of each role at the last `observe()`.
+        self.timestamps: dict[str, float] = {}
+        for role, client in self.clients.items():  # `env.robot.arm.get_state()`, as in the paper
+            setattr(self, role, client)
+
+    @classmethod
+    def roles(cls) -> frozenset[str]:
+        return cls.required_roles | cls.optional_roles
+
+    # -- to implement -------------------------------------------------------------------------------
+    def action_layout(self) -> list[tuple[str, int]]:
+        """The flat action vector, in order: (label, size) per part."""
+        raise NotImplementedError
+
+    def observe(self) -> Observation:
+        raise NotImplementedError
+
+    def apply(self, parts: dict[str, np.ndarray], t_cmd_target: float) -> None:
+        """Send each part of an action (keyed by its `action_layout` label)."""
+        raise NotImplementedError
+
+    def reset(self) -> None:
+        """Called by `Env.reset()`; the default holds the current state."""
+
+    # -- shared -------------------------------------------------------------------------------------
+    @property
+    def action_dim(self) -> int:
+        return sum(n for _, n in self.action_layout())
+
+    def describe_action(self) -> str:
+        return ", ".join(f"{label} ({n})" for label, n in self.action_layout())
+
+    def split_action(self, action: Any) -> dict[str, np.ndarray]:
+        """Flat action -> {label: part}; a wrong size or a non-finite value is a ValueError."""
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != (self.action_dim,):
+            raise ValueError(f"{self.name}: action has {a.size} values, expected {self.action_dim}: "
+                             f"{self.describe_action()}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"{self.name}: action contains NaN or inf")
+        parts, i = {}, 0
+        for label, n in self.action_layout():
+            parts[label] = a[i:i + n]
+            i += n
+        return parts
+
+    def build_action(self, **parts: Any) -> np.ndarray:
+        """The flat action from named parts (the paper's `build_action(arm_target, gripper_cmd=...)`)."""
+        out = []
+        for label, n in self.action_layout():
+            if label not in parts:
+                raise ValueError(f"{self.name}: build_action needs '{label}' ({n}); parts: {self.describe_action()}")
+            out.append(np.asarray(parts[label], dtype=np.float64).reshape(-1))
+        return np.concatenate(out) if out else np.zeros(0)
+
+    def _state(self, role: str) -> dict[str, Any]:
+        state = self.clients[role].get_state()
+        self.timestamps[role] = float(state.get("timestamp", np.nan))
+        return state

@@ -1,0 +1,44 @@
+"""Bimanual: `arm` (left, "arm1" in the schema) + `arm2` (right), each with optional gripper and hand.
+
+Action (and `proprio`): the left group then the right group, each laid out as in SingleArm; labels
+are prefixed `arm1_` / `arm2_`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..schema import BimanualObs
+from .arm_group import ArmGroup
+from .base import Embodiment
+from .single_arm import ArmOptions
+
+
+class Bimanual(Embodiment):
+    name = "bimanual"
+    required_roles = frozenset({"arm", "arm2"})
+    optional_roles = frozenset({"gripper", "gripper2", "hand", "hand2"})
+    Options = ArmOptions
+
+    def __init__(self, clients, options=None):
+        super().__init__(clients, options)
+        space = self.options.action_space
+        self.left = ArmGroup(self, "arm", "gripper", "hand", space, prefix="arm1_")
+        self.right = ArmGroup(self, "arm2", "gripper2", "hand2", space, prefix="arm2_")
+
+    def action_layout(self) -> list[tuple[str, int]]:
+        return self.left.layout() + self.right.layout()
+
+    def observe(self) -> BimanualObs:
+        a, b = self.left.read(), self.right.read()
+        return BimanualObs(
+            proprio=np.concatenate([a["proprio"], b["proprio"]]),
+            arm1_proprio_eef=a["eef"], arm1_proprio_joints=a["joints"], gripper1_position=a["gripper"],
+            hand1_joints=a["hand_joints"],
+            arm2_proprio_eef=b["eef"], arm2_proprio_joints=b["joints"], gripper2_position=b["gripper"],
+            hand2_joints=b["hand_joints"],
+        )
+
+    def apply(self, parts: dict[str, np.ndarray], t_cmd_target: float) -> None:
+        self.left.apply(parts, t_cmd_target)
+        self.right.apply(parts, t_cmd_target)

@@ -1,0 +1,40 @@
+"""Humanoid: `humanoid` (whole body, joint space) with optional `hand` (left) and `hand2` (right).
+
+Action (and `proprio`): body joint targets (rad), then left hand joints, then right hand joints.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..schema import HumanoidObs
+from .base import Embodiment
+
+
+class Humanoid(Embodiment):
+    name = "humanoid"
+    required_roles = frozenset({"humanoid"})
+    optional_roles = frozenset({"hand", "hand2"})
+
+    def __init__(self, clients, options=None):
+        super().__init__(clients, options)
+        self.hands = [r for r in ("hand", "hand2") if r in self.clients]
+        self.dofs = {r: int(self.clients[r].num_joints()) for r in ("humanoid", *self.hands)}
+
+    def action_layout(self) -> list[tuple[str, int]]:
+        return [("joint_pos", self.dofs["humanoid"])] + [(r, self.dofs[r]) for r in self.hands]
+
+    def observe(self) -> HumanoidObs:
+        s = self._state("humanoid")
+        hands = {r: np.asarray(self._state(r)["joint_pos"]) for r in self.hands}
+        q = np.asarray(s["joint_pos"], dtype=np.float64)
+        return HumanoidObs(
+            proprio=np.concatenate([q, *hands.values()]), joint_pos=q, joint_vel=np.asarray(s["joint_vel"]),
+            base_quat=np.asarray(s["base_quat"]), base_ang_vel=np.asarray(s["base_ang_vel"]),
+            hand1_joints=hands.get("hand"), hand2_joints=hands.get("hand2"),
+        )
+
+    def apply(self, parts: dict[str, np.ndarray], t_cmd_target: float) -> None:
+        self.clients["humanoid"].move_joints(parts["joint_pos"], t_cmd_target)
+        for r in self.hands:
+            self.clients[r].move_joints(parts[r], t_cmd_target)

@@ -1,0 +1,41 @@
+"""SingleArm: `arm` with optional `gripper` and `hand` -> `SingleArmObs`.
+
+Action (and `proprio`): the arm target in the configured space (`joint_pos`: n joints in rad, or
+`eef_pose`: 7 values, m + quaternion wxyz), then the gripper opening (m), then hand joints (rad).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+
+from ..schema import SingleArmObs
+from .arm_group import ArmGroup
+from .base import Embodiment, EmbodimentOptions
+
+
+class ArmOptions(EmbodimentOptions):
+    action_space: Literal["joint_pos", "eef_pose"] = "joint_pos"
+
+
+class SingleArm(Embodiment):
+    name = "single_arm"
+    required_roles = frozenset({"arm"})
+    optional_roles = frozenset({"gripper", "hand"})
+    Options = ArmOptions
+
+    def __init__(self, clients, options=None):
+        super().__init__(clients, options)
+        self.group = ArmGroup(self, "arm", "gripper", "hand", self.options.action_space)
+
+    def action_layout(self) -> list[tuple[str, int]]:
+        return self.group.layout()
+
+    def observe(self) -> SingleArmObs:
+        g = self.group.read()
+        return SingleArmObs(proprio=g["proprio"], proprio_eef=g["eef"], proprio_joints=g["joints"],
+                            gripper_position=g["gripper"], hand_joints=g["hand_joints"])
+
+    def apply(self, parts: dict[str, np.ndarray], t_cmd_target: float) -> None:
+        self.group.apply(parts, t_cmd_target)

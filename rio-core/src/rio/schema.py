@@ -1,0 +1,80 @@
+"""The observation schema every embodiment reports (the RIO paper's appendix), in SI units.
+
+Consumers (policies, recorders, visualizers, dataset exporters) read these dataclasses instead of
+per-robot dicts, so one policy adapter or exporter works for every station of a morphology.
+
+Units and conventions: positions in meters, angles in radians, time in seconds (`rio.time.now()`);
+poses are 7-vectors `[x, y, z, qw, qx, qy, qz]` (quaternion scalar first); gripper positions are the
+finger opening in meters; RGB images are HxWx3 uint8; depth images are HxW float32 meters.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Camera:
+    rgb: np.ndarray | None = None
+    depth: np.ndarray | None = None
+    #: e.g. {"timestamp": float, "intrinsics": (3, 3) array}
+    meta: dict = field(default_factory=dict)
+
+
+@dataclass
+class Observation:
+    #: Proprioception in the policy's action space (what `Env.step` takes, same order and units).
+    proprio: np.ndarray
+    #: Cameras by name: the station role without its "_camera" suffix ("front", "wrist").
+    cameras: dict[str, Camera] = field(default_factory=dict)
+
+
+@dataclass
+class Step:
+    timestep: int | None
+    observation: Observation
+    instruction: str | None
+    action: np.ndarray | None
+    meta: dict | None = field(default_factory=dict)
+
+
+@dataclass
+class SingleArmObs(Observation):
+    proprio_eef: np.ndarray | None = None
+    proprio_joints: np.ndarray | None = None
+    gripper_position: float | None = None
+
+    hand_pose: np.ndarray | None = None
+    hand_joints: np.ndarray | None = None
+
+
+@dataclass
+class BimanualObs(Observation):
+    # Left arm (station role "arm", "gripper", "hand")
+    arm1_proprio_eef: np.ndarray | None = None
+    arm1_proprio_joints: np.ndarray | None = None
+    gripper1_position: float | None = None
+    hand1_pose: np.ndarray | None = None
+    hand1_joints: np.ndarray | None = None
+
+    # Right arm (station role "arm2", "gripper2", "hand2")
+    arm2_proprio_eef: np.ndarray | None = None
+    arm2_proprio_joints: np.ndarray | None = None
+    gripper2_position: float | None = None
+    hand2_pose: np.ndarray | None = None
+    hand2_joints: np.ndarray | None = None
+
+
+@dataclass
+class HumanoidObs(Observation):
+    """Not in the paper; follows its pattern. Base orientation from the IMU, quaternion wxyz."""
+
+    joint_pos: np.ndarray | None = None
+    joint_vel: np.ndarray | None = None
+    base_quat: np.ndarray | None = None
+    base_ang_vel: np.ndarray | None = None
+
+    hand1_joints: np.ndarray | None = None
+    hand2_joints: np.ndarray | None = None

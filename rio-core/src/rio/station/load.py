@@ -1,0 +1,131 @@
+"""Station files -> validated `Station`s.
+
+Validation happens in one pass that collects every problem, each reported with the full path of the
+field (`components.arm.port: required field missing`), so a user fixes a file in one go. Drivers are
+looked up in the plugin registry by name; only their config models are imported here (the node
+classes, and with them vendor SDKs, are imported when the station is built).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from ..config import error_lines, model_from_signature
+from ..errors import ConfigError
+from ..plugins import Registry, get_registry
+from ..suggest import closest, unknown
+from . import roles as R
+from .model import Component, Station, StationFile
+from .toml import parse_toml
+
+
+def _looks_like_path(ref: str) -> bool:
+    return ref.endswith(".toml") or os.sep in ref or "/" in ref or os.path.exists(ref)
+
+
+def read_station_text(ref: str | os.PathLike, registry: Registry | None = None) -> tuple[str, str]:
+    """(text, source) of a station given as a path or as a name registered by a plugin."""
+    if isinstance(ref, os.PathLike) or _looks_like_path(str(ref)):
+        path = Path(ref)
+        if not path.is_file():
+            raise ConfigError(f"station file not found: {path}")
+        return path.read_text(encoding="utf-8"), str(path)
+    reg = registry or get_registry()
+    stations = {s.name: s for s in reg.specs("rio_stations")}
+    if ref not in stations:
+        raise ConfigError(unknown("station", str(ref), stations) + " (or give the path of a .toml file)")
+    return read_station_resource(stations[ref].target)
+
+
+def read_station_resource(target: str) -> tuple[str, str]:
+    """Read a station spec's target: an absolute path, or 'package:relative/path.toml'."""
+    if os.path.isabs(target):
+        return Path(target).read_text(encoding="utf-8"), target
+    pkg, _, res = target.partition(":")
+    from importlib.resources import files
+
+    try:
+        node = files(pkg).joinpath(res)
+        return node.read_text(encoding="utf-8"), str(node)
+    except (ModuleNotFoundError, FileNotFoundError, NotADirectoryError) as e:
+        raise ConfigError(f"packaged station '{target}' cannot be read: {e}") from None
+
+
+def load_station(ref: str | os.PathLike | Station, *, registry: Registry | None = None) -> Station:
+    """A validated station from a path, a registered station name, or an existing `Station`."""
+    if isinstance(ref, Station):
+        return ref
+    text, source = read_station_text(ref, registry)
+    return parse_station(parse_toml(text, source), source=source, registry=registry)
+
+
+def parse_station(data: dict[str, Any], *, source: str = "<dict>", registry: Registry | None = None) -> Station:
+    """Validate the contents of a station file (already parsed). Raises one ConfigError listing all
+    problems, each with its field path."""
+    reg = registry or get_registry()
+    try:
+        top = StationFile.model_validate(data)
+    except ValidationError as e:
+        raise _invalid(source, error_lines(e, "", StationFile)) from None
+    errors: list[str] = []
+    components: dict[str, Component] = {}
+    for role, table in top.components.items():
+        comp = _component(role, table, reg, errors)
+        if comp is not None:
+            components[role] = comp
+    if errors:
+        raise _invalid(source, errors)
+    mw = top.middleware.model_dump()
+    emb = top.embodiment.model_dump()
+    return Station(
+        name=top.name, description=top.description, rate_hz=top.rate_hz, components=components,
+        middleware=mw.pop("name"), middleware_options=mw,
+        embodiment=emb.pop("name"), embodiment_options=emb, source=source,
+    )
+
+
+def _invalid(source: str, lines: list[str]) -> ConfigError:
+    return ConfigError(f"invalid station {source}:\n  " + "\n  ".join(lines))
+
+
+def _component(role: str, table: dict[str, Any], reg: Registry, errors: list[str]) -> Component | None:
+    where = f"components.{role}"
+    kind = R.kind_of(role)
+    if kind is None:
+        best = closest(role, R.FIXED)
+        hint = f"; did you mean '{best}'?" if best else ""
+        errors.append(f"{where}: unknown role '{role}'{hint} roles: {R.ALL_ROLES_TEXT}")
+        return None
+    specs = reg.specs(R.hook_of(kind))
+    of_kind = {s.name: s for s in specs if s.kind == kind}
+    driver = table.get("driver")
+    if not isinstance(driver, str):
+        errors.append(f"{where}.driver: required field missing (a registered {kind} driver: "
+                      f"{', '.join(sorted(of_kind)) or 'none installed'})")
+        return None
+    if driver not in of_kind:
+        other = next((s for s in specs if s.name == driver), None)
+        if other is not None:
+            errors.append(f"{where}.driver: '{driver}' is a {other.kind} driver; role '{role}' needs a {kind} "
+                          f"driver: {', '.join(sorted(of_kind)) or 'none installed'}")
+        else:
+            errors.append(f"{where}.driver: " + unknown(f"{kind} driver", driver, of_kind))
+        return None
+    spec = of_kind[driver]
+    try:
+        model = spec.load_config() or model_from_signature(spec.load())
+    except Exception as e:  # a plugin's config module failed to import
+        errors.append(f"{where}.driver: cannot load the config of '{driver}' (plugin {spec.plugin}): "
+                      f"{type(e).__name__}: {e}")
+        return None
+    fields = {k: v for k, v in table.items() if k != "driver"}
+    try:
+        config = model.model_validate(fields)
+    except ValidationError as e:
+        errors.extend(error_lines(e, where, model))
+        return None
+    return Component(role=role, driver=driver, kind=kind, spec=spec, config=config)

@@ -1,0 +1,71 @@
+"""What a station file contains, validated: the file's top-level schema (pydantic) and the
+resolved `Station` (each component bound to its registered spec and validated config)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..specs import Spec
+
+
+class MiddlewareSection(BaseModel):
+    """`[middleware]`: `name` plus that middleware's own options (checked by its `Options` model)."""
+
+    model_config = ConfigDict(extra="allow")
+    name: str = "shm"
+
+
+class EmbodimentSection(BaseModel):
+    """`[embodiment]` (optional): `name` overrides inference; other keys go to its `Options` model."""
+
+    model_config = ConfigDict(extra="allow")
+    name: str | None = None
+
+
+class StationFile(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    #: Also the middleware namespace (zenoh key expressions, shm segment names): keep it short.
+    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_\-]*$", max_length=64)
+    description: str = ""
+    #: Rate of the control loop (Hz); `Env.step` targets commands one period ahead by default.
+    rate_hz: float = Field(30.0, gt=0)
+    middleware: MiddlewareSection = Field(default_factory=MiddlewareSection)
+    embodiment: EmbodimentSection = Field(default_factory=EmbodimentSection)
+    components: dict[str, dict[str, Any]] = Field(min_length=1)
+
+
+@dataclass
+class Component:
+    role: str
+    driver: str
+    kind: str
+    spec: Spec
+    #: Validated driver config (an instance of the spec's config model).
+    config: BaseModel
+
+    def node_class(self) -> type:
+        return self.spec.load()
+
+    def kwargs(self) -> dict[str, Any]:
+        """The node's constructor keyword arguments."""
+        return self.config.model_dump()
+
+
+@dataclass
+class Station:
+    name: str
+    components: dict[str, Component]
+    description: str = ""
+    rate_hz: float = 30.0
+    middleware: str = "shm"
+    middleware_options: dict[str, Any] = field(default_factory=dict)
+    embodiment: str | None = None
+    embodiment_options: dict[str, Any] = field(default_factory=dict)
+    #: Where it was read from (file path, package resource, or "<dict>").
+    source: str = "<dict>"
+
+    def roles(self) -> set[str]:
+        return set(self.components)

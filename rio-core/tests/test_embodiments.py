@@ -1,0 +1,210 @@
+"""Embodiments inferred from roles, and make_station + Env stepping fake devices on the thread middleware."""
+
+from __future__ import annotations
+
+import sys
+import time
+import types
+
+import numpy as np
+import pytest
+from rio import ServerManager
+from rio import time as rtime
+from rio.embodiments.infer import infer_embodiment
+from rio.errors import ConfigError, RioError
+from rio.hookspecs import hookimpl
+from rio.plugins import Registry
+from rio.schema import BimanualObs, HumanoidObs, Observation, SingleArmObs, Step
+from rio.specs import Spec
+from rio.station import make_station, parse_station
+
+
+@pytest.fixture
+def reg():
+    return Registry(load_entry_points=False)
+
+
+def station(reg, components, **top):
+    return parse_station({"name": "emb-test", "middleware": {"name": "thread"}, "rate_hz": 50,
+                          "components": components, **top}, registry=reg)
+
+
+def wait_for(pred, timeout=3.0):
+    t_end = time.monotonic() + timeout
+    while time.monotonic() < t_end:
+        if pred():
+            return True
+        time.sleep(0.01)
+    return False
+
+
+@pytest.mark.parametrize("roles, expected", [
+    ({"arm"}, "single_arm"),
+    ({"arm", "gripper", "front_camera", "teleop"}, "single_arm"),
+    ({"arm", "arm2", "gripper", "gripper2"}, "bimanual"),
+    ({"humanoid", "hand", "hand2"}, "humanoid"),
+    ({"teleop", "front_camera"}, None),
+])
+def test_embodiment_inferred_from_roles(reg, roles, expected):
+    spec = infer_embodiment(roles, registry=reg)
+    assert (spec.name if spec else None) == expected
+
+
+def test_named_embodiment_must_fit_the_roles(reg):
+    assert infer_embodiment({"arm", "arm2"}, "single_arm", registry=reg).name == "single_arm"
+    with pytest.raises(ConfigError, match=r"'bimanual' needs roles \['arm', 'arm2'\]"):
+        infer_embodiment({"arm"}, "bimanual", registry=reg)
+    with pytest.raises(ConfigError, match=r"unknown embodiment 'bimanul'; did you mean 'bimanual'\?"):
+        infer_embodiment({"arm"}, "bimanul", registry=reg)
+
+
+class ArmWithWristCamera:
+    """A plugin embodiment more specific than SingleArm (only its required roles matter here)."""
+
+    required_roles = frozenset({"arm", "wrist_camera"})
+
+
+def test_plugin_embodiment_wins_when_more_specific_and_ties_are_errors(reg, monkeypatch):
+    targets = types.ModuleType("emb_targets")  # where the specs' import paths point
+    targets.ArmWithWristCamera = ArmWithWristCamera
+    monkeypatch.setitem(sys.modules, "emb_targets", targets)
+    mod = types.ModuleType("emb_plugin")
+
+    @hookimpl
+    def rio_embodiments():
+        return [Spec("arm_wrist", "embodiment", "emb_targets:ArmWithWristCamera")]
+
+    mod.rio_embodiments = rio_embodiments
+    reg.register(mod, name="emb-plugin")
+    assert infer_embodiment({"arm", "wrist_camera"}, registry=reg).name == "arm_wrist"
+    assert infer_embodiment({"arm", "front_camera"}, registry=reg).name == "single_arm"
+
+    tie = types.ModuleType("tie_plugin")
+
+    @hookimpl
+    def rio_embodiments():  # noqa: F811 - a second plugin's hook
+        return [Spec("arm_wrist_too", "embodiment", "emb_targets:ArmWithWristCamera")]
+
+    tie.rio_embodiments = rio_embodiments
+    reg.register(tie, name="tie-plugin")
+    with pytest.raises(ConfigError, match=r"fit several embodiments equally: \['arm_wrist', 'arm_wrist_too'\]"):
+        infer_embodiment({"arm", "wrist_camera"}, registry=reg)
+
+
+def test_schema_morphologies_extend_observation():
+    for cls in (SingleArmObs, BimanualObs, HumanoidObs):
+        obs = cls(proprio=np.zeros(3))
+        assert isinstance(obs, Observation) and obs.cameras == {}
+    step = Step(timestep=0, observation=Observation(np.zeros(1)), instruction=None, action=None)
+    assert step.meta == {}
+
+
+def test_single_arm_station_steps(reg):
+    st = station(reg, {
+        "arm": {"driver": "rio.fake_arm", "dof": 6},
+        "gripper": {"driver": "rio.fake_gripper", "max_width": 0.08},
+        "front_camera": {"driver": "rio.fake_camera", "depth": True, "width": 32, "height": 24},
+        "teleop": {"driver": "rio.fake_teleop", "twist": [0.1, 0, 0, 0, 0, 0]},
+    })
+    servers, clients, env = make_station(st, registry=reg)
+    assert set(servers) == set(clients) == {"arm", "gripper", "front_camera", "teleop"}
+    assert servers["arm"].name == "arm"
+    with pytest.raises(RioError, match="use it as `with env:`"):
+        env.get_state()
+    with ServerManager(servers):
+        with env, clients["teleop"]() as teleop:
+            assert np.allclose(teleop.get_state()["twist"], [0.1, 0, 0, 0, 0, 0])
+            assert env.robot.describe_action() == "joint_pos (6), gripper (1)"
+            first = env.reset()
+            assert first.timestep == 0 and first.action is None
+            obs = first.observation
+            assert isinstance(obs, SingleArmObs)
+            assert np.allclose(obs.proprio, [0, 0, 0, 0, 0, 0, 0.08])
+            cam = obs.cameras["front"]
+            assert cam.rgb.shape == (24, 32, 3) and cam.rgb.dtype == np.uint8
+            assert cam.depth.dtype == np.float32 and np.allclose(cam.depth, 1.0)  # meters
+            assert cam.meta["intrinsics"].shape == (3, 3)
+
+            env.instruction = "pick up the cube"
+            target = np.r_[np.linspace(-0.5, 0.5, 6), 0.02]
+            step = env.step(target, t_cmd_target=rtime.now() + 0.1)
+            assert step.timestep == 1 and np.array_equal(step.action, target)
+            assert step.instruction == "pick up the cube"
+            assert set(step.meta["timestamps"]) == {"arm", "gripper", "front_camera"}
+            assert wait_for(lambda: np.allclose(env.get_state().observation.proprio, target, atol=1e-6))
+            final = env.get_state().observation
+            assert final.gripper_position == pytest.approx(0.02)
+            assert np.allclose(final.proprio_joints, target[:6])
+
+            with pytest.raises(ValueError, match=r"action has 6 values, expected 7: joint_pos \(6\), gripper \(1\)"):
+                env.step(np.zeros(6))
+            with pytest.raises(ValueError, match="NaN"):
+                env.step(np.r_[np.zeros(6), np.nan])
+            assert env.timestep == 1
+
+
+def test_single_arm_eef_action_space(reg):
+    st = station(reg, {"arm": {"driver": "rio.fake_arm"}}, embodiment={"action_space": "eef_pose"})
+    servers, _, env = make_station(st, registry=reg)
+    with ServerManager(servers), env:
+        assert env.action_dim == 7
+        pose = np.array([0.3, 0.0, 0.2, 0.0, 1.0, 0.0, 0.0])
+        env.step(pose, t_cmd_target=rtime.now() + 0.05)
+        assert wait_for(lambda: np.allclose(env.get_state().observation.proprio_eef, pose))
+        assert np.allclose(env.get_state().observation.proprio, pose)
+
+
+def test_bimanual_station_steps(reg):
+    st = station(reg, {
+        "arm": {"driver": "rio.fake_arm", "dof": 6}, "gripper": {"driver": "rio.fake_gripper"},
+        "arm2": {"driver": "rio.fake_arm", "dof": 6}, "gripper2": {"driver": "rio.fake_gripper"},
+    })
+    servers, _, env = make_station(st, registry=reg)
+    with ServerManager(servers), env:
+        assert env.action_dim == 14
+        assert env.robot.describe_action().startswith("arm1_joint_pos (6), arm1_gripper (1), arm2_joint_pos (6)")
+        left, right = np.full(6, 0.3), np.full(6, -0.3)
+        action = env.robot.build_action(arm1_joint_pos=left, arm1_gripper=0.01, arm2_joint_pos=right,
+                                        arm2_gripper=0.05)
+        env.step(action, t_cmd_target=rtime.now() + 0.05)
+        assert wait_for(lambda: np.allclose(env.get_state().observation.proprio, action))
+        obs = env.get_state().observation
+        assert isinstance(obs, BimanualObs)
+        assert np.allclose(obs.arm1_proprio_joints, left) and np.allclose(obs.arm2_proprio_joints, right)
+        assert (obs.gripper1_position, obs.gripper2_position) == (pytest.approx(0.01), pytest.approx(0.05))
+
+
+def test_humanoid_station_steps(reg):
+    st = station(reg, {"humanoid": {"driver": "rio.fake_humanoid", "dof": 12},
+                       "hand": {"driver": "rio.fake_hand", "dof": 6}})
+    servers, _, env = make_station(st, registry=reg)
+    with ServerManager(servers), env:
+        assert env.robot.describe_action() == "joint_pos (12), hand (6)"
+        action = np.r_[np.full(12, 0.1), np.full(6, 0.4)]
+        env.step(action, t_cmd_target=rtime.now() + 0.05)
+        assert wait_for(lambda: np.allclose(env.get_state().observation.proprio, action))
+        obs = env.get_state().observation
+        assert isinstance(obs, HumanoidObs)
+        assert np.allclose(obs.base_quat, [1, 0, 0, 0]) and obs.hand2_joints is None
+        assert np.allclose(obs.hand1_joints, 0.4)
+
+
+def test_station_without_embodiment_has_no_env(reg):
+    st = station(reg, {"teleop": {"driver": "rio.fake_teleop"}})
+    servers, clients, env = make_station(st, registry=reg)
+    assert env is None
+    with ServerManager(servers), clients["teleop"]() as teleop:
+        assert teleop.get_state()["buttons"].shape == (2,)
+
+
+def test_station_over_a_process_middleware(reg):
+    """The same station with a node per process (shm): configs and classes cross the spawn boundary."""
+    pytest.importorskip("rio.middleware.shm")
+    st = station(reg, {"arm": {"driver": "rio.fake_arm", "dof": 4},
+                       "top_camera": {"driver": "rio.fake_camera", "width": 16, "height": 8}})
+    servers, _, env = make_station(st, middleware="shm", registry=reg)
+    with ServerManager(servers), env:
+        target = np.array([0.1, -0.2, 0.3, -0.4])
+        env.step(target, t_cmd_target=rtime.now() + 0.05)
+        assert wait_for(lambda: np.allclose(env.get_state().observation.proprio, target), timeout=10)
+        assert env.get_state().observation.cameras["top"].rgb.shape == (8, 16, 3)
