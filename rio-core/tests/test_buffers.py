@@ -4,7 +4,6 @@ import threading
 
 import numpy as np
 import pytest
-
 from rio.buffers import RequestQueue, RingBuffer
 from rio.errors import QueueFull, RioError
 from rio.layout import Layout

@@ -13,7 +13,6 @@ import time
 
 import numpy as np
 import pytest
-
 import rio
 from rio import ServerManager, connect, serve
 from rio.testing import EchoNode, FailingOpenNode, ImageNode

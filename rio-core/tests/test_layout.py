@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from rio.errors import InvalidRequest
 from rio.layout import Layout
 

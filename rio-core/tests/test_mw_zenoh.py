@@ -139,7 +139,7 @@ def test_remote_client_uses_heartbeats(echo):
     """A client on 'another machine' cannot watch the pid: a silent server (SIGSTOP) must be
     reported from missing heartbeats, also while a call is waiting, and forgiven once it resumes."""
     mgr, _ = echo
-    addr = {**mgr.address("echo"), "boot_id": "another-machine"}
+    addr = {**mgr.address("echo"), "machine": "another-machine"}
     node = EchoNode()
     node.name = "echo"
     t = ZenohMiddleware().make_client(node, NodeLayouts.of(node), addr)

@@ -3,7 +3,6 @@
 import time
 
 import pytest
-
 from rio import time as rtime
 
 

@@ -4,7 +4,6 @@ import pickle
 
 import numpy as np
 import pytest
-
 from rio import wire
 
 
@@ -25,7 +24,7 @@ def test_objects_are_refused_both_ways():
         wire.pack(object())
     with pytest.raises(TypeError):
         wire.pack(np.array([object()]))
-    with pytest.raises(Exception):
+    with pytest.raises(ValueError):
         wire.unpack(pickle.dumps({"a": 1}))  # pickle bytes are not a valid message
 
 

@@ -41,8 +41,9 @@ class NodeClient:
     def __init__(self, node: Node, transport: ClientTransport):
         self._node, self._transport = node, transport
         self.name = node.name
-        node.ring_buffer = _Checked(transport.ring_buffer, transport.check_alive) if transport.ring_buffer is not None else None
-        node.request_queue = _Checked(transport.request_queue, transport.check_alive) if transport.request_queue is not None else None
+        check = transport.check_alive
+        node.ring_buffer = None if transport.ring_buffer is None else _Checked(transport.ring_buffer, check)
+        node.request_queue = None if transport.request_queue is None else _Checked(transport.request_queue, check)
         cls = type(node)
         self._api: dict[str, Any] = {}
         for m in cls.__api__:

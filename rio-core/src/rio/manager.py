@@ -25,7 +25,7 @@ from typing import Any
 from . import time as rtime
 from .client import NodeClient
 from .errors import ConfigError, NodeDiedError, RioError
-from .middleware.base import Middleware, NodeLayouts
+from .middleware.base import Middleware, NodeLayouts, machine_id
 from .node import Node
 from .runtime import Dispatcher, NodeRunner
 
@@ -113,7 +113,7 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
         node.ring_buffer, node.request_queue = transport.ring_buffer, transport.request_queue
         runner = NodeRunner(node)
         address = transport.start(Dispatcher(node, runner.lock))
-        address["pid"] = os.getpid()
+        address["pid"], address["machine"] = os.getpid(), machine_id()
 
         def control() -> None:
             try:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import select
+import socket
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -58,8 +59,8 @@ class ServerTransport(ABC):
     def start(self, dispatch: Any) -> dict[str, Any]:
         """Begin serving requests and API calls; return the address clients connect to."""
 
-    def close(self) -> None:
-        pass
+    def close(self) -> None:  # noqa: B027 - optional hook, nothing to release by default
+        """Stop serving and release sockets; the default has nothing to release."""
 
 
 class ClientTransport(ABC):
@@ -74,8 +75,8 @@ class ClientTransport(ABC):
     def check_alive(self) -> None:
         """Raise NodeDiedError if the server is known to be gone. Must be cheap (called on reads)."""
 
-    def close(self) -> None:
-        pass
+    def close(self) -> None:  # noqa: B027 - optional hook, nothing to release by default
+        """Stop threads and release sockets; the default has nothing to release."""
 
 
 class Middleware(ABC):
@@ -92,7 +93,7 @@ class Middleware(ABC):
         """Create resources that must survive the server (parent side). Default: none."""
         return {}
 
-    def release(self, resources: dict[str, Any]) -> None:
+    def release(self, resources: dict[str, Any]) -> None:  # noqa: B027 - default: nothing to destroy
         """Destroy what `prepare` created, even if the server was SIGKILLed."""
 
     @abstractmethod
@@ -100,6 +101,25 @@ class Middleware(ABC):
 
     @abstractmethod
     def make_client(self, node: Node, layouts: NodeLayouts, address: dict[str, Any]) -> ClientTransport: ...
+
+
+def machine_id() -> str:
+    """This kernel *and* PID namespace: a pid in an address is meaningful only to a client with the
+    same id (same machine, not another container). Falls back to the host name."""
+    try:
+        with open("/proc/sys/kernel/random/boot_id") as f:
+            boot = f.read().strip()
+        return f"{boot}/{os.stat('/proc/self/ns/pid').st_ino}"
+    except OSError:
+        return socket.gethostname()
+
+
+def local_process_watch(address: dict[str, Any], node: str) -> ProcessWatch | None:
+    """A watch on the server process when the address says it runs where this client can see its
+    pid (ServerManager stamps "pid" and "machine"); None means liveness must come from heartbeats."""
+    if "pid" in address and address.get("machine") == machine_id():
+        return ProcessWatch(int(address["pid"]), node)
+    return None
 
 
 class ProcessWatch:

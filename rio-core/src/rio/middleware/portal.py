@@ -50,7 +50,7 @@ from .. import wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
 from ..node import Node
-from .base import ClientTransport, Middleware, MiddlewareOptions, NodeLayouts, ProcessWatch, ServerTransport
+from .base import ClientTransport, Middleware, MiddlewareOptions, NodeLayouts, ServerTransport, local_process_watch
 
 log = logging.getLogger("rio.middleware.portal")
 
@@ -70,14 +70,6 @@ def _portal() -> Any:
         if multiprocessing.get_start_method(allow_none=True) != before:
             multiprocessing.set_start_method(before, force=True)
         return portal
-
-
-def _boot_id() -> str:
-    try:
-        with open("/proc/sys/kernel/random/boot_id") as f:
-            return f.read().strip()
-    except OSError:
-        return ""
 
 
 def _one_bytes_argument(frame: Any) -> bool:
@@ -212,7 +204,7 @@ class PortalServer(ServerTransport):
         server.start(block=False)
         port = server.socket.sock.getsockname()[1]
         host = opts.host if opts.host not in ("0.0.0.0", "::", "") else socket.gethostname()
-        return {"host": host, "port": port, "hostname": socket.gethostname(), "boot_id": _boot_id()}
+        return {"host": host, "port": port}
 
     def _guard_recv(self, server: Any) -> None:
         """Drop, before portal decodes them, messages carrying anything but bytes (this server only)."""
@@ -394,9 +386,7 @@ class PortalClient(ClientTransport):
     def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], options: PortalOptions):
         self.name, self.options = node.name, options
         host, port = str(address["host"]), int(address["port"])
-        local = host in _LOOPBACK or (address.get("hostname") == socket.gethostname()
-                                      and address.get("boot_id", "") == _boot_id())
-        self._watch = ProcessWatch(int(address["pid"]), self.name) if local and "pid" in address else None
+        self._watch = local_process_watch(address, self.name)
         self._dead: str | None = None
         self._closing = False
         self._ids = itertools.count(1)

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import _posixshmem
 import fcntl
 import logging
 import mmap
@@ -23,8 +24,6 @@ import threading
 import uuid
 from collections.abc import Callable
 from typing import Any
-
-import _posixshmem
 
 from .. import time as rtime
 from .. import wire

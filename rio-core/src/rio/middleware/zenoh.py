@@ -39,7 +39,7 @@ from .. import wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
 from ..node import Node
-from .base import ClientTransport, Middleware, MiddlewareOptions, NodeLayouts, ProcessWatch, ServerTransport
+from .base import ClientTransport, Middleware, MiddlewareOptions, NodeLayouts, ServerTransport, local_process_watch
 
 log = logging.getLogger("rio.zenoh")
 
@@ -93,22 +93,6 @@ def _free_port(host: str) -> int:
 
 def _endpoint(host: str, port: int) -> str:
     return f"tcp/[{host.strip('[]')}]:{port}" if ":" in host.strip("[]") else f"tcp/{host}:{port}"
-
-
-def _machine() -> dict[str, str]:
-    """Identifies this machine (boot id + hostname), so a client knows whether the server's pid is
-    one it can watch directly or whether it must rely on heartbeats."""
-    try:
-        with open("/proc/sys/kernel/random/boot_id") as f:
-            boot = f.read().strip()
-    except OSError:
-        boot = ""
-    return {"hostname": socket.gethostname(), "boot_id": boot}
-
-
-def _is_local(address: dict[str, Any]) -> bool:
-    me = _machine()
-    return "pid" in address and address.get("hostname") == me["hostname"] and address.get("boot_id") == me["boot_id"]
 
 
 class ZenohOptions(MiddlewareOptions):
@@ -313,7 +297,7 @@ class ZenohServer(ServerTransport):
             t = threading.Thread(target=target, name=f"rio-{self.layouts.name}-zenoh-{what}", daemon=True)
             t.start()
             self._threads.append(t)
-        return {"prefix": p, "endpoints": self.endpoints, **_machine()}
+        return {"prefix": p, "endpoints": self.endpoints}
 
     def close(self) -> None:
         if self._closed.is_set():
@@ -337,7 +321,7 @@ class ZenohClient(ClientTransport):
         self._closed = False
         self._session_key: tuple[str, ...] | None = None
         self._entities: list[Any] = []
-        self._watch: ProcessWatch | None = None
+        self._watch = None
         try:
             self.prefix = str(address["prefix"])
             endpoints = list(address["endpoints"])
@@ -352,8 +336,7 @@ class ZenohClient(ClientTransport):
     def _open(self, layouts: NodeLayouts, address: dict[str, Any], endpoints: list[str]) -> None:
         z = _zenoh()
         o, p = self.options, self.prefix
-        if _is_local(address):
-            self._watch = ProcessWatch(int(address["pid"]), self.name)
+        self._watch = local_process_watch(address, self.name)
         try:
             self._session_key, self.session = _SESSIONS.acquire(endpoints, o.connect_timeout)
         except Exception as e:

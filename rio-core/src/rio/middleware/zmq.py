@@ -42,7 +42,7 @@ from .. import wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, NodeDiedError, NodeError, NodeTimeout, RioError
 from ..node import Node
-from .base import ClientTransport, Middleware, MiddlewareOptions, NodeLayouts, ProcessWatch, ServerTransport
+from .base import ClientTransport, Middleware, MiddlewareOptions, NodeLayouts, ServerTransport, local_process_watch
 
 log = logging.getLogger("rio.middleware.zmq")
 
@@ -63,17 +63,6 @@ _WILDCARD = ("0.0.0.0", "*", "", "::")
 
 def _hwm(msg_bytes: int) -> int:
     return max(2, min(1000, _HWM_BYTES // max(msg_bytes, 1)))
-
-
-def _machine_id() -> str:
-    """Identifies this kernel *and* PID namespace: a pid in an address is only meaningful to a client
-    with the same id (same machine, not in another container). Falls back to the host name."""
-    try:
-        with open("/proc/sys/kernel/random/boot_id") as f:
-            boot = f.read().strip()
-        return f"{boot}/{os.stat('/proc/self/ns/pid').st_ino}"
-    except OSError:
-        return socket.gethostname()
 
 
 class ZmqOptions(MiddlewareOptions):
@@ -133,7 +122,6 @@ class ZmqServer(ServerTransport):
             "host": "127.0.0.1" if host in _WILDCARD else host,
             "state_port": state_port,
             "rpc_port": rpc_port,
-            "machine": _machine_id(),
             "hostname": socket.gethostname(),
             "heartbeat_s": self.options.heartbeat_s,
         }
@@ -238,8 +226,7 @@ class ZmqClient(ClientTransport):
         except (KeyError, TypeError, ValueError) as e:
             raise ConfigError(f"node '{self.name}': zmq address needs host, state_port, rpc_port; got {address}") from e
         self._data_fp = layouts.data.fingerprint if layouts.data else 0
-        self._watch = (ProcessWatch(int(address["pid"]), self.name)
-                       if "pid" in address and address.get("machine") == _machine_id() else None)
+        self._watch = local_process_watch(address, self.name)
         self._beat_timeout = max(options.heartbeat_timeout, 5 * float(address.get("heartbeat_s", 0.05)))
         self._last_heard = rtime.now()
         #: Why the server is known to be gone; sticky: a server that comes back is a new server
