@@ -114,6 +114,25 @@ class _FifoNotifier:
         os.close(self.fd)
 
 
+def _attach(layouts: NodeLayouts, res: dict[str, Any]) -> tuple[list[_Segment], RingBuffer | None,
+                                                                 RequestQueue | None, _FifoNotifier | None]:
+    """Map a node's segments and lay its ring buffer and request queue over them (server and
+    clients alike: both see the same memory)."""
+    segments: list[_Segment] = []
+    ring = queue = notifier = None
+    if layouts.data is not None:
+        seg = _Segment(res["data"], res["data_size"])
+        segments.append(seg)
+        ring = RingBuffer(layouts.data, layouts.buffer_capacity, buf=seg.mm)
+    if layouts.request is not None:
+        seg = _Segment(res["req"], res["req_size"])
+        segments.append(seg)
+        notifier = _FifoNotifier(res["fifo"])
+        queue = RequestQueue(layouts.request, layouts.request_capacity, buf=seg.mm,
+                             lock=_FlockLock(seg.fd), notifier=notifier)
+    return segments, ring, queue, notifier
+
+
 # -- framing on the API socket ----------------------------------------------------------------------
 def _send_frame(sock: socket.socket, payload: bytes) -> None:
     sock.sendall(len(payload).to_bytes(_LEN, "little") + payload)
@@ -165,16 +184,7 @@ def _set_recv_timeout(sock: socket.socket, seconds: float) -> None:
 class ShmServer(ServerTransport):
     def __init__(self, node: Node, layouts: NodeLayouts, res: dict[str, Any]):
         self.name, self.res = node.name, res
-        self._segments: list[_Segment] = []
-        if layouts.data is not None:
-            seg = _Segment(res["data"], res["data_size"])
-            self._segments.append(seg)
-            self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity, buf=seg.mm)
-        if layouts.request is not None:
-            seg = _Segment(res["req"], res["req_size"])
-            self._segments.append(seg)
-            self.request_queue = RequestQueue(layouts.request, layouts.request_capacity, buf=seg.mm,
-                                              lock=_FlockLock(seg.fd), notifier=_FifoNotifier(res["fifo"]))
+        self._segments, self.ring_buffer, self.request_queue, self._notifier = _attach(layouts, res)
         self._listener: socket.socket | None = None
         self._closing = False
 
@@ -226,6 +236,8 @@ class ShmServer(ServerTransport):
             except OSError:
                 pass
             self._listener.close()
+        if self._notifier is not None:
+            self._notifier.close()
         for seg in self._segments:
             seg.close()
 
@@ -238,18 +250,7 @@ class ShmClient(ClientTransport):
             raise ConfigError(f"node '{node.name}': the server's sample/request layout differs from this "
                               "client's (same node class and config on both sides?)")
         self._watch = ProcessWatch(int(addr["pid"]), node.name)
-        self._segments: list[_Segment] = []
-        self._notifier: _FifoNotifier | None = None
-        if layouts.data is not None:
-            seg = _Segment(addr["data"], addr["data_size"])
-            self._segments.append(seg)
-            self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity, buf=seg.mm)
-        if layouts.request is not None:
-            seg = _Segment(addr["req"], addr["req_size"])
-            self._segments.append(seg)
-            self._notifier = _FifoNotifier(addr["fifo"])
-            self.request_queue = RequestQueue(layouts.request, layouts.request_capacity, buf=seg.mm,
-                                              lock=_FlockLock(seg.fd), notifier=self._notifier)
+        self._segments, self.ring_buffer, self.request_queue, self._notifier = _attach(layouts, addr)
         self._sock_path = addr["sock"]
         self._sock: socket.socket | None = None
         self._lock = threading.Lock()
