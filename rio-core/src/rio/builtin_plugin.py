@@ -49,4 +49,11 @@ def rio_drivers() -> list[Spec]:
         Spec("rio.fake_hand", "hand", f"{t}:FakeHand", f"hand: {_FAKE}", config=f"{t}:FakeHandConfig"),
         Spec("rio.fake_humanoid", "humanoid", f"{t}:FakeHumanoid", f"humanoid: {_FAKE}",
              config=f"{t}:FakeHumanoidConfig"),
+        # Teleop devices that need no hardware
+        Spec("teleop.scripted", "teleop", "rio.teleop.scripted:ScriptedTeleop",
+             "scripted end-effector moves (pick and place); headless demos and tests",
+             config="rio.teleop.scripted:ScriptedTeleopConfig"),
+        Spec("teleop.keyboard", "teleop", "rio.teleop.keyboard:KeyboardTeleop",
+             "terminal keys (works over SSH): move, rotate, gripper, mode, finish",
+             config="rio.teleop.keyboard:KeyboardTeleopConfig"),
     ]

@@ -16,7 +16,19 @@ def _version(value: bool) -> None:
 
 
 def build_app(load_plugins: bool = True) -> typer.Typer:
-    from . import bench_cmd, doctor_cmd, drivers_cmd, new_cmd, plugins_cmd, stations_cmd
+    from ..teleop import command as teleop_cmd
+    from . import (
+        bench_cmd,
+        datasets_cmd,
+        deploy_cmd,
+        doctor_cmd,
+        drivers_cmd,
+        export_cmd,
+        new_cmd,
+        plugins_cmd,
+        replay_cmd,
+        stations_cmd,
+    )
 
     app = typer.Typer(name="rio", help="RIO: real-time robot I/O for robot learning.",
                       no_args_is_help=True, add_completion=False, rich_markup_mode="rich",
@@ -33,6 +45,11 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
     app.add_typer(new_cmd.app, name="new")
     app.add_typer(bench_cmd.app, name="bench")
     app.command("doctor")(doctor_cmd.doctor)
+    app.add_typer(datasets_cmd.app, name="datasets")
+    app.command("export")(export_cmd.export)
+    app.command("replay")(replay_cmd.replay)
+    app.command("teleop")(teleop_cmd.teleop)
+    app.command("deploy")(deploy_cmd.deploy)
     if load_plugins:
         from ..plugins import get_registry
 

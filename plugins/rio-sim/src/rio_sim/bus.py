@@ -1,0 +1,255 @@
+"""The world bus: how the nodes of one simulated station share one physics world.
+
+One shared-memory block per world, created by the world node (the only process that steps physics)
+and attached by the arm, gripper and camera nodes of the same station, whatever middleware runs
+them (threads of one process or a process each):
+
+- state, written by the world after every batch of physics steps: `qpos`, `qvel`, `ctrl`, simulated
+  time, under a sequence lock (the counter is odd while a write is in progress; a reader retries
+  until it sees the same even value before and after its copy);
+- commands, one slot per actuator: `target`, `t_target` (a `rio.time.now()` time) and a `stamp`
+  bumped after both are written. Each actuator has exactly one writer (the node that owns it: an
+  arm its joints, a gripper its fingers), so writers never contend; the world picks a slot up when
+  its stamp changes and interpolates towards the target in physics time.
+
+The block's name joins the user id, a session id that `rio_sim` puts in the environment of the
+process that builds the station (inherited by the node processes it spawns), and the world's name,
+so two stations running at once on one machine never meet. A block left behind by a world that was
+SIGKILLed (its owner pid is gone) is removed by the next world created on the machine, whatever its
+name, so crashes do not accumulate in /dev/shm.
+"""
+
+from __future__ import annotations
+
+import _posixshmem
+import mmap
+import os
+import uuid
+
+import numpy as np
+from rio import time as rtime
+from rio.errors import RioError
+
+SESSION_ENV = "RIO_SIM_SESSION"
+_MAGIC = 0x52494F53494D  # "RIOSIM"
+_VERSION = 1
+# int64 header fields
+_H_MAGIC, _H_VERSION, _H_PID, _H_READY, _H_CLOSED, _H_SEQ, _H_NQ, _H_NV, _H_NU = range(9)
+_NHDR = 16
+_NAME_BYTES = 128
+
+
+def session_id() -> str:
+    """This process tree's session (set once, inherited by spawned node processes)."""
+    sid = os.environ.get(SESSION_ENV)
+    if not sid:
+        sid = f"{os.getpid()}-{uuid.uuid4().hex[:6]}"
+        os.environ[SESSION_ENV] = sid
+    return sid
+
+
+def block_name(world: str) -> str:
+    safe = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in world)[:40]
+    return f"rio-sim-{os.getuid()}-{session_id()}-{safe}"
+
+
+def _size(nq: int, nv: int, nu: int) -> int:
+    return 8 * _NHDR + _NAME_BYTES + 8 * (2 + nq + nv + nu + 3 * nu)
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _read_header(name: str) -> np.ndarray | None:
+    try:
+        fd = _posixshmem.shm_open("/" + name, os.O_RDONLY, mode=0o600)
+    except OSError:
+        return None
+    try:
+        if os.fstat(fd).st_size < 8 * _NHDR:
+            return None
+        mm = mmap.mmap(fd, 8 * _NHDR, prot=mmap.PROT_READ)
+        hdr = np.frombuffer(mm, dtype=np.int64, count=_NHDR).copy()
+        del mm
+        return hdr
+    finally:
+        os.close(fd)
+
+
+def sweep_stale() -> int:
+    """Unlink this user's world blocks whose world is gone (closed, or its process died)."""
+    prefix, removed = f"rio-sim-{os.getuid()}-", 0
+    try:
+        names = [n for n in os.listdir("/dev/shm") if n.startswith(prefix)]
+    except OSError:  # no /dev/shm listing on this platform
+        return 0
+    for name in names:
+        hdr = _read_header(name)
+        if hdr is None or hdr[_H_MAGIC] != _MAGIC:
+            continue  # being created right now, or not ours
+        if hdr[_H_CLOSED] or not _pid_alive(int(hdr[_H_PID])):
+            try:
+                _posixshmem.shm_unlink("/" + name)
+                removed += 1
+            except FileNotFoundError:
+                pass
+    return removed
+
+
+class WorldBus:
+    """A mapping of one world's block. Use `create` (world node) or `attach` (every other node)."""
+
+    def __init__(self, name: str, fd: int, mm: mmap.mmap, owner: bool):
+        self.name, self._fd, self._mm, self.owner = name, fd, mm, owner
+        self.hdr = np.frombuffer(mm, dtype=np.int64, count=_NHDR)
+        nq, nv, nu = (int(self.hdr[i]) for i in (_H_NQ, _H_NV, _H_NU))
+        self.nq, self.nv, self.nu = nq, nv, nu
+        self._name_buf = np.frombuffer(mm, dtype=np.uint8, count=_NAME_BYTES, offset=8 * _NHDR)
+        f = np.frombuffer(mm, dtype=np.float64, offset=8 * _NHDR + _NAME_BYTES)
+        i = 0
+
+        def take(n: int) -> np.ndarray:
+            nonlocal i
+            out = f[i:i + n]
+            i += n
+            return out
+
+        self._times = take(2)             # sim time, wall time of the last write
+        self.qpos, self.qvel, self.ctrl = take(nq), take(nv), take(nu)
+        self.cmd_target, self.cmd_t, self.cmd_stamp = take(nu), take(nu), take(nu)
+
+    # -- creation / attachment ------------------------------------------------------------------
+    @classmethod
+    def create(cls, world: str, scene: str, nq: int, nv: int, nu: int) -> WorldBus:
+        sweep_stale()
+        name = block_name(world)
+        size = _size(nq, nv, nu)
+        try:
+            fd = _posixshmem.shm_open("/" + name, os.O_CREAT | os.O_EXCL | os.O_RDWR, mode=0o600)
+        except FileExistsError:
+            cls._reclaim(name, world)
+            fd = _posixshmem.shm_open("/" + name, os.O_CREAT | os.O_EXCL | os.O_RDWR, mode=0o600)
+        os.ftruncate(fd, size)
+        mm = mmap.mmap(fd, size)
+        hdr = np.frombuffer(mm, dtype=np.int64, count=_NHDR)
+        hdr[_H_NQ], hdr[_H_NV], hdr[_H_NU] = nq, nv, nu
+        hdr[_H_PID], hdr[_H_VERSION] = os.getpid(), _VERSION
+        raw = scene.encode()[:_NAME_BYTES - 1]
+        np.frombuffer(mm, dtype=np.uint8, count=_NAME_BYTES, offset=8 * _NHDR)[:len(raw)] = list(raw)
+        hdr[_H_MAGIC] = _MAGIC  # last: attachers wait for it
+        return cls(name, fd, mm, owner=True)
+
+    @staticmethod
+    def _reclaim(name: str, world: str) -> None:
+        fd = _posixshmem.shm_open("/" + name, os.O_RDWR, mode=0o600)
+        try:
+            if os.fstat(fd).st_size >= 8 * _NHDR:
+                mm = mmap.mmap(fd, 8 * _NHDR)
+                hdr = np.frombuffer(mm, dtype=np.int64, count=_NHDR).copy()
+                del mm
+                if hdr[_H_MAGIC] == _MAGIC and not hdr[_H_CLOSED] and _pid_alive(int(hdr[_H_PID])):
+                    raise RioError(f"sim world '{world}' is already running in this session (pid {hdr[_H_PID]}); "
+                                   "give the second station's world another `world` name")
+        finally:
+            os.close(fd)
+        _posixshmem.shm_unlink("/" + name)
+
+    @classmethod
+    def attach(cls, world: str, timeout: float = 60.0) -> WorldBus:
+        """Wait (up to `timeout` s) for the world to be created and ready, then map it."""
+        name = block_name(world)
+        deadline = rtime.now() + timeout
+        while True:
+            try:
+                fd = _posixshmem.shm_open("/" + name, os.O_RDWR, mode=0o600)
+            except FileNotFoundError:
+                fd = None
+            if fd is not None:
+                size = os.fstat(fd).st_size
+                if size >= 8 * _NHDR:
+                    probe = mmap.mmap(fd, 8 * _NHDR)
+                    hdr = np.frombuffer(probe, dtype=np.int64, count=_NHDR).copy()
+                    del probe
+                    if (hdr[_H_MAGIC] == _MAGIC and hdr[_H_READY] and not hdr[_H_CLOSED]
+                            and size >= _size(*(int(hdr[i]) for i in (_H_NQ, _H_NV, _H_NU)))):
+                        return cls(name, fd, mmap.mmap(fd, size), owner=False)
+                os.close(fd)
+            if rtime.now() > deadline:
+                raise RioError(f"no sim world '{world}' came up within {timeout:.0f} s: does the station have a "
+                               f"component with driver = \"sim.world\" and world = \"{world}\"?")
+            rtime.precise_wait(rtime.now() + 0.02)
+
+    # -- header ---------------------------------------------------------------------------------
+    @property
+    def scene(self) -> str:
+        raw = bytes(self._name_buf)
+        return raw.split(b"\0", 1)[0].decode()
+
+    def mark_ready(self) -> None:
+        self.hdr[_H_READY] = 1
+
+    def check_alive(self) -> None:
+        """Raise if the world has stopped (its node closed or its process died)."""
+        if self.hdr[_H_CLOSED] or not _pid_alive(int(self.hdr[_H_PID])):
+            raise RioError("the sim world stopped (its node closed or its process died)")
+
+    # -- state ----------------------------------------------------------------------------------
+    def write_state(self, sim_time: float, qpos, qvel, ctrl) -> None:
+        hdr = self.hdr
+        hdr[_H_SEQ] += 1  # odd: write in progress
+        self.qpos[:], self.qvel[:], self.ctrl[:] = qpos, qvel, ctrl
+        self._times[0], self._times[1] = sim_time, rtime.now()
+        hdr[_H_SEQ] += 1
+
+    def read_state(self, out: dict | None = None) -> dict:
+        """Consistent copy of {qpos, qvel, ctrl, sim_time, wall_time}."""
+        out = out if out is not None else {"qpos": np.empty(self.nq), "qvel": np.empty(self.nv),
+                                           "ctrl": np.empty(self.nu)}
+        hdr = self.hdr
+        for attempt in range(10000):
+            s1 = int(hdr[_H_SEQ])
+            if s1 & 1:
+                if attempt % 16 == 15:
+                    os.sched_yield()
+                continue
+            out["qpos"][:], out["qvel"][:], out["ctrl"][:] = self.qpos, self.qvel, self.ctrl
+            out["sim_time"], out["wall_time"] = float(self._times[0]), float(self._times[1])
+            if int(hdr[_H_SEQ]) == s1:
+                return out
+        raise RioError("sim world state stayed locked (a writer died mid-write?)")
+
+    # -- commands -------------------------------------------------------------------------------
+    def command(self, actuators: np.ndarray, targets, t_target: float) -> None:
+        """Set targets for actuators this node owns, to be reached at `t_target`."""
+        self.cmd_target[actuators] = targets
+        self.cmd_t[actuators] = t_target
+        self.cmd_stamp[actuators] += 1.0  # after target and time: the world reads the stamp first
+
+    def read_commands(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        stamp = self.cmd_stamp.copy()
+        return stamp, self.cmd_target.copy(), self.cmd_t.copy()
+
+    # -- teardown -------------------------------------------------------------------------------
+    def close(self) -> None:
+        if self._mm is None:
+            return
+        if self.owner:
+            self.hdr[_H_CLOSED] = 1
+            try:
+                _posixshmem.shm_unlink("/" + self.name)
+            except FileNotFoundError:
+                pass
+        # numpy views keep the mapping alive; drop ours and let the last view release it
+        self.hdr = self._name_buf = self._times = None  # type: ignore[assignment]
+        self.qpos = self.qvel = self.ctrl = self.cmd_target = self.cmd_t = self.cmd_stamp = None  # type: ignore
+        os.close(self._fd)
+        self._mm = None

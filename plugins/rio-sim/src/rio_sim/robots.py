@@ -1,0 +1,65 @@
+"""The robot models rio-sim ships: MJCF files in `assets/` plus what a driver needs to know about
+each (which joints form the arm, which are fingers, the tool site, a home pose).
+
+Models are written for RIO from public kinematic data (see each XML's header); they use simple
+geoms, so the plugin installs in a few hundred kilobytes and renders fast on a CPU.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+ASSETS = Path(__file__).parent / "assets"
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    name: str
+    #: MJCF file in `assets/`.
+    file: str
+    #: Arm joints in command order (names inside the robot's MJCF).
+    arm_joints: tuple[str, ...]
+    #: Finger slide joints (and their position actuators, same names); the opening is their sum.
+    finger_joints: tuple[str, ...]
+    #: Arm joints at home: the tool points down, `home_tool` (base frame) above the table.
+    home: tuple[float, ...]
+    home_tool: tuple[float, float, float]
+    #: Full finger opening (m).
+    max_width: float
+    tool_site: str = "grasp"
+    wrist_camera: str = "wrist"
+    description: str = ""
+
+    @property
+    def path(self) -> Path:
+        return ASSETS / self.file
+
+    def xml(self) -> str:
+        return self.path.read_text(encoding="utf-8")
+
+    @property
+    def dof(self) -> int:
+        return len(self.arm_joints)
+
+
+ROBOTS: dict[str, RobotModel] = {
+    "so100": RobotModel(
+        name="so100", file="so100.xml",
+        arm_joints=("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"),
+        finger_joints=("finger_a", "finger_b"),
+        home=(0.0, 0.0706, 1.6431, 1.4278, 1.5708), home_tool=(0.20, 0.0, 0.10),
+        max_width=0.06, description="SO-100-class 5-DOF arm with a parallel gripper"),
+    "xarm7": RobotModel(
+        name="xarm7", file="xarm7.xml",
+        arm_joints=tuple(f"joint{i}" for i in range(1, 8)),
+        finger_joints=("finger_a", "finger_b"),
+        home=(0.0, -0.2085, 0.0, 0.5075, 0.0, 0.716, -1.5708), home_tool=(0.35, 0.0, 0.10),
+        max_width=0.085, description="xArm7-class 7-DOF arm with a parallel gripper"),
+}
+
+
+def get_robot(name: str) -> RobotModel:
+    if name not in ROBOTS:
+        raise KeyError(f"unknown sim robot '{name}'; rio-sim ships: {', '.join(sorted(ROBOTS))}")
+    return ROBOTS[name]

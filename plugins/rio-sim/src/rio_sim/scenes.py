@@ -1,0 +1,201 @@
+"""Scenes: a table, one or more arms mounted on it, objects to pick and fixed cameras, composed in
+code with MuJoCo's MjSpec (each robot's MJCF attached under a name prefix, `"<arm>/"`).
+
+Every node of a station compiles the same scene from its name, so they agree on every index
+(joint addresses, actuators, bodies) without shipping a model between processes. World frame: the
+table top's center, z up; an arm's base frame is its mount.
+
+Objects sit where the packaged teleop script (`teleop.scripted`, preset "pick_place") expects them:
+a cube `PICK_OFFSET` from each arm's home tool position and a flat target pad at `PLACE_OFFSET`, so
+one script picks and places on every packaged scene, whatever the arm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache, lru_cache
+
+import numpy as np
+
+from .robots import get_robot
+
+#: Where the cube and the place pad are, relative to an arm's home tool position (its base frame).
+PICK_OFFSET = (0.0, 0.06, -0.085)
+PLACE_OFFSET = (0.0, -0.06, -0.08)
+CUBE = 0.025  # edge (m)
+TABLE_HEIGHT = 0.75
+
+
+@dataclass(frozen=True)
+class ArmMount:
+    name: str                 # prefix of the arm's names in the scene ("arm", "left", "right")
+    robot: str                # key of rio_sim.robots.ROBOTS
+    pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    yaw: float = 0.0          # rad, about z
+
+    def to_world(self, p) -> np.ndarray:
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        x, y, z = p
+        return np.array([c * x - s * y, s * x + c * y, z]) + np.asarray(self.pos)
+
+    @property
+    def quat(self) -> list[float]:
+        return [float(np.cos(self.yaw / 2)), 0.0, 0.0, float(np.sin(self.yaw / 2))]
+
+
+@dataclass(frozen=True)
+class SceneObject:
+    name: str
+    shape: str                # "box" | "cylinder" | "sphere"
+    size: tuple[float, ...]   # MuJoCo half-sizes
+    pos: tuple[float, float, float]
+    rgba: tuple[float, float, float, float]
+    mass: float = 0.03
+    free: bool = True         # False: a fixed, non-colliding marker (a place pad)
+
+
+@dataclass(frozen=True)
+class SceneCamera:
+    name: str
+    pos: tuple[float, float, float]
+    lookat: tuple[float, float, float]
+    fovy: float = 55.0
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    description: str
+    arms: tuple[ArmMount, ...]
+    objects: tuple[SceneObject, ...] = ()
+    cameras: tuple[SceneCamera, ...] = ()
+    table: tuple[float, float] = (0.45, 0.6)   # half extents x, y
+    table_center: tuple[float, float] = (0.15, 0.0)
+
+    def arm(self, name: str) -> ArmMount:
+        for a in self.arms:
+            if a.name == name:
+                return a
+        raise KeyError(f"scene '{self.name}' has no arm '{name}'; arms: {[a.name for a in self.arms]}")
+
+    def camera_names(self) -> list[str]:
+        """Fixed cameras, then each arm's wrist camera as `<arm>/<camera>`."""
+        return [c.name for c in self.cameras] + [f"{a.name}/{get_robot(a.robot).wrist_camera}" for a in self.arms]
+
+    @property
+    def free_objects(self) -> list[SceneObject]:
+        return [o for o in self.objects if o.free]
+
+
+def _pick_place_objects(arm: ArmMount, tag: str, colors: tuple) -> list[SceneObject]:
+    home = np.asarray(get_robot(arm.robot).home_tool)
+    cube = arm.to_world(home + PICK_OFFSET)
+    pad = arm.to_world(home + PLACE_OFFSET)
+    return [
+        SceneObject(f"cube{tag}", "box", (CUBE / 2,) * 3, (cube[0], cube[1], CUBE / 2), colors[0]),
+        SceneObject(f"pad{tag}", "box", (0.03, 0.03, 0.001), (pad[0], pad[1], 0.001), colors[1], free=False),
+    ]
+
+
+def _look(pos, lookat, fovy=55.0, name="front") -> SceneCamera:
+    return SceneCamera(name, tuple(pos), tuple(lookat), fovy)
+
+
+def _so100() -> Scene:
+    arm = ArmMount("arm", "so100")
+    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
+    objs += [SceneObject("can", "cylinder", (0.016, 0.03), (0.27, -0.14, 0.03), (0.2, 0.7, 0.3, 1), mass=0.05),
+             SceneObject("block", "box", (0.02, 0.012, 0.012), (0.13, 0.16, 0.012), (0.95, 0.8, 0.2, 1))]
+    return Scene("so100", "SO-100 on a table: a red cube to pick, a blue pad to place it on, a can and a block",
+                 (arm,), tuple(objs), (_look((0.55, 0.0, 0.35), (0.18, 0.0, 0.02)),),
+                 table=(0.35, 0.4), table_center=(0.15, 0.0))
+
+
+def _bimanual() -> Scene:
+    left, right = ArmMount("left", "so100", (0.0, 0.16, 0.0)), ArmMount("right", "so100", (0.0, -0.16, 0.0))
+    objs = _pick_place_objects(left, "_left", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
+    objs += _pick_place_objects(right, "_right", ((0.95, 0.6, 0.1, 1), (0.3, 0.8, 0.4, 1)))
+    return Scene("so100_bimanual", "two SO-100 side by side, a cube and a pad in front of each",
+                 (left, right), tuple(objs), (_look((0.6, 0.0, 0.45), (0.18, 0.0, 0.0), 60),),
+                 table=(0.35, 0.5), table_center=(0.15, 0.0))
+
+
+def _xarm7() -> Scene:
+    arm = ArmMount("arm", "xarm7")
+    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
+    objs += [SceneObject("can", "cylinder", (0.02, 0.04), (0.45, -0.18, 0.04), (0.2, 0.7, 0.3, 1), mass=0.08)]
+    return Scene("xarm7", "xArm7 on a table: a red cube to pick, a blue pad, a can",
+                 (arm,), tuple(objs), (_look((0.9, 0.0, 0.55), (0.35, 0.0, 0.05), 55),),
+                 table=(0.5, 0.5), table_center=(0.3, 0.0))
+
+
+SCENES = {"so100": _so100, "so100_bimanual": _bimanual, "xarm7": _xarm7}
+
+
+@cache
+def get_scene(name: str) -> Scene:
+    if name not in SCENES:
+        raise KeyError(f"unknown sim scene '{name}'; rio-sim ships: {', '.join(sorted(SCENES))}")
+    return SCENES[name]()
+
+
+def _xyaxes(pos, lookat) -> list[float]:
+    """Camera axes (MuJoCo looks along -z) for a camera at `pos` looking at `lookat`, image up ~ +z."""
+    fwd = np.asarray(lookat, float) - np.asarray(pos, float)
+    fwd /= np.linalg.norm(fwd)
+    x = np.cross(fwd, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(x, fwd)
+    return [*x, *y]
+
+
+def build_spec(scene: Scene, max_render: tuple[int, int] = (1280, 960)):
+    """The scene as an MjSpec (compile with `.compile()`)."""
+    import mujoco
+
+    spec = mujoco.MjSpec()
+    spec.modelname = f"rio_sim_{scene.name}"
+    spec.option.timestep = 0.002
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = max_render
+    # CPU rendering (Mesa llvmpipe): no multisampling and no shadow maps roughly double the frame rate
+    spec.visual.quality.offsamples = 0
+    spec.visual.quality.shadowsize = 0
+    spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
+    spec.visual.headlight.diffuse = [0.5, 0.5, 0.5]
+    wb = spec.worldbody
+    wb.add_light(pos=[0.3, 0.0, 1.5], dir=[0.0, 0.0, -1.0], diffuse=[0.6, 0.6, 0.6])
+    wb.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.05], pos=[0, 0, -TABLE_HEIGHT],
+                rgba=[0.55, 0.55, 0.58, 1], contype=1, conaffinity=3)
+    (tx, ty), (cx, cy) = scene.table, scene.table_center
+    wb.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[tx, ty, TABLE_HEIGHT / 2],
+                pos=[cx, cy, -TABLE_HEIGHT / 2], rgba=[0.62, 0.48, 0.34, 1], contype=1, conaffinity=3,
+                friction=[1.0, 0.01, 0.001])
+    for arm in scene.arms:
+        robot = get_robot(arm.robot)
+        child = mujoco.MjSpec.from_file(str(robot.path))
+        frame = wb.add_frame(pos=list(arm.pos), quat=arm.quat)
+        spec.attach(child, prefix=f"{arm.name}/", frame=frame)
+    shapes = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+              "sphere": mujoco.mjtGeom.mjGEOM_SPHERE}
+    for obj in scene.objects:
+        body = wb.add_body(name=obj.name, pos=list(obj.pos))
+        kw = dict(name=obj.name, type=shapes[obj.shape], size=list(obj.size) + [0.0] * (3 - len(obj.size)),
+                  rgba=list(obj.rgba))
+        if obj.free:
+            body.add_freejoint(name=obj.name)
+            body.add_geom(**kw, mass=obj.mass, contype=1, conaffinity=3, condim=4, friction=[1.2, 0.02, 0.001],
+                          solref=[0.004, 1.0])
+        else:
+            body.add_geom(**kw, contype=0, conaffinity=0)
+    for cam in scene.cameras:
+        c = wb.add_camera(name=cam.name, pos=list(cam.pos), fovy=cam.fovy)
+        c.alt.type = mujoco.mjtOrientation.mjORIENTATION_XYAXES
+        c.alt.xyaxes = _xyaxes(cam.pos, cam.lookat)
+    return spec
+
+
+@lru_cache(maxsize=8)
+def build_model(name: str):
+    """The compiled MjModel of a packaged scene (cached per process; treat it as read-only)."""
+    return build_spec(get_scene(name)).compile()

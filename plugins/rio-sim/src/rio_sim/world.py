@@ -1,0 +1,153 @@
+"""`sim.world`: the node that owns a station's physics.
+
+It compiles the scene, puts every arm at home, and then, each tick, picks up new actuator targets
+from the world bus, advances physics to the current wall-clock time (interpolating each actuator
+towards its target time, step by step) and writes the new state back to the bus for the arm,
+gripper and camera nodes. Through the middleware it publishes what no other node measures: the
+simulated time, the real-time factor and the pose of every free object (ground truth for tests,
+privileged observations and success checks).
+
+If the machine cannot keep up, at most `max_steps_per_tick` physics steps run per tick and the rest
+of the lag is dropped: simulated time then runs slower than wall time (`rtf` < 1) instead of the
+physics spiralling behind.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+from rio import time as rtime
+from rio.config import DriverConfig
+from rio.node import Node, client_side
+
+from .bus import WorldBus
+from .indices import arm_indices
+from .robots import get_robot
+from .scenes import get_scene
+
+
+class SimWorldConfig(DriverConfig):
+    scene: str = Field("so100", description="packaged scene: so100, so100_bimanual, xarm7")
+    world: str = Field("sim", description="name the station's sim nodes use to find this world")
+    rate_hz: float = Field(250.0, gt=0, description="physics batches per second (state published at this rate)")
+    max_steps_per_tick: int = Field(20, ge=1, description="physics steps per tick at most (then time slows)")
+
+
+class SimWorld(Node):
+    __api__ = ("get_state", "object_names", "reset", "set_object_pose")
+
+    def __init__(self, scene: str = "so100", world: str = "sim", rate_hz: float = 250.0,
+                 max_steps_per_tick: int = 20):
+        super().__init__(rate_hz=rate_hz)
+        self.scene_name, self.world, self.max_steps = scene, world, int(max_steps_per_tick)
+        self.scene = get_scene(scene)
+        self.objects = [o.name for o in self.scene.free_objects]
+        n = max(len(self.objects), 1)
+        self.example_data = {"sim_time": 0.0, "rtf": 1.0, "object_poses": np.zeros((n, 7))}
+        self.model = self.data = self.bus = None
+
+    @client_side
+    def object_names(self) -> list[str]:
+        """Names of the rows of `object_poses`."""
+        return list(self.objects)
+
+    # -- lifecycle ------------------------------------------------------------------------------
+    def open(self) -> None:
+        import mujoco
+
+        from .scenes import build_model
+
+        self._mj = mujoco
+        self.model = build_model(self.scene_name)
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self._obj_qadr = np.array([m.joint(o).qposadr[0] for o in self.objects], dtype=int)
+        self._home()
+        self.bus = WorldBus.create(self.world, self.scene_name, m.nq, m.nv, m.nu)
+        self._seen = self.bus.cmd_stamp.copy()
+        self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
+        self.bus.mark_ready()
+
+    def close(self) -> None:
+        if self.bus is not None:
+            self.bus.close()
+            self.bus = None
+
+    def _home(self) -> None:
+        """Initial state: objects where the scene puts them, arms at home, grippers open."""
+        mj, m, d = self._mj, self.model, self.data
+        mj.mj_resetData(m, d)
+        for arm in self.scene.arms:
+            robot = get_robot(arm.robot)
+            idx = arm_indices(m, arm.name, robot)
+            d.qpos[idx.qpos] = robot.home
+            d.ctrl[idx.act] = robot.home
+            half = robot.max_width / len(robot.finger_joints)
+            d.qpos[idx.finger_qpos] = half
+            d.ctrl[idx.finger_act] = half
+        mj.mj_forward(m, d)
+        t = rtime.now()
+        self._t_origin = t - d.time          # wall time of sim time 0
+        self._start = d.ctrl.copy()
+        self._goal = d.ctrl.copy()
+        self._t0 = np.full(m.nu, t)
+        self._t1 = np.full(m.nu, t)
+        self._rtf_sim, self._rtf_wall, self._rtf = d.time, t, 1.0
+
+    # -- loop -----------------------------------------------------------------------------------
+    def _pick_up_commands(self, t_wall: float) -> None:
+        stamp, target, t_target = self.bus.read_commands()
+        new = stamp != self._seen
+        if not new.any():
+            return
+        self._seen = stamp
+        cur = self._ctrl_at(t_wall)
+        self._start[new] = cur[new]
+        self._goal[new] = target[new]
+        self._t0[new] = t_wall
+        self._t1[new] = np.maximum(t_target[new], t_wall)
+
+    def _ctrl_at(self, t_wall: float) -> np.ndarray:
+        span = self._t1 - self._t0
+        a = np.where(span > 0, np.clip((t_wall - self._t0) / np.where(span > 0, span, 1.0), 0.0, 1.0), 1.0)
+        return self._start + a * (self._goal - self._start)
+
+    def read_state(self) -> dict[str, Any]:
+        mj, m, d = self._mj, self.model, self.data
+        now = rtime.now()
+        self._pick_up_commands(now)
+        dt = m.opt.timestep
+        n = int((now - (self._t_origin + d.time)) / dt)
+        if n > self.max_steps:  # cannot keep up: drop the lag, simulated time slows down
+            self._t_origin += (n - self.max_steps) * dt
+            n = self.max_steps
+        for _ in range(max(n, 0)):
+            d.ctrl[:] = self._ctrl_at(self._t_origin + d.time + dt)
+            mj.mj_step(m, d)
+        self.bus.write_state(d.time, d.qpos, d.qvel, d.ctrl)
+        if now - self._rtf_wall > 1.0:  # real-time factor over the last second or so
+            self._rtf = (d.time - self._rtf_sim) / (now - self._rtf_wall)
+            self._rtf_sim, self._rtf_wall = d.time, now
+        poses = np.zeros((max(len(self.objects), 1), 7))
+        for i, adr in enumerate(self._obj_qadr):
+            poses[i] = d.qpos[adr:adr + 7]
+        return {"sim_time": float(d.time), "rtf": float(self._rtf), "object_poses": poses}
+
+    # -- remote API -----------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Put objects and arms back where the scene starts them (arms jump home)."""
+        self._home()
+        self._seen = self.bus.cmd_stamp.copy()
+        self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
+
+    def set_object_pose(self, name: str, pose: list[float]) -> None:
+        """Teleport a free object to `[x, y, z, qw, qx, qy, qz]` (world frame) at rest."""
+        if name not in self.objects:
+            raise KeyError(f"no free object '{name}'; objects: {self.objects}")
+        m, d = self.model, self.data
+        j = m.joint(name)
+        d.qpos[j.qposadr[0]:j.qposadr[0] + 7] = np.asarray(pose, dtype=np.float64)
+        d.qvel[j.dofadr[0]:j.dofadr[0] + 6] = 0.0
+        self._mj.mj_forward(m, d)

@@ -1,0 +1,56 @@
+"""Control utilities shared by drivers, teleoperation and policy deployment (numpy only).
+
+- `rotations`, `se3`: quaternions (wxyz), rotation vectors, 7-vector poses, twists.
+- `filters`: low-pass, One Euro, pose filter.
+- `interpolators`: timed targets -> smooth values at the driver's rate.
+- `teleop`: teleop modes, speed limits, twist -> end-effector target, button handling.
+"""
+
+from .filters import LowPassFilter, OneEuroFilter, PoseFilter
+from .interpolators import LinearInterpolator, PoseInterpolator, Waypoints
+from .rotations import (
+    euler_to_quat,
+    matrix_to_quat,
+    quat_angle,
+    quat_conj,
+    quat_mul,
+    quat_normalize,
+    quat_rotate,
+    quat_slerp,
+    quat_to_matrix,
+    quat_to_rotvec,
+    rotvec_to_quat,
+)
+from .se3 import (
+    IDENTITY,
+    apply_twist,
+    as_pose,
+    matrix_to_pose,
+    pose_error,
+    pose_interp,
+    pose_inv,
+    pose_mul,
+    pose_to_matrix,
+    twist_between,
+)
+from .teleop import (
+    BUTTON_DONE,
+    BUTTON_MODE,
+    ButtonEdges,
+    ModeSwitch,
+    TeleopMode,
+    gripper_opening,
+    limit_twist,
+    make_teleop_eef_cmd,
+    mask_twist,
+)
+
+__all__ = [
+    "LowPassFilter", "OneEuroFilter", "PoseFilter", "LinearInterpolator", "PoseInterpolator", "Waypoints",
+    "euler_to_quat", "matrix_to_quat", "quat_angle", "quat_conj", "quat_mul", "quat_normalize", "quat_rotate",
+    "quat_slerp", "quat_to_matrix", "quat_to_rotvec", "rotvec_to_quat",
+    "IDENTITY", "apply_twist", "as_pose", "matrix_to_pose", "pose_error", "pose_interp", "pose_inv", "pose_mul",
+    "pose_to_matrix", "twist_between",
+    "BUTTON_DONE", "BUTTON_MODE", "ButtonEdges", "ModeSwitch", "TeleopMode", "gripper_opening", "limit_twist",
+    "make_teleop_eef_cmd", "mask_twist",
+]

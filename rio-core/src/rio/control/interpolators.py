@@ -1,0 +1,94 @@
+"""Interpolators: turn sparse timed targets into a value at any time.
+
+Commands reach a driver slower than it runs (a 30 Hz teleop loop, a 10 Hz policy) and each carries
+the time it should be reached (`t_cmd_target`). A driver keeps one of these per controlled quantity
+and samples it every tick, so the hardware sees a smooth ramp instead of a staircase.
+
+- `LinearInterpolator`: from where the value is when a target arrives, straight to the target,
+  arriving at its time (joints, gripper opening, any vector).
+- `PoseInterpolator`: the same for 7-vector poses (line in position, slerp in orientation).
+- `Waypoints`: piecewise-linear through several timed values (an action chunk), clamped at both ends.
+
+Time is passed in explicitly (`rio.time.now()` in drivers), which keeps them testable.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .se3 import as_pose, pose_interp
+
+
+class LinearInterpolator:
+    def __init__(self, value, t: float = 0.0):
+        self._x0 = np.array(value, dtype=np.float64)
+        self._x1 = self._x0.copy()
+        self._t0 = self._t1 = float(t)
+
+    @property
+    def goal(self) -> np.ndarray:
+        return self._x1.copy()
+
+    @property
+    def t_goal(self) -> float:
+        return self._t1
+
+    def set_target(self, goal, t_target: float, t_now: float) -> None:
+        """Start from the value at `t_now`; reach `goal` at `t_target` (at once if not in the future)."""
+        start = self.sample(t_now)
+        goal = np.array(goal, dtype=np.float64)
+        if goal.shape != start.shape:
+            raise ValueError(f"target has shape {goal.shape}, interpolator holds {start.shape}")
+        self._x0, self._x1 = start, goal
+        self._t0, self._t1 = float(t_now), max(float(t_target), float(t_now))
+
+    def reset(self, value, t: float) -> None:
+        self.__init__(value, t)
+
+    def sample(self, t: float) -> np.ndarray:
+        span = self._t1 - self._t0
+        a = 1.0 if span <= 0 else min(max((float(t) - self._t0) / span, 0.0), 1.0)
+        return self._x0 + a * (self._x1 - self._x0)
+
+
+class PoseInterpolator:
+    def __init__(self, pose, t: float = 0.0):
+        self._p0 = as_pose(pose)
+        self._p1 = self._p0.copy()
+        self._t0 = self._t1 = float(t)
+
+    @property
+    def goal(self) -> np.ndarray:
+        return self._p1.copy()
+
+    def set_target(self, goal, t_target: float, t_now: float) -> None:
+        self._p0, self._p1 = self.sample(t_now), as_pose(goal)
+        self._t0, self._t1 = float(t_now), max(float(t_target), float(t_now))
+
+    def sample(self, t: float) -> np.ndarray:
+        span = self._t1 - self._t0
+        a = 1.0 if span <= 0 else min(max((float(t) - self._t0) / span, 0.0), 1.0)
+        return pose_interp(self._p0, self._p1, a)
+
+
+class Waypoints:
+    """Piecewise-linear through `(times[i], values[i])`; before the first / after the last time it
+    holds the end value (never extrapolates a command)."""
+
+    def __init__(self, times, values):
+        self.times = np.asarray(times, dtype=np.float64).reshape(-1)
+        self.values = np.asarray(values, dtype=np.float64)
+        if self.values.shape[0] != self.times.shape[0] or self.times.size == 0:
+            raise ValueError("Waypoints needs as many values as times, at least one")
+        if np.any(np.diff(self.times) <= 0):
+            raise ValueError("Waypoints times must be strictly increasing")
+
+    def sample(self, t: float) -> np.ndarray:
+        ts = self.times
+        if t <= ts[0]:
+            return self.values[0].copy()
+        if t >= ts[-1]:
+            return self.values[-1].copy()
+        i = int(np.searchsorted(ts, t, side="right")) - 1
+        a = (t - ts[i]) / (ts[i + 1] - ts[i])
+        return self.values[i] + a * (self.values[i + 1] - self.values[i])

@@ -1,0 +1,130 @@
+"""PolicyNode: hosts a `Policy` in its own node (its own process under shm/zmq/zenoh/portal), so the
+model is served through the middleware itself and no separate policy server is needed.
+
+The hot path uses the two channels every node already has, never a remote call:
+
+- observations in: the request queue. One request is one observation (`ObsSpec` record), camera
+  frames included; under `shm` it is one copy into shared memory, no serializer.
+- chunks out: the ring buffer. Each inference publishes one fixed-size record (`actions` padded to
+  `max_horizon` rows, `horizon`, the observation's `t_obs` and `seq`, and the times the request was
+  received and inference ran). The client reads it locally, without blocking.
+
+The node is request-driven (`loop = "req"`): it sleeps until an observation arrives, so it costs
+nothing between inferences. An exception inside the policy ends the node, which every client then
+reports as `NodeDiedError` naming it.
+
+A policy registered by a plugin is a `PolicyNode` subclass naming its `policy_class`. Without an
+`observation` spec (a station file's policy component started by `make_station`, e.g. under
+`rio teleop`), the node is inert: it loads nothing and refuses requests; `rio deploy` supplies the
+spec from the station's first observation.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..errors import InvalidRequest
+from ..node import Node, client_side
+from ..schema import Observation
+from .base import ActionChunk, Policy, PolicyMetadata
+from .obs_layout import ObsSpec
+
+
+class PolicyNode(Node):
+    __api__ = ("get_state", "send_request", "metadata", "request", "chunk_count", "latest_chunk")
+    policy_class: ClassVar[type[Policy]] = Policy
+    loop = "req"
+    buffer_capacity: ClassVar[int] = 4
+    #: The client keeps at most one observation in flight; two slots leave room for a retry.
+    request_capacity: ClassVar[int] = 2
+
+    def __init__(self, observation: dict[str, Any] | None = None, **config: Any):
+        super().__init__()
+        self.policy = self.policy_class(**config)
+        self.spec = ObsSpec.from_dict(observation) if observation else None
+        cfg = self.policy.config
+        dim = self.spec.action_dim if self.spec is not None else 1
+        self.example_data = {"actions": np.zeros((cfg.max_horizon, dim)), "horizon": 0, "seq": np.int64(-1),
+                             "t_obs": 0.0, "dt": 0.0, "offset": 0.0, "t_recv": 0.0, "t_start": 0.0, "t_end": 0.0}
+        self.example_request = self.spec.example_request() if self.spec is not None else {"seq": np.int64(0)}
+        self._meta: PolicyMetadata | None = None
+        self._request_rec: np.ndarray | None = None
+
+    # -- server side --------------------------------------------------------------------------------
+    def open(self) -> None:
+        if self.spec is None:
+            return
+        self.policy.load(self.spec)
+        meta = self.policy._meta()
+        if meta.action_dim != self.spec.action_dim:
+            raise ValueError(f"policy '{self.policy.name}' acts in {meta.action_dim} dimensions, the station "
+                             f"in {self.spec.action_dim} (set action_indices)")
+        self._meta = meta
+
+    def close(self) -> None:
+        if self.spec is not None:
+            self.policy.close()
+
+    def read_state(self) -> dict[str, Any]:
+        """Only the first, empty sample (seq -1); chunks are published by `handle_request`."""
+        return dict(self.example_data)
+
+    def handle_request(self, request: dict[str, Any]) -> None:
+        from .. import time as rtime
+
+        t_recv = rtime.now()
+        if self.spec is None:
+            raise InvalidRequest(self.name, None, "this policy node has no observation layout (start it with "
+                                                  "`rio deploy`, or pass observation=ObsSpec.of(obs).to_dict())")
+        obs, instruction, t_obs, seq, reset = self.spec.decode(request)
+        if reset:
+            self.policy.reset()
+        chunk = self.policy(obs, instruction, t_obs, seq, t_recv=t_recv)
+        self.publish(self._record(chunk))
+
+    def _record(self, chunk: ActionChunk) -> dict[str, Any]:
+        actions = np.zeros_like(self.example_data["actions"])
+        actions[: chunk.horizon] = chunk.actions
+        return {"actions": actions, "horizon": chunk.horizon, "seq": np.int64(chunk.seq), "t_obs": chunk.t_obs,
+                "dt": chunk.dt, "offset": chunk.offset, "t_recv": chunk.t_recv, "t_start": chunk.t_start,
+                "t_end": chunk.t_end}
+
+    def metadata(self) -> dict[str, Any]:
+        """The loaded policy's `PolicyMetadata` as a dict (a remote call; not on the hot path)."""
+        if self._meta is None:
+            raise InvalidRequest(self.name, None, "no policy is loaded (the node has no observation layout)")
+        return self._meta.to_dict()
+
+    # -- client side (never blocks) -----------------------------------------------------------------
+    @client_side
+    def request(self, obs: Observation, instruction: str | None, t_obs: float, seq: int, reset: bool = False) -> None:
+        """Enqueue one observation for inference; its chunk appears in `latest_chunk()` with this `seq`.
+        Where the queue takes whole records (thread, shm) one reused record is filled in place."""
+        from .. import time as rtime
+
+        values = self.spec.encode(obs, instruction, t_obs, seq, reset)
+        put_record = getattr(self.request_queue, "put_record", None)
+        if put_record is None:  # a network sender: it encodes the dict itself
+            self.send_request(values)
+            return
+        if self._request_rec is None:
+            self._request_rec = np.zeros((), dtype=self.request_queue.layout.dtype)
+        rec = self.spec.pack(self._request_rec, values, owner=self.name)
+        rec["timestamp"] = rtime.now()
+        put_record(rec)
+
+    @client_side
+    def chunk_count(self) -> int:
+        """Samples published so far (1 before the first chunk): a cheap 'anything new?' check."""
+        return self.ring_buffer.count
+
+    @client_side
+    def latest_chunk(self) -> ActionChunk | None:
+        s = self.ring_buffer.get()
+        if int(s["seq"]) < 0:
+            return None
+        h = int(s["horizon"])
+        return ActionChunk(np.array(s["actions"][:h]), float(s["t_obs"]), float(s["dt"]), float(s["offset"]),
+                           int(s["seq"]), float(s["t_recv"]), float(s["t_start"]), float(s["t_end"]))

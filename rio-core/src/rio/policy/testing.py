@@ -1,0 +1,121 @@
+"""Stand-in policies for tests and benchmarks: no model, known outputs, a forward pass of a chosen
+length (a sleep, which releases the GIL like a GPU call does), so measurements show the framework.
+
+They live in an importable module because process middlewares spawn the policy node by class path:
+`--policy rio.policy.testing:SleepPolicyNode,forward_s=0.086`.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from ..schema import Observation
+from .base import Policy, PolicyConfig, PolicyMetadata
+from .node import PolicyNode
+
+
+class StandInConfig(PolicyConfig):
+    forward_s: float = Field(0.0, ge=0, description="sleep this long in each forward pass")
+    chunk: int = Field(50, ge=1, le=4096, description="actions per chunk")
+    rate_hz: float = Field(50.0, gt=0, description="actions per second within a chunk")
+
+
+class _StandIn(Policy):
+    Config = StandInConfig
+
+    def metadata(self) -> PolicyMetadata:
+        c = self.config
+        return PolicyMetadata(self.name, self.spec.action_dim, min(c.chunk, c.max_horizon), 1.0 / c.rate_hz)
+
+    def prepare(self, obs: Observation, instruction: str | None) -> Any:
+        return obs
+
+    def _sleep(self) -> None:
+        if self.config.forward_s > 0:
+            time.sleep(self.config.forward_s)
+
+
+class SleepPolicy(_StandIn):
+    """Holds the observed state for a whole chunk after `forward_s` (the benchmark's model)."""
+
+    name = "testing.sleep"
+
+    def infer(self, obs: Observation) -> np.ndarray:
+        self._sleep()
+        return np.repeat(np.asarray(obs.proprio, dtype=np.float64)[None, :], self.config.chunk, axis=0)
+
+
+class RampConfig(StandInConfig):
+    slope: float = Field(0.5, description="units per second, on every action dimension")
+
+
+class RampPolicy(_StandIn):
+    """Each chunk samples one straight line in time, `start + slope * (t - t0)`, where `start` and
+    `t0` are the state and time of the first observation after a reset. Chunks computed from
+    different observations therefore agree exactly where they overlap, so a correctly aligned
+    command stream is that same line, whatever the latency."""
+
+    name = "testing.ramp"
+    Config = RampConfig
+
+    def __init__(self, **config: Any):
+        super().__init__(**config)
+        self.t0: float | None = None
+        self.start: np.ndarray | None = None
+        self._t_obs = 0.0
+
+    def reset(self) -> None:
+        self.t0 = self.start = None
+
+    def prepare(self, obs: Observation, instruction: str | None) -> Any:
+        return obs
+
+    def __call__(self, obs: Observation, instruction: str | None, t_obs: float, seq: int = 0,
+                 t_recv: float | None = None):
+        self._t_obs = t_obs
+        if self.t0 is None:
+            self.t0, self.start = t_obs, np.asarray(obs.proprio, dtype=np.float64).copy()
+        return super().__call__(obs, instruction, t_obs, seq, t_recv)
+
+    def infer(self, obs: Observation) -> np.ndarray:
+        self._sleep()
+        meta = self._meta()
+        times = self._t_obs + (np.arange(meta.horizon) + meta.offset) * meta.dt
+        return self.start[None, :] + self.config.slope * (times - self.t0)[:, None]
+
+
+class CrashConfig(StandInConfig):
+    crash_after: int = Field(2, ge=0, description="raise in the forward pass after this many chunks")
+
+
+class CrashPolicy(SleepPolicy):
+    """A model that fails mid-run (out of GPU memory, say): the node must be reported by name."""
+
+    name = "testing.crash"
+    Config = CrashConfig
+
+    def __init__(self, **config: Any):
+        super().__init__(**config)
+        self.calls = 0
+
+    def infer(self, obs: Observation) -> np.ndarray:
+        self.calls += 1
+        if self.calls > self.config.crash_after:
+            raise RuntimeError(f"simulated model failure after {self.config.crash_after} chunks")
+        return super().infer(obs)
+
+
+class SleepPolicyNode(PolicyNode):
+    policy_class = SleepPolicy
+
+
+class RampPolicyNode(PolicyNode):
+    policy_class = RampPolicy
+
+
+class CrashPolicyNode(PolicyNode):
+    policy_class = CrashPolicy

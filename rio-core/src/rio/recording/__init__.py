@@ -1,0 +1,32 @@
+"""Recording and datasets (DESIGN.md section 7).
+
+- `Recorder`: Steps of a control loop into the native, crash-safe layout (`layout` documents it);
+  camera streams are video-encoded by a separate process while recording.
+- `Dataset` / `Episode`: read it back (columns, decoded frames, rebuilt `Step`s).
+- `repair_dataset`: turn what a crash left into finished episodes, rebuild the index.
+- `replay_episode`: play an episode's actions back on any station of the same morphology.
+- `DatasetFormat` / `get_format`: export and import through plugins' `rio_dataset_formats` hook.
+"""
+
+from .dataset import Dataset, DatasetError, Episode
+from .recorder import Recorder, RecordingError
+from .video import VideoOptions
+
+__all__ = ["Recorder", "RecordingError", "Dataset", "DatasetError", "Episode", "VideoOptions",
+           "repair_dataset", "replay_episode", "DatasetFormat", "get_format"]
+
+
+def __getattr__(name: str):
+    if name == "repair_dataset":
+        from .repair import repair_dataset
+
+        return repair_dataset
+    if name == "replay_episode":
+        from .replay import replay_episode
+
+        return replay_episode
+    if name in ("DatasetFormat", "get_format"):
+        from . import format as F
+
+        return getattr(F, name)
+    raise AttributeError(name)

@@ -1,0 +1,229 @@
+"""Reading a native RIO dataset: episodes as numpy columns, camera frames decoded on demand, and
+`Step` objects rebuilt with their morphology observation class.
+
+    ds = Dataset("datasets/pick")
+    ep = ds.episode(0)
+    ep.columns["action"]          # (T, action_dim), exactly as recorded
+    for rgb in ep.step_frames("front"): ...   # one frame per step (the frame that step saw)
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import RioError
+from ..schema import Camera, Step
+from . import index as I
+from . import layout as L
+from .durable import sha256_file
+from .episode_writer import FRAME_RECORD
+from .flatten import StepSchema
+from .video import read_frames
+
+
+class DatasetError(RioError):
+    pass
+
+
+class Episode:
+    def __init__(self, path: Path, meta: dict[str, Any] | None = None):
+        self.path = Path(path)
+        self.partial = self.path.name.endswith(L.PARTIAL_SUFFIX)
+        meta_path = self.path / L.EPISODE_META
+        if meta is None:
+            if not meta_path.exists():
+                raise DatasetError(f"{self.path} is not a finished episode (no {L.EPISODE_META}); "
+                                   "run `rio datasets repair` on its dataset")
+            meta = json.loads(meta_path.read_text())
+        self.meta = meta
+        self.schema = StepSchema.from_json(json.loads((self.path / L.STEPS_SCHEMA).read_text()))
+        self._columns: np.ndarray | None = None
+
+    @property
+    def index(self) -> int:
+        return int(self.meta["index"])
+
+    @property
+    def fps(self) -> float:
+        return float(self.meta["fps"])
+
+    @property
+    def length(self) -> int:
+        return int(self.meta["length"])
+
+    def __len__(self) -> int:
+        return self.length
+
+    @property
+    def instruction(self) -> str | None:
+        return self.meta.get("instruction")
+
+    @property
+    def streams(self) -> dict[str, dict[str, Any]]:
+        return self.meta.get("streams", {})
+
+    @property
+    def cameras(self) -> list[str]:
+        return sorted({s["camera"] for s in self.streams.values()})
+
+    @property
+    def columns(self) -> np.ndarray:
+        """All steps as one structured array (field names: see `rio.recording.flatten`)."""
+        if self._columns is None:
+            data = np.fromfile(self.path / L.STEPS, self.schema.dtype, count=self.length)
+            if len(data) != self.length:
+                raise DatasetError(f"{self.path / L.STEPS}: {len(data)} steps, episode.json says {self.length}")
+            self._columns = data
+        return self._columns
+
+    def column(self, name: str) -> np.ndarray:
+        return np.array(self.columns[name])
+
+    def observation_columns(self) -> dict[str, np.ndarray]:
+        """{field: (T, ...) array} for the numeric observation fields (proprio, proprio_eef, ...)."""
+        return {n[4:]: self.column(n) for n in self.schema.names if n.startswith("obs.")}
+
+    def events(self) -> list[dict[str, Any]]:
+        out = []
+        path = self.path / L.EVENTS
+        if path.exists():
+            for line in path.read_text().splitlines():
+                try:
+                    out.append(json.loads(line))
+                except json.JSONDecodeError:  # a torn last line of an interrupted episode
+                    break
+        return out
+
+    def instructions(self) -> list[str | None]:
+        """The instruction in force at every step."""
+        out: list[str | None] = [None] * self.length
+        changes = sorted((e["step"], e["instruction"]) for e in self.events() if "instruction" in e)
+        for k, (start, text) in enumerate(changes):
+            end = changes[k + 1][0] if k + 1 < len(changes) else self.length
+            out[start:end] = [text] * max(end - start, 0)
+        return out
+
+    # -- camera streams -----------------------------------------------------------------------------
+    def stream(self, camera: str, kind: str = "rgb") -> dict[str, Any]:
+        key = L.stream_key(camera, kind)
+        if key not in self.streams:
+            raise DatasetError(f"episode {self.index} has no stream '{key}' (streams: {sorted(self.streams)})")
+        return self.streams[key]
+
+    def frame_times(self, camera: str, kind: str = "rgb") -> np.ndarray:
+        """(N,) records (t: capture time, step: first step that saw the frame)."""
+        info = self.stream(camera, kind)
+        return np.fromfile(self.path / info["frames_file"], FRAME_RECORD, count=info["frames"])
+
+    def frames(self, camera: str, kind: str = "rgb") -> Iterator[np.ndarray]:
+        """Every encoded frame of a stream, in order (depth: uint16 in `depth_unit_m` units)."""
+        info = self.stream(camera, kind)
+        yield from read_frames(self.path / info["file"], kind, info["height"], info["width"])
+
+    def step_frame_index(self, camera: str, kind: str = "rgb") -> np.ndarray:
+        return self.column(f"cam.{camera}.{kind}")
+
+    def step_frames(self, camera: str, kind: str = "rgb") -> Iterator[np.ndarray | None]:
+        """One frame per step: the frame that step saw (repeated while the camera had nothing new)."""
+        want = self.step_frame_index(camera, kind)
+        frames = self.frames(camera, kind)
+        have, current = -1, None
+        for k in want:
+            if k < 0:
+                yield None
+                continue
+            while have < k:
+                current = next(frames)
+                have += 1
+            yield current
+
+    def depth_m(self, depth: np.ndarray, camera: str) -> np.ndarray:
+        unit = self.stream(camera, "depth").get("depth_unit_m", 0.001)
+        return depth.astype(np.float32) * np.float32(unit)
+
+    def steps(self, images: bool = True) -> Iterator[Step]:
+        """The episode as `Step`s (the recorded morphology observation, cameras decoded)."""
+        cols = self.columns
+        names = [(s["camera"], s["kind"]) for s in self.streams.values()] if images else []
+        iters = {(c, k): self.step_frames(c, k) for c, k in names}
+        instr = self.instructions()
+        has_action = "action" in self.schema.names
+        for i in range(self.length):
+            rec = cols[i]
+            cams: dict[str, Camera] = {}
+            for (c, k), it in iters.items():
+                frame = next(it)
+                cam = cams.setdefault(c, Camera(meta={}))
+                if k == "depth" and frame is not None:
+                    frame = self.depth_m(frame, c)
+                setattr(cam, k, frame)
+            action = np.array(rec["action"]) if has_action else None
+            meta = self.schema.meta(rec)
+            meta.setdefault("t_obs", float(rec["t"]))
+            yield Step(int(rec["timestep"]), self.schema.observation(rec, cams), instr[i], action, meta)
+
+    def verify(self) -> list[str]:
+        """Files whose size or sha256 differ from episode.json (empty: the episode is intact)."""
+        bad = []
+        for name, want in self.meta.get("files", {}).items():
+            p = self.path / name
+            if not p.exists():
+                bad.append(f"{name}: missing")
+            elif p.stat().st_size != want["bytes"] or sha256_file(p) != want["sha256"]:
+                bad.append(f"{name}: changed since it was recorded")
+        return bad
+
+
+class Dataset:
+    """A native dataset directory (`dataset.json` + episode directories)."""
+
+    def __init__(self, root: str | Path):
+        self.root = Path(root)
+        if not (self.root / L.INDEX).exists():
+            if not self.root.is_dir():
+                raise DatasetError(f"no dataset at {self.root}")
+            if not any(L.scan(self.root)):
+                raise DatasetError(f"{self.root} is not a RIO dataset (no {L.INDEX})")
+        self.index = I.load(self.root)
+
+    @property
+    def episodes(self) -> list[dict[str, Any]]:
+        return self.index["episodes"]
+
+    def __len__(self) -> int:
+        return len(self.episodes)
+
+    @property
+    def fps(self) -> float | None:
+        return self.index.get("fps")
+
+    def episode(self, k: int) -> Episode:
+        """Episode by its index (the number in its directory name)."""
+        for e in self.episodes:
+            if e["index"] == k:
+                return Episode(self.root / e["dir"])
+        raise DatasetError(f"{self.root}: no episode {k} (episodes: {[e['index'] for e in self.episodes]})")
+
+    def __iter__(self) -> Iterator[Episode]:
+        for e in self.episodes:
+            yield Episode(self.root / e["dir"])
+
+    def partials(self) -> list[Path]:
+        return [p for p, partial in L.scan(self.root).values() if partial]
+
+    def summary(self) -> dict[str, Any]:
+        eps = self.episodes
+        size = sum(f.stat().st_size for e in eps for f in (self.root / e["dir"]).iterdir() if f.is_file())
+        cams = sorted({k for e in eps for k in e.get("cameras", {})})
+        return {"path": str(self.root), "episodes": len(eps), "steps": self.index.get("total_steps", 0),
+                "fps": self.fps, "station": self.index.get("station"), "embodiment": self.index.get("embodiment"),
+                "duration_s": round(sum(e.get("duration_s", 0.0) for e in eps), 3), "streams": cams,
+                "bytes": size, "instructions": sorted({e["instruction"] for e in eps if e.get("instruction")}),
+                "partial": [p.name for p in self.partials()],
+                "discarded": len(list((self.root / L.DISCARDED).iterdir())) if (self.root / L.DISCARDED).is_dir()
+                else 0}

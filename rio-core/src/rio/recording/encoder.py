@@ -1,0 +1,144 @@
+"""The recorder's handle on its encoder process (see `encoder_main`): start it, map frame rings,
+push frames (never blocking), and close or abort an episode's streams."""
+
+from __future__ import annotations
+
+import itertools
+import socket
+import subprocess
+import sys
+import time
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import RioError
+from .frame_ring import FrameRing
+from .video import VideoOptions
+
+
+class EncoderError(RioError):
+    """The encoder process failed or went away."""
+
+
+class EncoderProcess:
+    def __init__(self, nice: int = 10):
+        # A fresh interpreter (`python -m`), not fork (the caller may own middleware threads) and not
+        # multiprocessing's spawn (which re-imports the caller's __main__, breaking plain scripts).
+        ours, theirs = socket.socketpair()
+        self.proc = subprocess.Popen([sys.executable, "-m", "rio.recording.encoder_main", str(theirs.fileno()),
+                                      str(nice)], pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL)
+        theirs.close()
+        self.conn = Connection(ours.detach())
+        self.rings: dict[str, FrameRing] = {}
+        self.errors: dict[str, str] = {}
+        self._tokens = itertools.count()
+
+    # -- streams ------------------------------------------------------------------------------------
+    def ensure_ring(self, key: str, shape: tuple[int, ...], dtype: np.dtype, slots: int) -> FrameRing:
+        from multiprocessing.reduction import send_handle
+
+        ring = self.rings.get(key)
+        if ring is not None and ring.shape == tuple(shape) and ring.dtype == np.dtype(dtype):
+            return ring
+        if ring is not None:
+            self.wait_idle(key)
+        ring = FrameRing(shape, np.dtype(dtype).str, slots)
+        self._send(("ring", key, tuple(shape), np.dtype(dtype).str, slots))
+        send_handle(self.conn, ring.fd, self.proc.pid)
+        old = self.rings.pop(key, None)
+        if old is not None:
+            old.close()
+        self.rings[key] = ring
+        return ring
+
+    def open(self, key: str, path: Path, kind: str, height: int, width: int, rate: float,
+             options: VideoOptions) -> None:
+        self.errors.pop(key, None)
+        self._send(("open", key, str(path), kind, int(height), int(width), float(rate), options.to_json()))
+
+    def put(self, key: str, frame: np.ndarray) -> int | None:
+        """Copy a frame into the stream's ring; its slot, or None if the ring is full (dropped)."""
+        return self.rings[key].try_put(frame)
+
+    def encode(self, key: str, slot: int) -> None:
+        self._send(("frame", key, int(slot)))
+
+    def close_streams(self, keys: list[str], timeout: float = 60.0) -> dict[str, dict]:
+        token = next(self._tokens)
+        self._send(("close", token, list(keys)))
+        reply = self._wait(("closed", token), timeout)
+        return reply[2]
+
+    def abort_streams(self, keys: list[str], timeout: float = 10.0) -> None:
+        token = next(self._tokens)
+        self._send(("abort", token, list(keys)))
+        self._wait(("aborted", token), timeout)
+
+    def wait_idle(self, key: str, timeout: float = 10.0) -> None:
+        ring = self.rings[key]
+        t_end = time.monotonic() + timeout
+        while ring.backlog() and time.monotonic() < t_end:
+            self.poll()
+            time.sleep(0.002)
+
+    def backlog(self) -> int:
+        return max((r.backlog() for r in self.rings.values()), default=0)
+
+    # -- plumbing -----------------------------------------------------------------------------------
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def poll(self) -> None:
+        """Collect asynchronous error reports (never blocks)."""
+        try:
+            while self.conn.poll():
+                self._handle(self.conn.recv())
+        except (EOFError, OSError):
+            pass
+
+    def _handle(self, msg: Any) -> None:
+        if msg[0] == "error":
+            self.errors[msg[1]] = msg[2]
+
+    def _send(self, msg: Any) -> None:
+        if not self.alive():
+            raise EncoderError(f"the encoder process exited (code {self.proc.returncode})")
+        self.conn.send(msg)
+
+    def _wait(self, head: tuple, timeout: float) -> Any:
+        t_end = time.monotonic() + timeout
+        while time.monotonic() < t_end:
+            if self.conn.poll(0.05):
+                try:
+                    msg = self.conn.recv()
+                except (EOFError, OSError):
+                    break
+                if tuple(msg[:2]) == head:
+                    return msg
+                self._handle(msg)
+            elif not self.alive():
+                break
+        raise EncoderError(f"the encoder process did not answer {head[0]!r} within {timeout:g} s "
+                           f"(exit code: {self.proc.poll()})")
+
+    def shutdown(self, timeout: float = 30.0) -> None:
+        try:
+            if self.alive():
+                self.conn.send(("exit",))
+                self.proc.wait(timeout)
+        except (OSError, subprocess.TimeoutExpired):
+            pass
+        if self.alive():
+            self.proc.terminate()
+            try:
+                self.proc.wait(2.0)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self.conn.close()
+        for r in self.rings.values():
+            r.close()
+        self.rings.clear()

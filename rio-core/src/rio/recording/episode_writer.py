@@ -1,0 +1,290 @@
+"""Writes one episode into its `.partial` directory, then finishes it: fsync, rename, done.
+
+Used by `Recorder` (one at a time). Steps are appended as fixed-size records as they arrive; each
+new camera frame is copied into the encoder's shared-memory ring and logged (capture time, step)
+in its `*.frames.bin`. A camera's nominal rate is estimated from its first frames' timestamps
+(unless given), so a 30 fps camera in a 100 Hz loop is stored as 30 fps video, not 100.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import time as rtime
+from . import layout as L
+from .durable import AppendFile, describe_files, fsync_dir, write_json_atomic
+from .encoder import EncoderProcess
+from .flatten import StepSchema, flat_meta
+from .video import VideoOptions
+
+FRAME_RECORD = np.dtype([("t", "<f8"), ("step", "<i8")])
+_RATE_SAMPLES = 4  # distinct frames used to estimate a camera's rate
+
+
+def estimate_rate(stamps: list[float], fallback: float) -> float:
+    """Nominal frame rate from capture times; snapped to an integer when within 3 %."""
+    d = np.diff(np.asarray(stamps, dtype=np.float64))
+    d = d[d > 0]
+    if d.size == 0:
+        return float(fallback)
+    rate = 1.0 / float(np.median(d))
+    snapped = round(rate)
+    return float(snapped) if snapped > 0 and abs(rate - snapped) <= 0.03 * rate else round(rate, 3)
+
+
+@dataclass
+class _Stream:
+    key: str
+    camera: str
+    kind: str
+    shape: tuple[int, ...]
+    file: AppendFile
+    rate: float | None = None
+    count: int = 0
+    dropped: int = 0
+    last_ts: float | None = None
+    opened: bool = False
+    pending: list[int] = field(default_factory=list)
+    stamps: list[float] = field(default_factory=list)
+    intrinsics: list | None = None
+
+
+class EpisodeWriter:
+    def __init__(self, root: Path, index: int, encoder: EncoderProcess, *, fps: float, video: VideoOptions,
+                 camera_fps: float | dict[str, float] | None = None, instruction: str | None = None,
+                 info: dict[str, Any] | None = None, action_dim: int | None = None, buffer_frames: int = 60):
+        self.root, self.index, self.encoder = root, index, encoder
+        self.fps, self.video, self.camera_fps = float(fps), video, camera_fps
+        self.info = dict(info or {})
+        self.action_dim, self.buffer_frames = action_dim, buffer_frames
+        self.dir = root / L.partial_dir_name(index)
+        self.dir.mkdir()
+        fsync_dir(root)
+        self.schema: StepSchema | None = None
+        self.steps: AppendFile | None = None
+        self.events = AppendFile(self.dir / L.EVENTS)
+        self.streams: dict[str, _Stream] = {}
+        self.length = 0
+        self.t_first: float | None = None
+        self.t_last: float | None = None
+        self.instruction = instruction
+        self._last_instruction: str | None = None
+        self._last_other: dict[str, Any] = {}
+        self.warnings: list[str] = []
+        self.started_at = time.strftime("%Y-%m-%dT%H:%M:%S")
+        # what `rio datasets repair` needs to finish this episode if the recorder dies
+        write_json_atomic(self.dir / L.RECORDING, {
+            "index": index, "fps": self.fps, "instruction": instruction, **self.info, "video": video.to_json(),
+            "started_at": self.started_at})
+        if instruction is not None:
+            self._event({"step": 0, "instruction": instruction})
+            self._last_instruction = instruction
+
+    # -- recording ----------------------------------------------------------------------------------
+    def add(self, step: Any) -> None:
+        t_recv = rtime.now()
+        meta = step.meta or {}
+        t = float(meta.get("t_obs", t_recv))
+        if self.schema is None:
+            self._start(step)
+        elif self.length < 3 and (extra := self.schema.unknown_fields(step)):
+            self._warn(f"step {self.length}: fields not in the episode's layout are not stored: {extra}")
+        i = self.length
+        frames = self._frames(step, i, t)
+        rec = self.schema.record(step, t, t_recv, frames)
+        self.steps.write(rec.tobytes())
+        self.length += 1
+        self.t_first = t if self.t_first is None else self.t_first
+        self.t_last = t
+        if step.instruction is not None and step.instruction != self._last_instruction:
+            self._last_instruction = step.instruction
+            self.instruction = self.instruction or step.instruction
+            self._event({"step": i, "instruction": step.instruction})
+        other = flat_meta(meta)[1]
+        changed = {k: v for k, v in other.items() if self._last_other.get(k, object()) != v}
+        if changed:
+            self._last_other.update(changed)
+            self._event({"step": i, "meta": changed})
+
+    def _start(self, step: Any) -> None:
+        self.schema = StepSchema.from_step(step, self.action_dim)
+        write_json_atomic(self.dir / L.STEPS_SCHEMA, self.schema.to_json())
+        self.steps = AppendFile(self.dir / L.STEPS)
+
+    def _frames(self, step: Any, i: int, t: float) -> dict[str, int]:
+        out: dict[str, int] = {}
+        cams = step.observation.cameras or {}
+        for cam, kinds in self.schema.cameras.items():
+            c = cams.get(cam)
+            for kind in kinds:
+                col = f"cam.{cam}.{kind}"
+                arr = None if c is None else getattr(c, kind, None)
+                key = L.stream_key(cam, kind)
+                s = self.streams.get(key)
+                if arr is None:
+                    out[col] = -1 if s is None else s.count - 1
+                    continue
+                ts = c.meta.get("timestamp") if c.meta else None
+                ts = None if ts is None else float(ts)
+                if s is not None and ts is not None and s.count and ts == s.last_ts:
+                    out[col] = s.count - 1  # the same frame as last step: not encoded twice
+                    continue
+                if s is None:
+                    s = self._stream(cam, kind, arr, c)
+                if tuple(arr.shape) != s.shape:
+                    self._warn(f"{key}: frame shape changed from {s.shape} to {arr.shape}; frame dropped")
+                    s.dropped += 1
+                    out[col] = s.count - 1
+                    continue
+                slot = self.encoder.put(key, arr)
+                if slot is None:
+                    s.dropped += 1
+                    out[col] = s.count - 1
+                    continue
+                s.file.write(np.array((t if ts is None else ts, i), FRAME_RECORD).tobytes())
+                s.count += 1
+                s.last_ts = ts
+                if s.opened:
+                    self.encoder.encode(key, slot)
+                else:
+                    s.pending.append(slot)
+                    if ts is not None:
+                        s.stamps.append(ts)
+                    if ts is None or len(s.stamps) >= _RATE_SAMPLES or len(s.pending) >= self.buffer_frames // 2:
+                        self._open(s)
+                out[col] = s.count - 1
+        return out
+
+    def _stream(self, cam: str, kind: str, arr: np.ndarray, c: Any) -> _Stream:
+        key = L.stream_key(cam, kind)
+        shape = tuple(arr.shape)
+        dtype = np.uint8 if kind == "rgb" else arr.dtype
+        self.encoder.ensure_ring(key, shape, np.dtype(dtype), self.buffer_frames)
+        rate = self.camera_fps.get(cam) if isinstance(self.camera_fps, dict) else self.camera_fps
+        k = c.meta.get("intrinsics") if c.meta else None
+        s = _Stream(key, cam, kind, shape, AppendFile(self.dir / L.frames_file(cam, kind)), rate=rate,
+                    intrinsics=None if k is None else np.asarray(k).tolist())
+        self.streams[key] = s
+        return s
+
+    def _open(self, s: _Stream) -> None:
+        if s.rate is None:
+            s.rate = estimate_rate(s.stamps, self.fps)
+        h, w = s.shape[0], s.shape[1]
+        self.encoder.open(s.key, self.dir / L.video_file(s.camera, s.kind), s.kind, h, w, s.rate, self.video)
+        for slot in s.pending:
+            self.encoder.encode(s.key, slot)
+        s.pending.clear()
+        s.opened = True
+
+    def _event(self, obj: dict[str, Any]) -> None:
+        self.events.write((json.dumps(obj, default=str) + "\n").encode())
+
+    def _warn(self, text: str) -> None:
+        if text not in self.warnings:
+            self.warnings.append(text)
+            if self.events.fd >= 0:  # after finish() closed the log, warnings go to episode.json only
+                self._event({"step": self.length, "warning": text})
+
+    # -- ending -------------------------------------------------------------------------------------
+    @property
+    def duration_s(self) -> float:
+        if self.t_first is None:
+            return 0.0
+        return self.t_last - self.t_first + 1.0 / self.fps
+
+    def finish(self, ended_by: str = "keep", metadata: dict | None = None) -> dict[str, Any]:
+        """Make the episode durable and final; returns its metadata (episode.json)."""
+        for s in self.streams.values():
+            if not s.opened:
+                self._open(s)
+        results = self.encoder.close_streams(list(self.streams)) if self.streams else {}
+        self.encoder.poll()
+        for key, err in self.encoder.errors.items():
+            if key in self.streams:
+                results.setdefault(key, {})["error"] = err
+        self.steps.close(sync=True)
+        self.events.close(sync=True)
+        streams: dict[str, Any] = {}
+        for key, s in self.streams.items():
+            s.file.close(sync=True)
+            r = results.get(key, {})
+            t = np.fromfile(s.file.path, FRAME_RECORD)["t"]
+            info = {"camera": s.camera, "kind": s.kind, "file": L.video_file(s.camera, s.kind),
+                    "frames_file": L.frames_file(s.camera, s.kind), "frames": int(r.get("frames", 0)),
+                    "height": s.shape[0], "width": s.shape[1], "rate": s.rate,
+                    "measured_rate": round(float((len(t) - 1) / (t[-1] - t[0])), 3) if len(t) > 1 and t[-1] > t[0]
+                    else None, "dropped": s.dropped}
+            info["codec"] = "ffv1" if s.kind == "depth" else self.video.codec
+            if s.kind == "depth":
+                info["depth_unit_m"] = self.video.depth_unit_m
+            if s.intrinsics is not None:
+                info["intrinsics"] = s.intrinsics
+            if r.get("error"):
+                info["error"] = r["error"]
+            if info["frames"] != s.count:
+                self._warn(f"{key}: {s.count} frames logged but {info['frames']} encoded")
+            if s.dropped:
+                self._warn(f"{key}: {s.dropped} frames dropped (the encoder fell behind)")
+            streams[key] = info
+        ts = np.fromfile(self.dir / L.STEPS, self.schema.dtype)["t"]
+        measured = float((len(ts) - 1) / (ts[-1] - ts[0])) if len(ts) > 1 and ts[-1] > ts[0] else None
+        if measured is not None and abs(measured - self.fps) > 0.1 * self.fps:
+            self._warn(f"steps arrived at {measured:.1f} Hz but the dataset declares {self.fps:g} Hz")
+        meta = {
+            "format": L.FORMAT, "version": L.VERSION, "index": self.index, "dir": L.episode_dir_name(self.index),
+            "length": self.length, "fps": self.fps, "measured_fps": None if measured is None else round(measured, 3),
+            "t_start": self.t_first, "t_end": self.t_last, "duration_s": round(self.duration_s, 6),
+            "instruction": self.instruction, **self.info, "observation_class": self.schema.observation_class,
+            "streams": streams, "video": self.video.to_json(), "metadata": metadata or {},
+            "started_at": self.started_at, "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S"),
+            "ended_by": ended_by, "warnings": self.warnings,
+        }
+        self.dir = seal(self.root, self.dir, meta)
+        return meta
+
+    def abort(self, keep_copy: bool = True) -> Path | None:
+        """Drop the episode: streams stopped, directory moved to .discarded/ (or deleted)."""
+        if self.streams:
+            try:
+                self.encoder.abort_streams(list(self.streams))
+            except Exception:  # noqa: BLE001 - discarding must not fail on a dead encoder
+                pass
+        for f in [self.steps, self.events, *(s.file for s in self.streams.values())]:
+            if f is not None:
+                f.close(sync=False)
+        if not keep_copy or self.length == 0:
+            shutil.rmtree(self.dir, ignore_errors=True)
+            return None
+        trash = self.root / L.DISCARDED
+        trash.mkdir(exist_ok=True)
+        dest = trash / f"{L.episode_dir_name(self.index)}-{time.strftime('%Y%m%d-%H%M%S')}"
+        k = 1
+        while dest.exists():
+            dest, k = dest.with_name(f"{dest.name.split('~')[0]}~{k}"), k + 1
+        os.rename(self.dir, dest)
+        fsync_dir(self.root)
+        return dest
+
+
+def seal(root: Path, partial: Path, meta: dict[str, Any]) -> Path:
+    """Finish an episode directory: list its files with sizes and sha256 in episode.json (written
+    and fsynced last), then rename `episode_N.partial` to `episode_N` and fsync the dataset
+    directory. Until that rename the episode does not exist for readers."""
+    names = [L.STEPS_SCHEMA, L.STEPS, L.EVENTS]
+    for info in meta.get("streams", {}).values():
+        names += [n for n in (info["frames_file"], info["file"]) if (partial / n).exists()]
+    meta["files"] = describe_files(partial, names)
+    write_json_atomic(partial / L.EPISODE_META, meta)
+    final = root / L.episode_dir_name(meta["index"])
+    os.rename(partial, final)
+    fsync_dir(root)
+    return final

@@ -1,0 +1,87 @@
+"""The native RIO dataset layout: names and paths in one place, so the writer, the reader and
+`rio datasets repair` can never disagree about where something lives.
+
+    DATASET/
+      dataset.json                  index of finished episodes (rewritten atomically)
+      .lock                         held (flock) by the one recorder writing this dataset
+      episode_000000/               a finished episode: never modified once renamed into place
+        episode.json                its metadata, sizes and sha256 of every file (written last)
+        recording.json              what the recorder knew at the start (fps, station, codec)
+        steps.json                  the record layout of steps.bin (a numpy structured dtype)
+        steps.bin                   one fixed-size little-endian record per Step, in order
+        events.jsonl                what is not numeric: instruction and string meta changes
+        front.rgb.mp4               a camera stream (H.264/AV1, fragmented MP4)
+        front.rgb.frames.bin        per encoded frame: capture time, first step that saw it
+        front.depth.mkv             depth in integer units (default 1 mm), FFV1, lossless
+      episode_000001.partial/       the episode being recorded (or left by a crash: repair it)
+      .discarded/                   discarded episodes, kept until the user deletes them
+
+A file appended while recording is only ever appended to, in whole records, so whatever a crash
+leaves is a readable prefix; `rio datasets repair` turns it into a finished episode.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+FORMAT = "rio-dataset"
+VERSION = 1
+
+INDEX = "dataset.json"
+LOCK = ".lock"
+DISCARDED = ".discarded"
+PARTIAL_SUFFIX = ".partial"
+
+EPISODE_META = "episode.json"
+STEPS_SCHEMA = "steps.json"
+RECORDING = "recording.json"
+STEPS = "steps.bin"
+EVENTS = "events.jsonl"
+
+_EPISODE_RE = re.compile(r"^episode_(\d{6,})(\.partial)?$")
+
+
+def episode_dir_name(index: int) -> str:
+    return f"episode_{index:06d}"
+
+
+def partial_dir_name(index: int) -> str:
+    return episode_dir_name(index) + PARTIAL_SUFFIX
+
+
+def parse_episode_dir(name: str) -> tuple[int, bool] | None:
+    """(index, is_partial) for an episode directory name, else None."""
+    m = _EPISODE_RE.match(name)
+    return (int(m.group(1)), m.group(2) is not None) if m else None
+
+
+def stream_key(camera: str, kind: str) -> str:
+    """'front', 'rgb' -> 'front.rgb' (the prefix of that stream's files)."""
+    return f"{camera}.{kind}"
+
+
+def video_file(camera: str, kind: str) -> str:
+    return f"{stream_key(camera, kind)}.{'mkv' if kind == 'depth' else 'mp4'}"
+
+
+def frames_file(camera: str, kind: str) -> str:
+    return f"{stream_key(camera, kind)}.frames.bin"
+
+
+def scan(root: Path) -> dict[int, tuple[Path, bool]]:
+    """Episode directories under `root`: index -> (path, is_partial). A finished directory wins over
+    a partial one of the same index (which a crash between rename steps cannot produce, but a
+    user's copy might)."""
+    out: dict[int, tuple[Path, bool]] = {}
+    if not root.is_dir():
+        return out
+    for p in sorted(root.iterdir()):
+        parsed = parse_episode_dir(p.name) if p.is_dir() else None
+        if parsed is None:
+            continue
+        idx, partial = parsed
+        if idx in out and not out[idx][1]:
+            continue
+        out[idx] = (p, partial)
+    return out

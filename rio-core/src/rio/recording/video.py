@@ -1,0 +1,147 @@
+"""Video streams with PyAV: the encoder settings, one writer per camera stream, and the reader.
+
+RGB is H.264 (libx264) or AV1 (libsvtav1) in fragmented MP4: every finished fragment (one GOP) is
+decodable even if the writer is killed, which is what makes an interrupted episode recoverable.
+Depth is stored losslessly as 16-bit integers (default unit 1 mm) with FFV1 in Matroska.
+Frames get consecutive pts at the stream's nominal rate; the true capture time of every frame is
+kept beside the video (`*.frames.bin`), so players show the stream at the right speed and no
+timing information depends on the container.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+CODECS = {"h264": "libx264", "av1": "libsvtav1", "hevc": "libx265"}
+
+
+@dataclass
+class VideoOptions:
+    """How camera streams are encoded while recording.
+
+    The defaults (H.264, CRF 28, `veryfast`, a keyframe every 2 s) keep three 640x480 cameras at
+    30 fps in real time on two cores at under 10 MB per minute (see bench/recording.py).
+    """
+
+    codec: str = "h264"  # h264 | av1 | hevc
+    crf: int = 28
+    preset: str = "veryfast"  # x264/x265 preset name; for av1 an SVT-AV1 preset number (e.g. "10")
+    gop_s: float = 2.0  # keyframe interval in seconds: bounds what a crash can lose from a stream
+    threads: int = 2  # encoder threads per stream
+    depth_unit_m: float = 0.001  # depth is stored as uint16 multiples of this (1 mm: up to 65.5 m)
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_any(cls, value: VideoOptions | dict | str | None) -> VideoOptions:
+        if value is None:
+            return cls()
+        if isinstance(value, cls):
+            return value
+        if isinstance(value, str):
+            return cls(codec=value)
+        return cls(**value)
+
+    def encoder_options(self, rate: float) -> tuple[str, dict[str, str]]:
+        if self.codec not in CODECS:
+            raise ValueError(f"unknown video codec '{self.codec}'; choose one of {sorted(CODECS)}")
+        name = CODECS[self.codec]
+        g = str(max(1, round(self.gop_s * rate)))
+        if self.codec == "av1":
+            preset = self.preset if self.preset.isdigit() else "10"
+            return name, {"crf": str(self.crf), "preset": preset, "g": g,
+                          "svtav1-params": f"lp={self.threads}:rc=0"}
+        return name, {"crf": str(self.crf), "preset": self.preset, "g": g, "threads": str(self.threads)}
+
+
+def _rate(rate: float) -> Fraction:
+    return Fraction(rate).limit_denominator(1001)
+
+
+class StreamWriter:
+    """Encodes one camera stream into one file (runs in the encoder process)."""
+
+    def __init__(self, path: str | Path, kind: str, height: int, width: int, rate: float, options: VideoOptions):
+        import av
+
+        self.path, self.kind, self.options = Path(path), kind, options
+        self.height, self.width = height, width
+        self.frames = 0
+        if kind == "depth":
+            # flush_packets: every packet reaches the file at once, not when a 32 KB buffer fills,
+            # so a killed encoder loses at most its current fragment/packet
+            # Matroska holds a whole cluster in memory: close one every gop_s so a crash loses little
+            self.container = av.open(str(self.path), "w", format="matroska", options={
+                "flush_packets": "1", "cluster_time_limit": str(max(int(options.gop_s * 1000), 100)),
+                "cluster_size_limit": str(4 << 20)})
+            self.stream = self.container.add_stream("ffv1", rate=_rate(rate), options={"level": "3", "slices": "4",
+                                                                                       "slicecrc": "1"})
+            self.stream.pix_fmt = "gray16le"
+            self.enc_h, self.enc_w = height, width
+        else:
+            codec, opts = options.encoder_options(rate)
+            self.container = av.open(str(self.path), "w", format="mp4",
+                                     options={"movflags": "frag_keyframe+empty_moov+default_base_moof",
+                                              "flush_packets": "1"})
+            self.stream = self.container.add_stream(codec, rate=_rate(rate), options=opts)
+            self.stream.pix_fmt = "yuv420p"
+            # 4:2:0 needs even sizes: pad by one pixel (the reader crops back to height x width)
+            self.enc_h, self.enc_w = height + height % 2, width + width % 2
+        self.stream.height, self.stream.width = self.enc_h, self.enc_w
+
+    def _prepare(self, frame: np.ndarray) -> np.ndarray:
+        if self.kind == "depth":
+            if frame.dtype.kind == "f":
+                d = np.nan_to_num(frame / self.options.depth_unit_m, nan=0.0, posinf=0.0, neginf=0.0)
+                frame = np.clip(np.rint(d), 0, 65535).astype(np.uint16)
+            return np.ascontiguousarray(frame, dtype=np.uint16)
+        if (self.enc_h, self.enc_w) != frame.shape[:2]:
+            frame = np.pad(frame, ((0, self.enc_h - frame.shape[0]), (0, self.enc_w - frame.shape[1]), (0, 0)),
+                           mode="edge")
+        return np.ascontiguousarray(frame, dtype=np.uint8)
+
+    def write(self, frame: np.ndarray) -> None:
+        import av
+
+        fmt = "gray16le" if self.kind == "depth" else "rgb24"
+        vf = av.VideoFrame.from_ndarray(self._prepare(frame), format=fmt)
+        vf.pts = self.frames
+        self.frames += 1
+        for packet in self.stream.encode(vf):
+            self.container.mux(packet)
+
+    def close(self) -> int:
+        for packet in self.stream.encode():
+            self.container.mux(packet)
+        self.container.close()
+        return self.frames
+
+
+def read_frames(path: str | Path, kind: str, height: int | None = None, width: int | None = None,
+                tolerate_truncation: bool = False):
+    """Decoded frames in order: HxWx3 uint8 (rgb) or HxW uint16 (depth, in the stream's units).
+
+    With `tolerate_truncation`, stops quietly at the first undecodable packet (a crashed
+    recording's torn last fragment) instead of raising."""
+    import av
+
+    fmt = "gray16le" if kind == "depth" else "rgb24"
+    with av.open(str(path)) as container:
+        stream = container.streams.video[0]
+        stream.thread_type = "AUTO"
+        try:
+            for packet in container.demux(stream):
+                for frame in packet.decode():
+                    arr = frame.to_ndarray(format=fmt)
+                    if height is not None and width is not None:
+                        arr = arr[:height, :width]
+                    yield arr
+        except av.error.FFmpegError:
+            if not tolerate_truncation:
+                raise

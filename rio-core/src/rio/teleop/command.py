@@ -1,0 +1,84 @@
+"""`rio teleop STATION`: the teleop workflow as a command (typer). Mounted by the CLI; all work is
+done by `rio.teleop.run_teleop`, so scripts and tests call exactly what the command runs."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+
+def teleop(
+    station: Annotated[str, typer.Argument(help="Station name (`rio stations list`) or path of a .toml file.")],
+    device: Annotated[str | None, typer.Option("--teleop", "-t",
+                                               help="Teleop device: keyboard, scripted, or any registered teleop "
+                                                    "driver (default: the station's own).")] = None,
+    instruction: Annotated[str | None, typer.Option("--instruction", "-i",
+                                                    help="Task text stored with every step.")] = None,
+    viz: Annotated[bool, typer.Option("--viz", help="Stream cameras, joints and tool poses to rerun "
+                                                    "(saved to an .rrd file when there is no display).")] = False,
+    duration: Annotated[float | None, typer.Option("--duration", "-d", min=0.1,
+                                                   help="Stop after this many seconds.")] = None,
+    mode: Annotated[str, typer.Option("--mode", help="translation, translation_rotation, planar (2-D) or "
+                                                     "rotation; the device's mode button cycles it.")] = "translation",
+    max_pos_speed: Annotated[float, typer.Option(help="Tool speed limit (m/s).")] = 0.15,
+    max_rot_speed: Annotated[float, typer.Option(help="Tool rotation speed limit (rad/s).")] = 1.0,
+    rate: Annotated[float | None, typer.Option("--rate", help="Control rate (Hz; default: the station's).")] = None,
+    middleware: Annotated[str | None, typer.Option("--middleware", "-m",
+                                                   help="Override the station's middleware.")] = None,
+    record: Annotated[str | None, typer.Option("--record", help="Record each run as an episode of this "
+                                                              "dataset directory (created if absent).")] = None,
+    episodes: Annotated[int, typer.Option("--episodes", min=1, help="With --record: episodes to keep.")] = 1,
+    on_end: Annotated[str, typer.Option("--on-end", help="With --record, after each run: ask (keys k/d/r in a "
+                                                         "terminal), keep or discard. Default: ask when "
+                                                         "interactive, else keep.")] = "auto",
+) -> None:
+    """Teleoperate a station's arm(s) in end-effector space; prints a summary when it ends."""
+    from .loop import run_teleop
+
+    def run(on_step=None):
+        return run_teleop(station, device, instruction=instruction, viz=viz, duration=duration,
+                          middleware=middleware, rate_hz=rate, mode=mode, max_pos_speed=max_pos_speed,
+                          max_rot_speed=max_rot_speed, on_step=on_step, log=lambda m: typer.echo(m, err=True))
+
+    if record is None:
+        typer.echo(run().format())
+        return
+    _record_episodes(run, record, episodes, on_end, station, instruction, rate)
+
+
+def _record_tick(rec, tick) -> None:
+    if tick.it == 0 and tick.env is not None and "embodiment" not in rec.info:
+        rec.describe_env(tick.env)  # action names and embodiment travel with the dataset
+    rec.add(tick.step)
+
+
+def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, instruction: str | None,
+                     rate: float | None) -> None:
+    """One teleop run per episode; after each, keep / discard / re-record (a key in a terminal, or
+    the --on-end choice for headless runs). The recorder makes every kept episode durable at once."""
+    import sys
+
+    from ..recording import Recorder
+    from .loop import prepare_station
+
+    if on_end not in ("auto", "ask", "keep", "discard"):
+        raise typer.BadParameter("--on-end must be ask, keep or discard")
+    ask = on_end == "ask" or (on_end == "auto" and sys.stdin.isatty())
+    st = prepare_station(station)
+    with Recorder(root, fps=rate or st.rate_hz, station=st.name, instruction=instruction,
+                  episodes=episodes) as rec:
+        while not rec.done:
+            summary = run(on_step=lambda tick: _record_tick(rec, tick))
+            typer.echo(summary.format())
+            choice = (typer.prompt(f"{rec.status()}: [k]eep, [d]iscard or [r]e-record?", default="k")
+                      if ask else on_end if on_end != "auto" else "keep")[:1].lower()
+            if choice == "k":
+                meta = rec.keep()
+                typer.echo(f"kept episode {meta['index'] if meta else '(empty, dropped)'} in {root}", err=True)
+            else:
+                rec.discard()
+                typer.echo("discarded" if choice == "d" else "discarded; recording it again", err=True)
+                if choice == "d" and not ask:
+                    break  # headless discard: do not loop forever
+    typer.echo(f"dataset {root}: {len(rec.kept)} episode(s) kept")
