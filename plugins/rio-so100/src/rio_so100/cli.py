@@ -1,0 +1,184 @@
+"""`rio so100 ...`: calibrate an arm, serve a virtual bus, leader-follower teleop, torque, scan.
+
+Mounted by the plugin's `rio_cli` hook. Each command imports what it needs when it runs; the work
+itself lives in importable modules (`calibrate`, `leader_follower`, `virtual`), so scripts and tests
+call exactly what the commands run.
+"""
+
+from __future__ import annotations
+
+import select
+import sys
+import time
+from typing import Annotated
+
+import typer
+
+app = typer.Typer(help="SO-100 / SO-101 arms on the Feetech bus: calibrate, virtual bus, leader-follower teleop.",
+                  no_args_is_help=True)
+
+Port = Annotated[str, typer.Option("--port", "-p", help='serial port (e.g. /dev/ttyACM0), or "virtual"')]
+Model = Annotated[str, typer.Option("--model", help="so100 or so101")]
+
+
+def _enter_pressed(timeout: float) -> bool:
+    """True once the user pressed Enter (waits at most `timeout`)."""
+    ready, _, _ = select.select([sys.stdin], [], [], timeout)
+    if ready:
+        sys.stdin.readline()
+        return True
+    return False
+
+
+@app.command()
+def calibrate(
+    port: Port,
+    role: Annotated[str, typer.Option("--role", help="follower or leader")] = "follower",
+    model: Model = "so100",
+    name: Annotated[str | None, typer.Option(
+        "--name", help="calibration name (left, right, ...) used by station files as `calibration = NAME`, or a "
+                       ".json path [default: default; virtual-demo with --port virtual]")] = None,
+) -> None:
+    """Calibrate one arm: record its middle pose, then each joint's range of motion."""
+    from .calibrate import Calibrator
+    from .calibration import ROLES, calibration_path, save_calibration
+    from .connection import check_present, is_virtual
+    from .feetech.bus import FeetechBus
+    from .models import ARM_IDS, ARM_JOINTS, GRIPPER, GRIPPER_ID, MODELS
+
+    if role not in ROLES or model not in MODELS:
+        raise typer.BadParameter(f"--role is one of {ROLES}, --model one of {sorted(MODELS)}")
+    joints = {**dict(zip(ARM_JOINTS, ARM_IDS, strict=True)), GRIPPER: GRIPPER_ID}
+    virtual = hand = None
+    path = port
+    if is_virtual(port):
+        from .virtual import VirtualBus
+        from .virtual.hand import CalibrationHand
+
+        virtual = VirtualBus()
+        hand = CalibrationHand(virtual)
+        path = virtual.port
+        typer.echo(f"virtual arm on {path}: a scripted hand answers the prompts")
+    name = name or ("virtual-demo" if virtual is not None else "default")
+    try:
+        with FeetechBus(path, names={v: k for k, v in joints.items()}) as bus:
+            check_present(bus, joints.values(), port)
+            cal = Calibrator(bus, joints)
+            cal.prepare()
+            typer.echo(f"Calibrating the {model} {role} '{name}' on {port}. Torque is off: move the arm by hand.")
+            typer.echo("1. Put every joint in the middle of its range (gripper half open), then press Enter.")
+            if hand is not None:
+                hand.hold_middle()
+                time.sleep(0.1)
+            else:
+                input()
+            cal.record_middle()
+            typer.echo("2. Move every joint, one at a time, through its whole range; press Enter when done.")
+            t_end, t_show = None, 0.0
+            if hand is not None:
+                hand.sweep(1.5)
+                t_end = time.monotonic() + 1.7
+            while True:
+                seen = cal.sample()
+                if time.monotonic() > t_show:  # a live line, 5 times a second
+                    t_show = time.monotonic() + 0.2
+                    typer.echo("\r" + "  ".join(f"{j} {lo}..{hi}" for j, (lo, _, hi) in seen.items()), nl=False)
+                if t_end is not None:
+                    time.sleep(0.02)
+                    if time.monotonic() > t_end:
+                        break
+                elif _enter_pressed(0.05):
+                    break
+            typer.echo("")
+            result = cal.finish(model, role, name)
+        saved = save_calibration(result, calibration_path(name, model, role))
+        typer.echo(f"saved {saved}")
+        for j, jc in result.joints.items():
+            lo, hi = jc.limits_rad()
+            typer.echo(f"  {j:14s} id {jc.id}  offset {jc.homing_offset:+5d}  range {jc.range_min}..{jc.range_max} "
+                       f"steps = {lo:+.2f}..{hi:+.2f} rad")
+    finally:
+        if virtual is not None:
+            virtual.close()
+
+
+@app.command("virtual-bus")
+def virtual_bus(
+    ids: Annotated[str, typer.Option(help="servo ids on the bus, comma separated")] = "1,2,3,4,5,6",
+    motion: Annotated[str, typer.Option(help="none, or wave: a scripted hand moves torque-off servos")] = "none",
+    seconds: Annotated[float | None, typer.Option(help="stop after this long (default: until Ctrl+C)")] = None,
+) -> None:
+    """Serve emulated STS3215 servos on a pseudo-terminal; use the printed path as a port."""
+    from .virtual import VirtualBus
+    from .virtual.hand import attach_motion
+
+    bus = VirtualBus([int(i) for i in ids.split(",") if i.strip()])
+    attach_motion(bus, motion)
+    typer.echo(bus.port)
+    typer.echo(f"virtual Feetech bus with servos {sorted(bus.servos)} on {bus.port} (Ctrl+C to stop); e.g. "
+               f"port = \"{bus.port}\" in a station file", err=True)
+    t_end = None if seconds is None else time.monotonic() + seconds
+    try:
+        while t_end is None or time.monotonic() < t_end:
+            time.sleep(0.1)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        bus.close()
+        typer.echo(f"served {bus.stats['status']} status packets", err=True)
+
+
+@app.command()
+def teleop(
+    station: Annotated[str, typer.Argument(help="station name or .toml path with leader arm(s) as teleop devices")],
+    duration: Annotated[float | None, typer.Option("--duration", "-d", min=0.1, help="stop after (s)")] = None,
+    rate: Annotated[float | None, typer.Option(help="control rate (Hz; default: the station's)")] = None,
+    align_speed: Annotated[float, typer.Option(help="follower speed while aligning to the leader (rad/s)")] = 0.5,
+    middleware: Annotated[str | None, typer.Option("--middleware", "-m", help="override the middleware")] = None,
+) -> None:
+    """Leader-follower teleop: align each follower to its leader slowly, then mirror it."""
+    from .leader_follower import run
+
+    summary = run(station, duration=duration, rate_hz=rate, align_speed=align_speed, middleware=middleware,
+                  log=lambda m: typer.echo(m, err=True))
+    typer.echo(summary.format())
+
+
+@app.command()
+def torque(
+    state: Annotated[str, typer.Argument(help="on or off")],
+    port: Port,
+    ids: Annotated[str, typer.Option(help="servo ids, comma separated")] = "1,2,3,4,5,6",
+) -> None:
+    """Enable (hold the present pose) or disable the torque of servos on a bus."""
+    from .feetech import control_table as T
+    from .feetech.bus import FeetechBus
+
+    if state not in ("on", "off"):
+        raise typer.BadParameter("state is on or off")
+    id_list = [int(i) for i in ids.split(",") if i.strip()]
+    with FeetechBus(port) as bus:
+        for sid in id_list:
+            if state == "on":
+                bus.write(sid, T.GOAL_POSITION, bus.read(sid, T.PRESENT_POSITION))
+            bus.write(sid, T.TORQUE_ENABLE, 1 if state == "on" else 0, check_error=state == "on")
+    typer.echo(f"torque {state}: servos {id_list} on {port}")
+
+
+@app.command()
+def scan(
+    port: Port,
+    max_id: Annotated[int, typer.Option(help="highest id to ping")] = 12,
+) -> None:
+    """Ping ids 1..MAX_ID and list the servos that answer (model, position, voltage, temperature)."""
+    from .feetech import control_table as T
+    from .feetech.bus import FeetechBus
+
+    with FeetechBus(port) as bus:
+        found = {sid: m for sid, m in bus.find(range(1, max_id + 1)).items() if m is not None}
+        if not found:
+            typer.echo(f"no servo answered on {port} (ids 1..{max_id})")
+            raise typer.Exit(1)
+        for sid, model in found.items():
+            typer.echo(f"id {sid}: model {model}, position {bus.read(sid, T.PRESENT_POSITION)}, "
+                       f"{bus.read(sid, T.PRESENT_VOLTAGE) / 10:.1f} V, {bus.read(sid, T.PRESENT_TEMPERATURE)} C")

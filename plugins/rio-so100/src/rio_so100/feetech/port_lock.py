@@ -1,0 +1,40 @@
+"""One transaction at a time on a serial bus shared by several nodes.
+
+The SO-100's jaw servo sits on the arm's bus but is driven by its own gripper node (possibly in
+another process), so both open the same port. Each transaction (instruction out, status packets in)
+holds an exclusive `flock` on a lock file named after the port's real path; the tty's input queue
+is shared, so the holder also drops stale input before it speaks.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import tempfile
+
+
+def lock_dir() -> str:
+    base = os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir()
+    path = os.path.join(base, f"rio-so100-{os.getuid()}")
+    os.makedirs(path, mode=0o700, exist_ok=True)
+    return path
+
+
+class PortLock:
+    def __init__(self, port: str):
+        real = os.path.realpath(port)
+        name = real.strip("/").replace("/", "_") or "port"
+        self.path = os.path.join(lock_dir(), f"{name}.lock")
+        self._fd: int | None = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
+
+    def __enter__(self) -> PortLock:
+        fcntl.flock(self._fd, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        fcntl.flock(self._fd, fcntl.LOCK_UN)
+
+    def close(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None

@@ -1,0 +1,42 @@
+"""Shared fixtures: every test gets its own config directory (calibrations never touch the user's),
+and virtual buses that are always closed."""
+
+from __future__ import annotations
+
+import pytest
+from rio_so100.calibration import default_calibration, save_calibration
+from rio_so100.virtual import VirtualBus
+
+
+@pytest.fixture(autouse=True)
+def config_home(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+    return tmp_path / "config"
+
+
+@pytest.fixture
+def vbus():
+    """Six emulated servos (ids 1-6) on a pty, all at mid-turn."""
+    with VirtualBus() as bus:
+        yield bus
+
+
+@pytest.fixture
+def make_vbus():
+    buses = []
+
+    def make(**kwargs):
+        buses.append(VirtualBus(**kwargs))
+        return buses[-1]
+
+    yield make
+    for b in buses:
+        b.close()
+
+
+@pytest.fixture
+def calibrated():
+    """Save the default calibration of an arm under a name, as `rio so100 calibrate` would."""
+    def save(name: str = "default", role: str = "follower", model: str = "so100"):
+        return save_calibration(default_calibration(model, role, name))
+    return save
