@@ -45,7 +45,7 @@ def test_leader_drives_the_simulated_arm_through_the_real_driver(make_vbus, cali
     def on_step(tick):
         last["obs"] = tick.step.observation
 
-    summary = run(st, duration=2.5, align_speed=1.0, on_step=on_step, log=None)
+    summary = run(st, duration=4.0, align_speed=1.0, on_step=on_step, log=None)  # slack for a loaded CI machine
     arm = summary.arms[0]
     assert arm["align_s"] is not None and arm["align_s"] < 1.0, summary.format()
     obs = last["obs"]
