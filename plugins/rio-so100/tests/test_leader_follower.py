@@ -8,7 +8,7 @@ import pytest
 from rio.errors import RioError
 from rio.station.load import parse_station
 from rio_so100.calibration import RAD_PER_STEP, default_calibration
-from rio_so100.leader_follower import run
+from rio.teleop.leader_follower import run
 
 LEADER_Q = np.array([0.3, -0.25, 0.4, 0.15, -0.35])
 LATER_Q = np.array([0.1, 0.2, 0.1, -0.2, 0.3])
@@ -80,3 +80,19 @@ def test_a_station_without_leader_arms_is_refused():
                         "components": {"arm": {"driver": "so100.follower", "port": "virtual"}}}, source="<test>")
     with pytest.raises(RioError, match="no leader-follower pair"):
         run(st, duration=0.1, log=None)
+
+
+def test_rio_teleop_command_mirrors_with_a_leader_device(tmp_path):
+    """`rio teleop STATION --teleop so100.leader` (the core command) runs leader-follower, ALOHA-style
+    with two pairs, over virtual buses."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "XDG_CONFIG_HOME": str(tmp_path)}
+    out = subprocess.run([sys.executable, "-m", "rio", "teleop", "so100-bimanual-virtual", "--teleop", "so100.leader",
+                          "--duration", "2.5"], capture_output=True, text=True, timeout=180, env=env,
+                         stdin=subprocess.DEVNULL)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "arm <- teleop:" in out.stdout and "arm2 <- teleop2:" in out.stdout
+    assert out.stdout.count("aligned after") == 2, out.stdout

@@ -26,7 +26,7 @@ without forward kinematics has no `eef_pose`) is published as NaN, never as a ma
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -177,6 +177,9 @@ class TeleopNode(Node):
     is a teleop-kind node publishing ArmNode's state keys instead.)"""
 
     __api__ = ("get_state",)
+    #: True for a leader arm: it also publishes `joint_pos`, and `rio teleop` mirrors it joint by joint
+    #: (rio.teleop.leader_follower) instead of integrating its twist in end-effector space.
+    leader_arm: ClassVar[bool] = False
 
     def __init__(self, buttons: int = 2, *, rate_hz: float | None = 100.0):
         super().__init__(rate_hz=rate_hz)

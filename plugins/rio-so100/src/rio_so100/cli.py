@@ -1,7 +1,7 @@
 """`rio so100 ...`: calibrate an arm, serve a virtual bus, leader-follower teleop, torque, scan.
 
 Mounted by the plugin's `rio_cli` hook. Each command imports what it needs when it runs; the work
-itself lives in importable modules (`calibrate`, `leader_follower`, `virtual`), so scripts and tests
+itself lives in importable modules (`calibrate`, `virtual`, core's rio.teleop.leader_follower), so scripts and tests
 call exactly what the commands run.
 """
 
@@ -137,7 +137,7 @@ def teleop(
     middleware: Annotated[str | None, typer.Option("--middleware", "-m", help="override the middleware")] = None,
 ) -> None:
     """Leader-follower teleop: align each follower to its leader slowly, then mirror it."""
-    from .leader_follower import run
+    from rio.teleop.leader_follower import run
 
     summary = run(station, duration=duration, rate_hz=rate, align_speed=align_speed, middleware=middleware,
                   log=lambda m: typer.echo(m, err=True))

@@ -25,6 +25,7 @@ _NO_BUTTONS = np.zeros(2, bool)
 class So100Leader(TeleopNode):
     __api__ = ("get_state", "joint_names", "num_joints", "torque")
     role = "leader"
+    leader_arm = True  # `rio teleop` mirrors it joint by joint
 
     def __init__(self, port: str, calibration: str = "default", model: str = "so100",
                  joints: list[str] | None = None, gripper: str | None = GRIPPER, rate_hz: float = 100.0,

@@ -19,8 +19,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from rio import time as rtime
-from rio.errors import RioError
+
+from .. import time as rtime
+from ..errors import RioError
 
 PAIRS = (("teleop", "arm", "gripper"), ("teleop2", "arm2", "gripper2"))
 
@@ -106,9 +107,9 @@ def run(station: Any, *, duration: float | None = None, rate_hz: float | None = 
         log: Callable[[str], None] | None = print) -> LeaderFollowerSummary:
     """Run leader-follower teleop on `station` (name, .toml path or `Station`) until `duration` s,
     `should_stop()`, or Ctrl+C. Returns a summary (alignment time and final error of each arm)."""
-    from rio.manager import ServerManager
-    from rio.station.build import make_station
-    from rio.station.load import load_station
+    from ..manager import ServerManager
+    from ..station.build import make_station
+    from ..station.load import load_station
 
     say = log or (lambda _m: None)
     st = load_station(station)
