@@ -18,12 +18,12 @@ from rio.node import client_side
 
 from ..connection import ArmConnection
 from ..models import ARM_JOINTS
-from ..safety import JointCommander
+from ..servo_node import ServoNodeMixin
 
 _NAN_POSE = np.full(7, np.nan)
 
 
-class So100Follower(ArmNode):
+class So100Follower(ServoNodeMixin, ArmNode):
     __api__ = (*ArmNode.__api__, "torque", "joint_limits", "joint_names", "hold")
     role = "follower"
 
@@ -49,25 +49,11 @@ class So100Follower(ArmNode):
     def open(self) -> None:
         self.group = self.conn.open(self.joint_list)
         self.group.configure(*self.gains, torque_limit=self.max_torque)
-        lower, upper = self.group.limits_rad()
-        self.commander = JointCommander(lower, upper, self.max_step, self.watchdog_s)
-        self.torque(True)
-
-    def close(self) -> None:
-        try:
-            if self.group is not None and self.disable_torque_on_close and self._torque:
-                self.group.set_torque(False)
-        except Exception:
-            pass  # closing must release the port whatever state the bus is in
-        finally:
-            self.conn.close()
+        self._start()
 
     # -- loop --------------------------------------------------------------------------------------
     def read_state(self) -> dict[str, Any]:
-        s = self.group.read()
-        self.group.check_faults(s, hold=self._torque)
-        if self._torque:
-            self.group.write_rad(self.commander.step(rtime.now()))
+        s = self._cycle()
         return {"joint_pos": s["joint_pos"], "joint_vel": s["joint_vel"], "eef_pose": _NAN_POSE,
                 "holding": self.commander.holding, "torque": self._torque, "load": s["load"],
                 "temperature": s["temperature"], "voltage": s["voltage"], "error": s["error"]}
@@ -77,14 +63,6 @@ class So100Follower(ArmNode):
             self.commander.command(joint_pos, t_cmd_target, rtime.now())
 
     # -- remote API --------------------------------------------------------------------------------
-    def torque(self, enabled: bool = True) -> bool:
-        """Enable (hold the present pose) or disable (limp arm) the servos' torque."""
-        self.group.set_torque(bool(enabled))
-        self._torque = bool(enabled)
-        if enabled:
-            self.commander.reset(self.group.read()["joint_pos"], rtime.now())
-        return self._torque
-
     def hold(self) -> None:
         """Stop where the arm is commanded to be now."""
         self.commander.hold()

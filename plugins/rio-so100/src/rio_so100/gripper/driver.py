@@ -17,10 +17,10 @@ from rio.interfaces import GripperNode
 
 from ..connection import ArmConnection
 from ..models import GRIPPER
-from ..safety import JointCommander
+from ..servo_node import ServoNodeMixin
 
 
-class So100Gripper(GripperNode):
+class So100Gripper(ServoNodeMixin, GripperNode):
     __api__ = (*GripperNode.__api__, "torque")
     role = "follower"
 
@@ -42,18 +42,7 @@ class So100Gripper(GripperNode):
         self.group = self.conn.open([self.joint])
         self.cal = self.group.cal[0]
         self.group.configure(torque_limit=self.max_torque)
-        lower, upper = self.group.limits_rad()
-        self.commander = JointCommander(lower, upper, self.max_step, self.watchdog_s)
-        self.torque(True)
-
-    def close(self) -> None:
-        try:
-            if self.group is not None and self.disable_torque_on_close and self._torque:
-                self.group.set_torque(False)
-        except Exception:
-            pass
-        finally:
-            self.conn.close()
+        self._start()
 
     # -- meters <-> jaw angle ----------------------------------------------------------------------
     def _width(self, steps: float) -> float:
@@ -64,23 +53,13 @@ class So100Gripper(GripperNode):
 
     # -- loop --------------------------------------------------------------------------------------
     def read_state(self) -> dict[str, Any]:
-        s = self.group.read()
-        self.group.check_faults(s, hold=self._torque)
-        if self._torque:
-            self.group.write_rad(self.commander.step(rtime.now()))
+        s = self._cycle()
         return {"position": self._width(s["steps"][0]), "max_width": self.width, "holding": self.commander.holding,
                 "load": float(s["load"][0]), "temperature": float(s["temperature"][0]), "error": int(s["error"][0])}
 
     def command_position(self, position: float, t_cmd_target: float) -> None:
         if self._torque:
             self.commander.command(np.array([self._rad(position)]), t_cmd_target, rtime.now())
-
-    def torque(self, enabled: bool = True) -> bool:
-        self.group.set_torque(bool(enabled))
-        self._torque = bool(enabled)
-        if enabled:
-            self.commander.reset(self.group.read()["joint_pos"], rtime.now())
-        return self._torque
 
 
 class So101Gripper(So100Gripper):
