@@ -52,16 +52,19 @@ def test_onnx_rl_policy(tmp_path):
 def test_lerobot_policy_from_a_saved_directory(tmp_path, kind):
     pytest.importorskip("lerobot")
     from lerobot.configs.types import FeatureType, PolicyFeature
-    from lerobot.policies.factory import get_policy_class, make_policy_config
+    from lerobot.policies.factory import get_policy_class, make_policy_config, make_pre_post_processors
     from rio_policies.lerobot_policy import LeRobotPolicy
 
     size = (96, 96) if kind == "diffusion" else (48, 64)
-    cfg = make_policy_config(kind, device="cpu")
+    # no ImageNet backbone: torchvision would download it, and tests build everything offline
+    cfg = make_policy_config(kind, device="cpu", pretrained_backbone_weights=None)
     cfg.input_features = {"observation.state": PolicyFeature(FeatureType.STATE, (4,)),
                           "observation.images.front": PolicyFeature(FeatureType.VISUAL, (3, *size))}
     cfg.output_features = {"action": PolicyFeature(FeatureType.ACTION, (4,))}
     policy = get_policy_class(kind)(cfg)  # random weights
     policy.save_pretrained(tmp_path / "model")
+    for processor in make_pre_post_processors(cfg, dataset_stats=None):  # as a training run saves them
+        processor.save_pretrained(tmp_path / "model")
     obs = SingleArmObs(proprio=np.zeros(4), cameras={"front": Camera(rgb=np.zeros((*size, 3), np.uint8))})
     pol = LeRobotPolicy(path=str(tmp_path / "model"), rate_hz=30)
     pol.load(ObsSpec.of(obs))

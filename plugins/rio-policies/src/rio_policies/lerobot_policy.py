@@ -80,10 +80,28 @@ class LeRobotPolicy(Policy):
         import torch
 
         with torch.inference_mode():
-            actions = self.model.predict_action_chunk(batch)
+            actions = self.model.predict_action_chunk(self._with_history(batch))
             if self.post is not None:
                 actions = self.post(actions)
         return actions[0].detach().to("cpu", torch.float64).numpy()
+
+
+    def _with_history(self, batch: dict[str, Any]) -> dict[str, Any]:
+        """Policies with an observation history (Diffusion: n_obs_steps) read it from their queues,
+        which their own `select_action` fills before predicting; do the same here so a chunk can be
+        asked for directly (images stacked under "observation.images", as that method does)."""
+        queues = getattr(self.model, "_queues", None)
+        if queues is None:
+            return batch
+        import torch
+        from lerobot.policies.utils import populate_queues
+
+        batch = {k: v for k, v in batch.items() if k != "action"}  # the preprocessor's empty action slot
+        features = list(getattr(self.model.config, "image_features", None) or [])
+        if features and "observation.images" in queues:
+            batch = {**batch, "observation.images": torch.stack([batch[k] for k in features], dim=-4)}
+        self.model._queues = populate_queues(queues, batch)
+        return batch
 
 
 class LeRobotNode(PolicyNode):
