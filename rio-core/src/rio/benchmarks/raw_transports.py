@@ -234,15 +234,21 @@ def _zmq_server(conn: Any) -> None:
     zctx.term()
 
 
+def _spawn_echo_server(target: Any, *args: Any, name: str) -> tuple[Any, Any]:
+    """Start a raw echo server in a spawned child; returns (process, our end of its control pipe)."""
+    ctx = mp.get_context("spawn")
+    conn, child_conn = ctx.Pipe()
+    proc = ctx.Process(target=target, args=(child_conn, *args), daemon=True, name=name)
+    proc.start()
+    child_conn.close()
+    return proc, conn
+
+
 @contextlib.contextmanager
 def open_zmq(payload: np.ndarray) -> Iterator[RoundTrip]:
     import zmq
 
-    ctx = mp.get_context("spawn")
-    conn, child_conn = ctx.Pipe()
-    proc = ctx.Process(target=_zmq_server, args=(child_conn,), daemon=True, name="rio-bench-raw-zmq")
-    proc.start()
-    child_conn.close()
+    proc, conn = _spawn_echo_server(_zmq_server, name="rio-bench-raw-zmq")
     zctx = sock = None
     try:
         port = _wait_msg(conn, proc, "zmq raw")["port"]
@@ -416,11 +422,7 @@ def _portal_server(conn: Any) -> None:
 
 @contextlib.contextmanager
 def open_portal(payload: np.ndarray) -> Iterator[RoundTrip]:
-    ctx = mp.get_context("spawn")
-    conn, child_conn = ctx.Pipe()
-    proc = ctx.Process(target=_portal_server, args=(child_conn,), daemon=True, name="rio-bench-raw-portal")
-    proc.start()
-    child_conn.close()
+    proc, conn = _spawn_echo_server(_portal_server, name="rio-bench-raw-portal")
     client = None
     try:
         with keep_start_method():
