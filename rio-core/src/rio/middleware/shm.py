@@ -142,8 +142,25 @@ def _no_idle() -> None:
     pass
 
 
-def _recv(sock: socket.socket, n: int, on_idle: Callable[[], None]) -> bytes:
-    """recv() that calls `on_idle()` each time the kernel receive timeout (SO_RCVTIMEO) expires."""
+#: A reply usually arrives within tens of microseconds: poll for it this long before sleeping in the
+#: kernel, because a wake-up from a blocked recv costs ~10-30 us on this class of machine.
+SPIN_S = float(os.environ.get("RIO_SHM_SPIN_US", "50")) * 1e-6
+#: The node's API thread polls as long for the next call after answering one (back-to-back calls).
+SERVER_SPIN_S = float(os.environ.get("RIO_SHM_SERVER_SPIN_US", "50")) * 1e-6
+
+
+def _recv(sock: socket.socket, n: int, on_idle: Callable[[], None], spin_s: float = 0.0) -> bytes:
+    """recv() that first polls for `spin_s` (yielding the CPU between tries), then blocks, calling
+    `on_idle()` each time the kernel receive timeout (SO_RCVTIMEO) expires."""
+    if spin_s > 0:
+        t_end = rtime.now() + spin_s
+        while True:
+            try:
+                return sock.recv(n, socket.MSG_DONTWAIT)
+            except BlockingIOError:
+                if rtime.now() > t_end:
+                    break
+                os.sched_yield()
     while True:
         try:
             return sock.recv(n)
@@ -151,9 +168,9 @@ def _recv(sock: socket.socket, n: int, on_idle: Callable[[], None]) -> bytes:
             on_idle()
 
 
-def _recv_frame(sock: socket.socket, on_idle: Callable[[], None] = _no_idle) -> bytes | None:
+def _recv_frame(sock: socket.socket, on_idle: Callable[[], None] = _no_idle, spin_s: float = 0.0) -> bytes | None:
     """One frame, or None on EOF. Usually a single recv() for small frames."""
-    buf = _recv(sock, 65536, on_idle)
+    buf = _recv(sock, 65536, on_idle, spin_s)
     if not buf:
         return None
     while len(buf) < _LEN:
@@ -209,7 +226,7 @@ class ShmServer(ServerTransport):
         with conn:
             while True:
                 try:
-                    frame = _recv_frame(conn)
+                    frame = _recv_frame(conn, spin_s=SERVER_SPIN_S)
                 except OSError:
                     return
                 if frame is None:
@@ -293,7 +310,7 @@ class ShmClient(ClientTransport):
 
             try:
                 _send_frame(sock, wire.pack_call(self._call_id, method, args, kwargs))
-                frame = _recv_frame(sock, on_idle)
+                frame = _recv_frame(sock, on_idle, SPIN_S)
             except (BrokenPipeError, ConnectionResetError):
                 frame = None
             if frame is None:
