@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import rio
 from rio import ServerManager, connect, serve
-from rio.testing import EchoNode, FailingOpenNode, ImageNode
+from rio.testing import EchoNode, FailingOpenNode, ImageNode, wait_until
 
 from .conftest import MIDDLEWARES, child_pids, shm_entries
 
@@ -36,18 +36,11 @@ def assert_no_shm_left(mgr: ServerManager, before: set[str]) -> None:
     assert not ours, f"/dev/shm entries left behind: {ours}"
 
 
-def wait_until(pred, timeout: float = 3.0, what: str = "condition") -> None:
-    t_end = time.monotonic() + timeout
-    while not pred():
-        if time.monotonic() > t_end:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.002)
-
 
 def test_latest_state_advances_and_last_k_is_ordered(running):
     _, _, c = running
     s1 = c.get_state()
-    wait_until(lambda: c.get_state()["tick"] > s1["tick"] + 3, what="new samples")
+    assert wait_until(lambda: c.get_state()["tick"] > s1["tick"] + 3), "timed out waiting for new samples"
     s2 = c.get_state()
     assert s2["timestamp"] > s1["timestamp"]
     np.testing.assert_array_equal(s2["q"], np.full(6, float(s2["tick"])))
@@ -87,7 +80,7 @@ def test_two_clients_concurrent_requests_none_lost(running):
         t.join()
     assert not errors, errors
     c = running[2]
-    wait_until(lambda: len(c.handled()) - before >= 2 * n, what="all requests handled")
+    assert wait_until(lambda: len(c.handled()) - before >= 2 * n), "timed out waiting for all requests handled"
     got = [tuple(x) for x in c.handled()[before:]]
     assert len(got) == 2 * n
     for cid in (1, 2):
@@ -98,7 +91,7 @@ def test_request_reaches_node_state(running):
     _, _, c = running
     target = np.arange(6, dtype=np.float64) * 0.1
     c.send_request(q=target, client=0, seq=0)
-    wait_until(lambda: np.allclose(c.get_state()["last"], target), what="request applied")
+    assert wait_until(lambda: np.allclose(c.get_state()["last"], target)), "timed out waiting for request applied"
 
 
 def test_api_call_returns_value(running):
@@ -137,10 +130,11 @@ def test_bad_requests_rejected_node_keeps_serving(running, bad, field):
     assert ei.value.node == "echo" and ei.value.field == field
     assert f"'{field}'" in str(ei.value)
     tick = c.get_state()["tick"]
-    wait_until(lambda: c.get_state()["tick"] > tick, what="node still publishing")
+    assert wait_until(lambda: c.get_state()["tick"] > tick), "timed out waiting for node still publishing"
     good = np.full(6, 0.25)
     c.send_request(q=good, client=9, seq=1)
-    wait_until(lambda: np.allclose(c.get_state()["last"], good), what="valid request after rejects")
+    assert wait_until(lambda: np.allclose(c.get_state()["last"], good)), (
+        "timed out waiting for valid request after rejects")
 
 
 def test_unknown_api_method_is_clear(running):
@@ -154,7 +148,7 @@ def test_image_stream(mw):
         with connect(ImageNode, mw, name="cam", rate_hz=60) as cam:
             f1 = cam.get_state()
             assert f1["rgb"].shape == (480, 640, 3) and f1["rgb"].dtype == np.uint8
-            wait_until(lambda: cam.get_state()["frame"] >= f1["frame"] + 5, what="new frames")
+            assert wait_until(lambda: cam.get_state()["frame"] >= f1["frame"] + 5), "timed out waiting for new frames"
             s = cam.get_state()
             assert s["rgb"][0, 0, 0] == s["frame"] % 4
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import sys
-import time
 import types
 
 import numpy as np
@@ -17,6 +16,7 @@ from rio.plugins import Registry
 from rio.schema import BimanualObs, HumanoidObs, Observation, SingleArmObs, Step
 from rio.specs import Spec
 from rio.station import make_station, parse_station
+from rio.testing import wait_until
 
 
 @pytest.fixture
@@ -28,14 +28,6 @@ def station(reg, components, **top):
     return parse_station({"name": "emb-test", "middleware": {"name": "thread"}, "rate_hz": 50,
                           "components": components, **top}, registry=reg)
 
-
-def wait_for(pred, timeout=3.0):
-    t_end = time.monotonic() + timeout
-    while time.monotonic() < t_end:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return False
 
 
 @pytest.mark.parametrize("roles, expected", [
@@ -131,7 +123,7 @@ def test_single_arm_station_steps(reg):
             assert step.timestep == 1 and np.array_equal(step.action, target)
             assert step.instruction == "pick up the cube"
             assert set(step.meta["timestamps"]) == {"arm", "gripper", "front_camera"}
-            assert wait_for(lambda: np.allclose(env.get_state().observation.proprio, target, atol=1e-6))
+            assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, target, atol=1e-6))
             final = env.get_state().observation
             assert final.gripper_position == pytest.approx(0.02)
             assert np.allclose(final.proprio_joints, target[:6])
@@ -150,7 +142,7 @@ def test_single_arm_eef_action_space(reg):
         assert env.action_dim == 7
         pose = np.array([0.3, 0.0, 0.2, 0.0, 1.0, 0.0, 0.0])
         env.step(pose, t_cmd_target=rtime.now() + 0.05)
-        assert wait_for(lambda: np.allclose(env.get_state().observation.proprio_eef, pose))
+        assert wait_until(lambda: np.allclose(env.get_state().observation.proprio_eef, pose))
         assert np.allclose(env.get_state().observation.proprio, pose)
 
 
@@ -167,7 +159,7 @@ def test_bimanual_station_steps(reg):
         action = env.robot.build_action(arm1_joint_pos=left, arm1_gripper=0.01, arm2_joint_pos=right,
                                         arm2_gripper=0.05)
         env.step(action, t_cmd_target=rtime.now() + 0.05)
-        assert wait_for(lambda: np.allclose(env.get_state().observation.proprio, action))
+        assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, action))
         obs = env.get_state().observation
         assert isinstance(obs, BimanualObs)
         assert np.allclose(obs.arm1_proprio_joints, left) and np.allclose(obs.arm2_proprio_joints, right)
@@ -182,7 +174,7 @@ def test_humanoid_station_steps(reg):
         assert env.robot.describe_action() == "joint_pos (12), hand (6)"
         action = np.r_[np.full(12, 0.1), np.full(6, 0.4)]
         env.step(action, t_cmd_target=rtime.now() + 0.05)
-        assert wait_for(lambda: np.allclose(env.get_state().observation.proprio, action))
+        assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, action))
         obs = env.get_state().observation
         assert isinstance(obs, HumanoidObs)
         assert np.allclose(obs.base_quat, [1, 0, 0, 0]) and obs.hand2_joints is None
@@ -206,5 +198,5 @@ def test_station_over_a_process_middleware(reg):
     with ServerManager(servers), env:
         target = np.array([0.1, -0.2, 0.3, -0.4])
         env.step(target, t_cmd_target=rtime.now() + 0.05)
-        assert wait_for(lambda: np.allclose(env.get_state().observation.proprio, target), timeout=10)
+        assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, target), timeout=10)
         assert env.get_state().observation.cameras["top"].rgb.shape == (8, 16, 3)

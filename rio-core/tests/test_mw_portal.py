@@ -20,18 +20,10 @@ import rio  # noqa: E402
 from rio.errors import ConfigError  # noqa: E402
 from rio.manager import ServerManager, connect, serve  # noqa: E402
 from rio.middleware.portal import PortalMiddleware  # noqa: E402
-from rio.testing import EchoNode, ImageNode  # noqa: E402
+from rio.testing import EchoNode, ImageNode, wait_until  # noqa: E402
 
 MW = "portal"
 
-
-def _wait_for(pred, timeout=3.0):
-    t_end = time.monotonic() + timeout
-    while time.monotonic() < t_end:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +44,7 @@ def test_state_and_last_k(echo):
     s = c.get_state()  # seeded by the handshake: readable at once
     assert s["q"].shape == (6,)
     t0 = s["tick"]
-    assert _wait_for(lambda: c.get_state()["tick"] >= t0 + 5)
+    assert wait_until(lambda: c.get_state()["tick"] >= t0 + 5)
     k = c.get_state(k=5)
     assert k["tick"].shape == (5,) and k["q"].shape == (5, 6)
     assert np.all(np.diff(k["tick"]) == 1)  # the mirror holds every sample, in order
@@ -63,8 +55,8 @@ def test_requests_arrive_in_order(echo):
     _, c = echo
     for i in range(50):
         c.send_request(q=np.full(6, float(i)), client=7, seq=i)
-    assert _wait_for(lambda: np.all(c.get_state()["last"] == 49.0))
-    assert _wait_for(lambda: [h for h in c.handled() if h[0] == 7] == [[7, i] for i in range(50)])
+    assert wait_until(lambda: np.all(c.get_state()["last"] == 49.0))
+    assert wait_until(lambda: [h for h in c.handled() if h[0] == 7] == [[7, i] for i in range(50)])
 
 
 def test_echo_round_trip(echo):
@@ -90,7 +82,7 @@ def test_invalid_requests_refused_and_node_keeps_serving(echo):
     with pytest.raises(rio.InvalidRequest, match="shape"):
         c.send_request(q=np.zeros(5), client=1, seq=0)
     c.send_request(q=np.full(6, 3.0), client=1, seq=1)
-    assert _wait_for(lambda: [1, 1] in c.handled())
+    assert wait_until(lambda: [1, 1] in c.handled())
 
 
 def test_server_rechecks_raw_records(echo):
@@ -104,7 +96,7 @@ def test_server_rechecks_raw_records(echo):
     c._transport._conn.send(b"req", rec.tobytes(), reply)
     assert reply.event.wait(2.0) and b"NaN" in bytes(reply.data)
     c.send_request(q=np.zeros(6), client=3, seq=2)
-    assert _wait_for(lambda: [3, 2] in c.handled())
+    assert wait_until(lambda: [3, 2] in c.handled())
     assert [3, 1] not in c.handled()
 
 
@@ -185,7 +177,7 @@ def test_image_stream():
     with ServerManager(MW, [serve(ImageNode, name="cam", rate_hz=30.0)]):
         with connect(ImageNode, MW, name="cam") as cam:
             f0 = cam.get_state()["frame"]
-            assert _wait_for(lambda: cam.get_state()["frame"] >= f0 + 10, timeout=5.0)
+            assert wait_until(lambda: cam.get_state()["frame"] >= f0 + 10, timeout=5.0)
             s = cam.get_state()
             assert s["rgb"].shape == (480, 640, 3) and s["rgb"].dtype == np.uint8
             assert np.all(s["rgb"] == s["frame"] % 4)

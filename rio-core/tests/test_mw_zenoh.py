@@ -19,15 +19,7 @@ from rio import ServerManager, connect, serve  # noqa: E402
 from rio.errors import ConfigError  # noqa: E402
 from rio.middleware.base import NodeLayouts  # noqa: E402
 from rio.middleware.zenoh import _SESSIONS, ZenohMiddleware, _config, _free_port  # noqa: E402
-from rio.testing import EchoNode, ImageNode  # noqa: E402
-
-
-def wait_until(pred, timeout: float = 3.0, what: str = "condition") -> None:
-    t_end = time.monotonic() + timeout
-    while not pred():
-        if time.monotonic() > t_end:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.002)
+from rio.testing import EchoNode, ImageNode, wait_until  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -53,7 +45,7 @@ def test_address_is_loopback_by_default(echo):
 def test_latest_state_and_last_k(echo):
     _, c = echo
     s1 = c.get_state()
-    wait_until(lambda: c.get_state()["tick"] > s1["tick"] + 5, what="new samples")
+    assert wait_until(lambda: c.get_state()["tick"] > s1["tick"] + 5), "timed out waiting for new samples"
     s2 = c.get_state()
     np.testing.assert_array_equal(s2["q"], np.full(6, float(s2["tick"])))
     last = c.get_state(k=5)
@@ -67,7 +59,7 @@ def test_requests_arrive_in_order(echo):
     before = len(c.handled())
     for i in range(50):
         c.send_request(q=np.full(6, float(i)), client=3, seq=i)
-    wait_until(lambda: np.allclose(c.get_state()["last"], 49.0), what="last request applied")
+    assert wait_until(lambda: np.allclose(c.get_state()["last"], 49.0)), "timed out waiting for last request applied"
     got = [tuple(x) for x in c.handled()[before:]]
     assert got == [(3, i) for i in range(50)]
 
@@ -105,7 +97,8 @@ def test_bad_requests_rejected_and_node_keeps_serving(echo):
     pub.put(b"\x00" * 7)  # wrong size
     good = np.full(6, 0.75)
     c.send_request(q=good, client=4, seq=1)
-    wait_until(lambda: np.allclose(c.get_state()["last"], good), what="valid request after rejects")
+    assert wait_until(lambda: np.allclose(c.get_state()["last"], good)), (
+        "timed out waiting for valid request after rejects")
     assert not np.isnan(c.get_state(k=10)["last"]).any()
 
 
@@ -159,7 +152,7 @@ def test_remote_client_uses_heartbeats(echo):
             client.get_state()
     finally:
         os.kill(pid, signal.SIGCONT)
-    wait_until(lambda: _alive(client), what="heartbeats after SIGCONT")
+    assert wait_until(lambda: _alive(client)), "timed out waiting for heartbeats after SIGCONT"
     assert client.echo(5) == 5
     client.close()
 
@@ -177,7 +170,7 @@ def test_image_stream():
         with connect(ImageNode, "zenoh", name="cam") as cam:
             f1 = cam.get_state()
             assert f1["rgb"].shape == (480, 640, 3)
-            wait_until(lambda: cam.get_state()["frame"] >= f1["frame"] + 5, what="new frames")
+            assert wait_until(lambda: cam.get_state()["frame"] >= f1["frame"] + 5), "timed out waiting for new frames"
             s = cam.get_state()
             assert s["rgb"][0, 0, 0] == s["frame"] % 4
 
@@ -220,6 +213,7 @@ def test_through_a_router():
             with connect(EchoNode, "zenoh", name="echo", station="lab") as c:
                 assert c.echo(9) == 9
                 c.send_request(q=np.full(6, 2.0), client=0, seq=0)
-                wait_until(lambda: np.allclose(c.get_state()["last"], 2.0), what="request via router")
+                assert wait_until(lambda: np.allclose(c.get_state()["last"], 2.0)), (
+                    "timed out waiting for request via router")
     finally:
         router.close()

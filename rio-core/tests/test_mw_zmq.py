@@ -15,16 +15,7 @@ from pydantic import ValidationError
 from rio import ServerManager, connect, serve
 from rio.errors import ConfigError
 from rio.middleware.zmq import ZmqMiddleware
-from rio.testing import EchoNode, ImageNode
-
-
-def _wait_for(pred, timeout=2.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if pred():
-            return True
-        time.sleep(0.005)
-    return pred()
+from rio.testing import EchoNode, ImageNode, wait_until
 
 
 def _remote_view(address: dict) -> dict:
@@ -48,7 +39,7 @@ def c(echo_server):
 def test_state_seeded_at_connect_then_streams(c):
     first = c.get_state()  # no sleep: the handshake seeded the mirror
     assert first["tick"] >= 1
-    assert _wait_for(lambda: c.get_state()["tick"] >= first["tick"] + 6)
+    assert wait_until(lambda: c.get_state()["tick"] >= first["tick"] + 6, timeout=2.0)
     last5 = c.get_state(k=5)
     assert last5["tick"].shape == (5,) and last5["q"].shape == (5, 6)
     assert np.all(np.diff(last5["tick"]) == 1)  # consecutive: nothing dropped or duplicated
@@ -60,10 +51,10 @@ def test_requests_arrive_in_order(c):
     before = len(c.handled())
     for i in range(20):
         c.send_request(q=np.full(6, float(i)), client=7, seq=i)
-    assert _wait_for(lambda: len(c.handled()) >= before + 20)
+    assert wait_until(lambda: len(c.handled()) >= before + 20, timeout=2.0)
     mine = [tuple(x) for x in c.handled() if x[0] == 7]
     assert mine[-20:] == [(7, i) for i in range(20)]
-    assert _wait_for(lambda: c.get_state()["last"][0] == 19.0)
+    assert wait_until(lambda: c.get_state()["last"][0] == 19.0, timeout=2.0)
 
 
 def test_echo_round_trips(c):
@@ -96,7 +87,7 @@ def test_invalid_requests_rejected_node_keeps_serving(c):
     c._transport._send_request(rec.tobytes())
     c._transport._send_request(b"\x00" * 3)  # wrong size
     c.send_request(q=np.zeros(6), client=2, seq=1)
-    assert _wait_for(lambda: [2, 1] in c.handled())
+    assert wait_until(lambda: [2, 1] in c.handled(), timeout=2.0)
     assert [2, 0] not in c.handled()
     assert c.echo("alive") == "alive"
 
@@ -148,7 +139,8 @@ def test_sigkill_reported_within_a_second():
             os.kill(mgr.pids()["victim"], signal.SIGKILL)
             t0 = time.monotonic()
             for client in (local, remote):
-                assert _wait_for(lambda cl=client: _raises_died(cl.get_state), timeout=1.0 - (time.monotonic() - t0))
+                assert wait_until(lambda cl=client: _raises_died(cl.get_state),
+                                  timeout=1.0 - (time.monotonic() - t0))
             assert time.monotonic() - t0 < 1.0
             t.join(1.0)
             assert not t.is_alive() and isinstance(in_flight[0], rio.NodeDiedError)
@@ -185,13 +177,13 @@ def test_image_stream_fixed_ports_and_clean_shutdown():
         s = c.get_state()
         assert s["rgb"].shape == (480, 640, 3) and s["rgb"].dtype == np.uint8
         f0 = int(s["frame"])
-        assert _wait_for(lambda: int(c.get_state()["frame"]) >= f0 + 5, timeout=3.0)
+        assert wait_until(lambda: int(c.get_state()["frame"]) >= f0 + 5, timeout=3.0)
         s = c.get_state()
         assert np.all(s["rgb"] == int(s["frame"]) % 4)
         assert int(remote.get_state()["frame"]) >= f0
     # A clean stop says "bye": even a heartbeat-only client knows at once.
     t0 = time.monotonic()
-    assert _wait_for(lambda: _raises_died(remote.get_state), timeout=0.3)
+    assert wait_until(lambda: _raises_died(remote.get_state), timeout=0.3)
     assert time.monotonic() - t0 < 0.3
     c.close()
     remote.close()
@@ -225,7 +217,7 @@ def test_restarted_server_is_a_new_server():
         a.close()
         b, _ = start_server()
         try:
-            assert _wait_for(lambda: _raises_died(c.get_state), timeout=0.4)
+            assert wait_until(lambda: _raises_died(c.get_state), timeout=0.4)
             with pytest.raises(rio.NodeDiedError, match="phoenix.*restarted"):
                 c.echo(1)
             with connect(EchoNode, mw, name="phoenix", address=_remote_view(addr)) as fresh:
@@ -261,7 +253,7 @@ def test_node_without_state_in_process_server():
         with connect(_ReqOnly, mw, name=node.name, address=_remote_view(addr)) as c:
             assert c.ping() == "pong"
             c.send_request(cmd=np.arange(3.0))
-            assert _wait_for(lambda: len(srv.request_queue) == 1)
+            assert wait_until(lambda: len(srv.request_queue) == 1, timeout=2.0)
             np.testing.assert_array_equal(srv.request_queue.get()["cmd"], np.arange(3.0))
             time.sleep(0.3)
             c.check_alive()  # heartbeats alone keep a state-less node alive

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import rio
 from rio import Node, ServerManager, client_side, connect, serve
+from rio.testing import wait_until
 
 
 class PubOnly(Node):
@@ -67,12 +68,6 @@ class Crashes(PubOnly):
         return super().read_state()
 
 
-def wait_until(pred, timeout=3.0):
-    t_end = time.monotonic() + timeout
-    while not pred():
-        assert time.monotonic() < t_end, "timed out"
-        time.sleep(0.002)
-
 
 def test_publish_only_loop_runs_at_its_rate():
     with ServerManager("thread", [serve(PubOnly, name="p", rate_hz=100)]):
@@ -88,7 +83,7 @@ def test_request_only_loop_wakes_on_requests():
         with connect(ReqOnly, "thread", name="r") as c:
             for v in range(10):
                 c.send_request(v=float(v))
-            wait_until(lambda: len(c.seen()) == 10)
+            assert wait_until(lambda: len(c.seen()) == 10), "timed out"
             assert c.seen() == [float(v) for v in range(10)]
 
 
@@ -96,7 +91,7 @@ def test_combined_with_request_worker_thread_and_client_side_method():
     with ServerManager("thread", [serve(Both, name="b", rate_hz=200)]):
         with connect(Both, "thread", name="b") as c:
             c.move(2.5)
-            wait_until(lambda: c.get_state()["v"] == 2.5)
+            assert wait_until(lambda: c.get_state()["v"] == 2.5), "timed out"
             assert c.loop_thread() == ["rio-b-worker"]  # requests handled in the worker thread
             with pytest.raises(rio.InvalidRequest, match="'v'"):
                 c.move(float("nan"))
@@ -106,7 +101,7 @@ def test_error_in_loop_is_reported_by_name_to_clients():
     with ServerManager("thread", [serve(Crashes, name="enc", rate_hz=200)]):
         with connect(Crashes, "thread", name="enc") as c:
             with pytest.raises(rio.NodeDiedError, match="enc.*encoder read failed"):
-                wait_until(lambda: c.get_state() is None, timeout=3)
+                assert wait_until(lambda: c.get_state() is None, timeout=3), "timed out"
 
 
 def test_duplicate_server_names_rejected():
@@ -122,7 +117,7 @@ def test_bad_node_config_fails_in_caller():
 def test_get_state_k_and_out_on_client():
     with ServerManager("thread", [serve(PubOnly, name="p", rate_hz=500)]):
         with connect(PubOnly, "thread", name="p") as c:
-            wait_until(lambda: c.get_state()["i"] > 4)
+            assert wait_until(lambda: c.get_state()["i"] > 4), "timed out"
             out = {"i": np.zeros(3, np.int64)}
             c.get_state(k=3, out=out)
             assert np.all(np.diff(out["i"]) == 1)

@@ -11,15 +11,7 @@ import pytest
 from rio.manager import ServerManager, connect, serve
 from rio.teleop.keyboard import KeyboardTeleop
 from rio.teleop.scripted import ScriptedTeleop
-
-
-def wait_until(pred, timeout=3.0):
-    t_end = time.monotonic() + timeout
-    while time.monotonic() < t_end:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
+from rio.testing import wait_until
 
 
 def test_keyboard_reads_keys_from_a_terminal_and_restores_it():

@@ -16,6 +16,7 @@ from rio.errors import RioError
 from rio.kinematics import solver_from_description
 from rio.manager import ServerManager
 from rio.station import make_station
+from rio.testing import wait_until
 from rio_sim.robots import get_robot
 
 STATION = """
@@ -55,14 +56,6 @@ def station_file(tmp_path, name="drv", mw="thread", extra="") -> str:
     p.write_text(STATION.format(name=name, mw=mw, extra=extra))
     return str(p)
 
-
-def wait_until(pred, timeout=5.0, period=0.02):
-    t_end = time.monotonic() + timeout
-    while time.monotonic() < t_end:
-        if pred():
-            return True
-        time.sleep(period)
-    return pred()
 
 
 @pytest.fixture(scope="module")
@@ -144,7 +137,7 @@ def test_world_reports_objects_and_can_move_them(station):
 
     assert wait_until(landed, 3.0)
     w.reset()
-    assert wait_until(lambda: np.allclose(w.get_state()["object_poses"][0][:3], [0.2, 0.06, 0.0125], atol=1e-3))
+    assert wait_until(lambda: np.allclose(w.get_state()["object_poses"][0][:3], [0.2, 0.06, 0.0125], atol=1e-3), 5.0)
 
 
 def test_gl_problem_is_detected_and_explained():

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from rio import ServerManager, connect, serve
 from rio.errors import NodeDiedError, RioError
+from rio.testing import wait_until
 from rio_so100.calibration import RAD_PER_STEP, default_calibration
 from rio_so100.feetech import control_table as T
 from rio_so100.follower.driver import So100Follower
@@ -17,14 +18,6 @@ from rio_so100.gripper.driver import So100Gripper
 
 MW = "thread"
 
-
-def _wait(pred, timeout=3.0, dt=0.01):
-    t_end = time.monotonic() + timeout
-    while time.monotonic() < t_end:
-        if pred():
-            return True
-        time.sleep(dt)
-    return pred()
 
 
 def test_follower_moves_to_joint_targets_within_limits(vbus, calibrated):
@@ -38,12 +31,12 @@ def test_follower_moves_to_joint_targets_within_limits(vbus, calibrated):
             assert np.allclose(np.transpose([lower, upper]), [cal.joint(j).limits_rad() for j in arm.joint_names()])
             q = np.array([0.5, -0.4, 0.3, 0.2, -0.6])
             arm.move_joints(q, time.monotonic() + 0.3)
-            assert _wait(lambda: np.allclose(arm.get_state()["joint_pos"], q, atol=2 * RAD_PER_STEP))
+            assert wait_until(lambda: np.allclose(arm.get_state()["joint_pos"], q, atol=2 * RAD_PER_STEP))
             arm.move_joints([9.0, 0, 0, 0, 0], time.monotonic() + 0.1)  # far outside: clipped to the limit
-            assert _wait(lambda: abs(arm.get_state()["joint_pos"][0] - upper[0]) < 2 * RAD_PER_STEP)
+            assert wait_until(lambda: abs(arm.get_state()["joint_pos"][0] - upper[0]) < 2 * RAD_PER_STEP)
             assert vbus.servo(1).reg(T.GOAL_POSITION) == cal.joint("shoulder_pan").range_max
             arm.torque(False)
-            assert vbus.servo(1).reg(T.TORQUE_ENABLE) == 0 and _wait(lambda: not arm.get_state()["torque"])
+            assert vbus.servo(1).reg(T.TORQUE_ENABLE) == 0 and wait_until(lambda: not arm.get_state()["torque"])
     assert all(vbus.servo(i).reg(T.TORQUE_ENABLE) == 0 for i in range(1, 6))  # released on close
 
 
@@ -54,7 +47,7 @@ def test_overload_stops_the_arm_and_names_the_servo(vbus, calibrated):
         with connect(So100Follower, MW, name="arm", port=vbus.port) as arm:
             arm.move_joints([0.6, 0.0, 0.6, 0.0, 0.0], time.monotonic() + 1.0)  # the elbow hits it at ~0.25 s
             with pytest.raises(NodeDiedError, match=r"servo 3 \(elbow_flex\): overload"):
-                _wait(lambda: arm.get_state() is None, timeout=3.0)
+                wait_until(lambda: arm.get_state() is None, timeout=3.0)
     # the stop froze every joint where it was (goal = present), not at the commanded target
     assert vbus.servo(3).overloaded
     shoulder = vbus.servo(1)
@@ -73,7 +66,7 @@ def test_overheat_and_voltage_faults_stop_the_node(vbus, calibrated, fault, mess
                 else:
                     vbus.servo(5).voltage = 3.1
             with pytest.raises(NodeDiedError, match=rf"servo 5 \(wrist_roll\): {message}"):
-                _wait(lambda: arm.get_state() is None, timeout=2.0)
+                wait_until(lambda: arm.get_state() is None, timeout=2.0)
 
 
 def test_gripper_in_meters_and_a_grasp_does_not_trip_overload(vbus, calibrated):
@@ -82,7 +75,7 @@ def test_gripper_in_meters_and_a_grasp_does_not_trip_overload(vbus, calibrated):
         with connect(So100Gripper, MW, name="gripper", port=vbus.port) as g:
             assert g.max_width() == pytest.approx(0.06) and g.get_state()["position"] == pytest.approx(0.0)
             g.move(0.03, time.monotonic() + 0.2)
-            assert _wait(lambda: abs(g.get_state()["position"] - 0.03) < 0.0005)
+            assert wait_until(lambda: abs(g.get_state()["position"] - 0.03) < 0.0005)
             vbus.servo(6).stops = (-1e9, vbus.servo(6).encoder)  # an object between the jaws
             g.move(0.06, time.monotonic() + 0.1)  # squeeze: stalls at the torque limit (50 %)
             time.sleep(0.5)
@@ -108,4 +101,4 @@ def test_port_virtual_runs_the_sdk_against_a_private_emulated_arm():
     with ServerManager(MW, [serve(So100Follower, name="arm", port="virtual")]):
         with connect(So100Follower, MW, name="arm", port="virtual") as arm:
             arm.move_joints([0.2, 0.2, 0.2, 0.2, 0.2], time.monotonic() + 0.2)
-            assert _wait(lambda: np.allclose(arm.get_state()["joint_pos"], 0.2, atol=2 * RAD_PER_STEP))
+            assert wait_until(lambda: np.allclose(arm.get_state()["joint_pos"], 0.2, atol=2 * RAD_PER_STEP))

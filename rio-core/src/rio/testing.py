@@ -15,6 +15,18 @@ import numpy as np
 from .node import Node
 
 
+def wait_until(pred: Any, timeout: float = 3.0, period: float = 0.005) -> bool:
+    """Poll `pred()` until it is true or `timeout` seconds pass, and return its last value. A node's
+    effect shows up a few loop ticks after the request that caused it, so tests wait for it:
+    `assert wait_until(lambda: arm.get_state()["joint_pos"][0] > 0.1)`."""
+    t_end = time.monotonic() + timeout
+    while time.monotonic() < t_end:
+        if pred():
+            return True
+        time.sleep(period)
+    return bool(pred())
+
+
 class EchoNode(Node):
     """Publishes a counter and the last request; `echo` returns its argument (latency benchmarks)."""
 
