@@ -15,14 +15,19 @@ from .node import Node, is_client_side
 
 
 class _Checked:
-    """Forwards buffer methods to the transport's object after a (throttled) liveness check."""
+    """Forwards buffer methods to the transport's object after a (throttled) liveness check. The
+    wrapped methods are built once per name: this sits on every client read at the control rate."""
 
-    __slots__ = ("_obj", "_check")
+    __slots__ = ("_obj", "_check", "_wrapped")
 
     def __init__(self, obj: Any, check: Any):
         self._obj, self._check = obj, check
+        self._wrapped: dict[str, Any] = {}
 
     def __getattr__(self, attr: str) -> Any:
+        fn = self._wrapped.get(attr)
+        if fn is not None:
+            return fn
         target = getattr(self._obj, attr)
         if not callable(target):
             return target
@@ -32,6 +37,7 @@ class _Checked:
             check()
             return target(*args, **kwargs)
 
+        self._wrapped[attr] = checked
         return checked
 
 
