@@ -83,16 +83,22 @@ def test_a_station_without_leader_arms_is_refused():
 
 
 def test_rio_teleop_command_mirrors_with_a_leader_device(tmp_path):
-    """`rio teleop STATION --teleop so100.leader` (the core command) runs leader-follower, ALOHA-style
-    with two pairs, over virtual buses."""
+    """`rio teleop STATION --teleop so100.leader --record DIR` (the core command) runs leader-follower,
+    ALOHA-style with two pairs, over virtual buses, and records the run as an episode."""
     import os
     import subprocess
     import sys
 
+    from rio.recording.dataset import Dataset
+
     env = {**os.environ, "XDG_CONFIG_HOME": str(tmp_path)}
+    data = tmp_path / "aloha"
     out = subprocess.run([sys.executable, "-m", "rio", "teleop", "so100-bimanual-virtual", "--teleop", "so100.leader",
-                          "--duration", "2.5"], capture_output=True, text=True, timeout=180, env=env,
-                         stdin=subprocess.DEVNULL)
+                          "--duration", "2.5", "--record", str(data), "--on-end", "keep"],
+                         capture_output=True, text=True, timeout=180, env=env, stdin=subprocess.DEVNULL)
     assert out.returncode == 0, out.stderr[-2000:]
     assert "arm <- teleop:" in out.stdout and "arm2 <- teleop2:" in out.stdout
     assert out.stdout.count("aligned after") == 2, out.stdout
+    ep = Dataset(data).episode(0)
+    assert ep.meta["embodiment"] == "bimanual"
+    assert len(ep) >= 0.8 * 2.5 * ep.fps and ep.column("action").shape[1] == ep.column("obs.proprio").shape[1]

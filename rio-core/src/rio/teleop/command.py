@@ -33,19 +33,9 @@ def teleop(
                                                          "terminal), keep or discard. Default: ask when "
                                                          "interactive, else keep.")] = "auto",
 ) -> None:
-    """Teleoperate a station's arm(s) in end-effector space; prints a summary when it ends."""
+    """Teleoperate a station's arm(s): a twist device in end-effector space, a leader arm joint by joint.
+    Prints a summary when it ends."""
     from .loop import run_teleop
-
-    if _drives_leader_arm(station, device):
-        from .leader_follower import run as run_leader_follower
-
-        if record is not None:
-            raise typer.BadParameter("--record with a leader arm is not supported yet; record with `rio deploy` "
-                                     "or a twist device")
-        summary = run_leader_follower(_with_device(station, device), duration=duration, rate_hz=rate,
-                                      middleware=middleware, log=lambda m: typer.echo(m, err=True))
-        typer.echo(summary.format())
-        return
 
     def run(on_step=None):
         return run_teleop(station, device, instruction=instruction, viz=viz, duration=duration,
@@ -56,25 +46,6 @@ def teleop(
         typer.echo(run().format())
         return
     _record_episodes(run, record, episodes, on_end, station, instruction, rate)
-
-
-def _with_device(station: str, device: str | None):
-    from .loop import prepare_station
-
-    return prepare_station(station, device)
-
-
-def _drives_leader_arm(station: str, device: str | None) -> bool:
-    """True when the teleop device is a leader arm (publishes joint_pos): it is mirrored joint by
-    joint rather than integrated as an end-effector twist."""
-    from ..plugins import get_registry
-
-    st = _with_device(station, device)
-    comp = st.components.get("teleop")
-    if comp is None:
-        return False
-    spec = get_registry().find("rio_drivers", comp.driver, "teleop")
-    return bool(getattr(spec.load(), "leader_arm", False))
 
 
 def _record_tick(rec, tick) -> None:

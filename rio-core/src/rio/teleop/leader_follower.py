@@ -50,6 +50,7 @@ class LeaderFollowerTick:
     step: Any
     pairs: list[Pair]
     leaders: dict[str, dict]
+    env: Any = None
 
 
 @dataclass
@@ -102,7 +103,7 @@ def _step_towards(cmd: np.ndarray, goal: np.ndarray, max_delta: float) -> np.nda
 
 
 def run(station: Any, *, duration: float | None = None, rate_hz: float | None = None, align_speed: float = 0.5,
-        align_tolerance: float = 0.05, middleware: str | None = None,
+        align_tolerance: float = 0.05, middleware: str | None = None, instruction: str | None = None,
         on_step: Callable[[LeaderFollowerTick], None] | None = None, should_stop: Callable[[], bool] | None = None,
         log: Callable[[str], None] | None = print) -> LeaderFollowerSummary:
     """Run leader-follower teleop on `station` (name, .toml path or `Station`) until `duration` s,
@@ -123,6 +124,7 @@ def run(station: Any, *, duration: float | None = None, rate_hz: float | None = 
     say(f"starting station '{st.name}' ({len(servers)} nodes over {servers[roles[0][0]].mw.name}) ...")
     with ServerManager(servers, station=st.name), contextlib.ExitStack() as stack:
         stack.enter_context(env)
+        env.instruction = instruction
         robot = env.robot
         labels = _labels(robot, [a for _, a, _ in roles])
         pairs = []
@@ -177,7 +179,7 @@ def run(station: Any, *, duration: float | None = None, rate_hz: float | None = 
                         parts[p.gripper_label] = [p.grip_cmd * p.max_width]
                 step = env.step(robot.build_action(**parts), t_cmd_target=t_cycle_end + dt)
                 if on_step is not None:
-                    on_step(LeaderFollowerTick(t_sample, it, step, pairs, leaders))
+                    on_step(LeaderFollowerTick(t_sample, it, step, pairs, leaders, env))
                 it += 1
                 summary.ticks += 1
                 late = rtime.now() - t_cycle_end

@@ -57,6 +57,16 @@ def resolve_device(name: str, registry: Any = None) -> str:
     return f"teleop.{name}" if f"teleop.{name}" in teleops else name
 
 
+def drives_leader_arm(station: Any) -> bool:
+    """True when the station's teleop device is a leader arm (`TeleopNode.leader_arm`)."""
+    from ..plugins import get_registry
+
+    comp = station.components.get("teleop")
+    if comp is None:
+        return False
+    return bool(getattr(get_registry().find("rio_drivers", comp.driver, "teleop").load(), "leader_arm", False))
+
+
 def prepare_station(station: Any, device: str | None = None, device_config: dict | None = None):
     """The station, with its `teleop` component replaced by `device` (plus `device_config`)."""
     from ..station.load import load_station, parse_station, read_station_text
@@ -118,9 +128,14 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
                mode: str | TeleopMode = TeleopMode.TRANSLATION, max_pos_speed: float = 0.15,
                max_rot_speed: float = 1.0, filter_hz: float | None = 8.0, device_config: dict | None = None,
                on_step: Callable[[TeleopTick], None] | None = None,
-               log: Callable[[str], None] | None = print) -> TeleopSummary:
+               log: Callable[[str], None] | None = print) -> Any:
     """Teleoperate `station` (registered name or .toml path) with `device` (default: the station's
-    own `teleop` component). `viz=True` streams to rerun (a string: save to that .rrd file)."""
+    own `teleop` component). `viz=True` streams to rerun (a string: save to that .rrd file).
+
+    A twist device (keyboard, spacemouse, scripted) is integrated in end-effector space and returns a
+    TeleopSummary; a leader arm is mirrored joint by joint (rio.teleop.leader_follower) and returns
+    its LeaderFollowerSummary. Both have `.format()`, and `on_step` gets each cycle's tick (with `.it`,
+    `.step` and `.env`) either way."""
     from ..manager import ServerManager
     from ..station.build import make_station
     from ..station.roles import kind_of
@@ -129,6 +144,11 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
     st = prepare_station(station, device, device_config)
     if "teleop" not in st.components:
         raise RioError(f"station '{st.name}' has no teleop component; pass a device (--teleop keyboard or scripted)")
+    if drives_leader_arm(st):  # absolute joints from a leader arm: mirrored, not integrated as a twist
+        from .leader_follower import run as run_leader_follower
+
+        return run_leader_follower(st, duration=duration, rate_hz=rate_hz, middleware=middleware,
+                                   instruction=instruction, on_step=on_step, log=log)
     servers, clients, env = make_station(st, middleware=middleware)
     if env is None:
         raise RioError(f"station '{st.name}' has no arm or humanoid to teleoperate (roles: {sorted(st.roles())})")
