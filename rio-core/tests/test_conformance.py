@@ -106,6 +106,34 @@ def test_api_call_returns_value(running):
     np.testing.assert_array_equal(back["b"], nested["b"])
 
 
+def test_api_calls_with_large_and_many_arrays_from_two_threads(running):
+    """Arrays far larger than a 2 kB payload, several per call, from two threads of one client:
+    every reply belongs to its own call."""
+    _, _, c = running
+    rng = np.random.default_rng(1)
+    big = rng.random((240, 320, 3)).astype(np.float32)  # 900 kB
+    np.testing.assert_array_equal(c.echo(big), big)
+    errors: list[BaseException] = []
+
+    def worker(seed: int) -> None:
+        try:
+            for i in range(40):
+                x = np.full((seed, 7), float(i), np.float64)
+                got = c.echo([x, np.arange(seed, dtype=np.int16)])
+                np.testing.assert_array_equal(got[0], x)
+                np.testing.assert_array_equal(got[1], np.arange(seed, dtype=np.int16))
+                np.testing.assert_array_equal(c.echo(x), x)
+        except BaseException as e:  # noqa: BLE001 - reported by the main thread
+            errors.append(e)
+
+    threads = [threading.Thread(target=worker, args=(seed,)) for seed in (3, 5000)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60)
+    assert not errors, errors
+
+
 def test_exception_inside_node_surfaces_with_name(running):
     _, _, c = running
     with pytest.raises(rio.NodeError) as ei:

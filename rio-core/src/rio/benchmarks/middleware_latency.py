@@ -2,7 +2,9 @@
 
 Method (the RIO paper's, after the Open Messaging Benchmark): a 2048-byte payload
 (`np.zeros(2048, np.uint8)`), a warm-up, then `--n` timed round trips (>= 1000 for the method;
-default 2000). One-way latency = RTT / 2. Reported, all one-way, in microseconds:
+default 2000). The node API and its raw transport are measured in `--rounds` alternating blocks
+(default 3), so both see the same machine conditions; statistics pool every round's samples.
+One-way latency = RTT / 2. Reported, all one-way, in microseconds:
 
 - `half_rtt_us`: median RTT / 2 of the full node API call `client.echo(payload)` (EchoNode served
   by ServerManager, client from `connect`), which is the headline figure;
@@ -11,7 +13,8 @@ default 2000). One-way latency = RTT / 2. Reported, all one-way, in microseconds
 - `p99_us`: the 99th percentile of RTT / 2;
 - `raw_half_rtt_us`: median RTT / 2 of the bare transport the middleware is built on, with the same
   payload and the same timing loop, in the same run (`rio.benchmarks.raw_transports`);
-- `ratio`: `half_rtt_us / raw_half_rtt_us`, the overhead the node API adds over its transport.
+- `ratio`: `half_rtt_us / raw_half_rtt_us`, the overhead the node API adds over its transport
+  (the table also shows the range of the per-round ratios).
 
 The image section serves ImageNode (640x480x3 uint8 frames) at `--image-rate` Hz for
 `--image-seconds`; the client polls `get_state()` and counts distinct `frame` values per second
@@ -106,21 +109,43 @@ def _keep_start_method() -> Iterator[None]:
         yield
 
 
-def node_api_rtts(mw: str, station: str, payload: np.ndarray, n: int, warmup: int) -> np.ndarray:
+RoundTrip = Callable[[np.ndarray], Any]
+
+
+@contextlib.contextmanager
+def node_roundtrip(mw: str, station: str, payload: np.ndarray) -> Iterator[RoundTrip]:
+    """`client.echo` of an EchoNode served on `mw` by a ServerManager."""
     from ..manager import ServerManager, connect, serve
     from ..testing import EchoNode
 
     cfg = {"payload_bytes": int(payload.nbytes)}
     with ServerManager(mw, [serve(EchoNode, name="echo", **cfg)], station=station, ready_timeout=60.0):
         with connect(EchoNode, mw, name="echo", station=station, **cfg) as client:
-            return time_roundtrips(client.echo, payload, n, warmup)
+            yield client.echo
 
 
-def raw_rtts(mw: str, payload: np.ndarray, n: int, warmup: int) -> np.ndarray:
+def raw_roundtrip(mw: str, payload: np.ndarray) -> contextlib.AbstractContextManager[RoundTrip]:
     from .raw_transports import RAW
 
-    with RAW[mw].open(payload) as roundtrip:
-        return time_roundtrips(roundtrip, payload, n, warmup)
+    return RAW[mw].open(payload)
+
+
+def interleaved_rtts(node: RoundTrip, raw: RoundTrip | None, payload: np.ndarray, n: int, warmup: int,
+                     rounds: int) -> tuple[np.ndarray, np.ndarray | None, list[float]]:
+    """`rounds` alternating blocks of `n` round trips on the node API, then the raw transport.
+    Alternating puts both under the same machine conditions: here the same raw test swings 2-5x
+    between minutes, and where the scheduler places the two processes (one core or two) changes a
+    wake-up's cost ~8x. Returns all node RTTs, all raw RTTs (or None), and each round's ratio of
+    medians."""
+    node_all, raw_all, ratios = [], [], []
+    for _ in range(rounds):
+        node_rtts = time_roundtrips(node, payload, n, warmup)
+        node_all.append(node_rtts)
+        if raw is not None:
+            raw_rtts = time_roundtrips(raw, payload, n, warmup)
+            raw_all.append(raw_rtts)
+            ratios.append(float(np.median(node_rtts) / np.median(raw_rtts)))
+    return np.concatenate(node_all), (np.concatenate(raw_all) if raw_all else None), ratios
 
 
 def image_stream(mw: str, station: str, seconds: float, rate_hz: float, poll_s: float,
@@ -202,6 +227,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="comma-separated names (default: every registered middleware)")
     p.add_argument("--n", type=int, default=2000, help="timed round trips per measurement (default 2000)")
     p.add_argument("--warmup", type=int, default=200, help="untimed round trips first (default 200)")
+    p.add_argument("--rounds", type=int, default=3,
+                   help="alternating node/raw measurement rounds, --n round trips each (default 3)")
     p.add_argument("--payload-bytes", type=int, default=2048, help="payload size (default 2048)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.add_argument("--images", action=argparse.BooleanOptionalAction, default=True,
@@ -248,7 +275,7 @@ def run(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
     station = f"bench{os.getpid()}"
     results: dict[str, Any] = {}
     images: dict[str, Any] = {}
-    details: dict[str, Any] = {"skipped": {}, "raw": {}, "images_skipped": {}}
+    details: dict[str, Any] = {"skipped": {}, "raw": {}, "images_skipped": {}, "round_ratios": {}}
     poll_s = max(args.image_poll_ms, 0.0) / 1e3
 
     for name in names:
@@ -264,29 +291,42 @@ def run(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
                 details["skipped"][name] = f"did not import: {_reason(e)}"
                 _progress(f"{name}: skipped ({details['skipped'][name]})")
                 continue
-            _progress(f"{name}: node API client.echo(), {args.warmup} warm-up + {args.n} round trips ...")
-            try:
-                node = summarize(node_api_rtts(name, station, payload, args.n, args.warmup))
-            except BaseException as e:
-                if isinstance(e, KeyboardInterrupt):
-                    raise
-                details["skipped"][name] = f"node API failed: {_reason(e)}"
-                _progress(f"{name}: skipped ({details['skipped'][name]})")
-                continue
-            raw: dict[str, float] | None = None
-            if name in RAW:
-                _progress(f"{name}: raw transport ({RAW[name].description}) ...")
+            _progress(f"{name}: node API client.echo() and the raw transport, {args.rounds} alternating "
+                      f"rounds of {args.warmup} warm-up + {args.n} round trips ...")
+            with contextlib.ExitStack() as stack:
                 try:
-                    raw = summarize(raw_rtts(name, payload, args.n, args.warmup))
+                    node_rt = stack.enter_context(node_roundtrip(name, station, payload))
                 except BaseException as e:
                     if isinstance(e, KeyboardInterrupt):
                         raise
-                    details["raw"][name] = {"error": _reason(e)}
-                    _progress(f"{name}: raw transport failed ({_reason(e)}); ratio left out")
-            else:
-                details["raw"][name] = {"error": "no raw transport known for this middleware"}
+                    details["skipped"][name] = f"node API failed: {_reason(e)}"
+                    _progress(f"{name}: skipped ({details['skipped'][name]})")
+                    continue
+                raw_rt = None
+                if name not in RAW:
+                    details["raw"][name] = {"error": "no raw transport known for this middleware"}
+                else:
+                    try:
+                        raw_rt = stack.enter_context(raw_roundtrip(name, payload))
+                    except BaseException as e:
+                        if isinstance(e, KeyboardInterrupt):
+                            raise
+                        details["raw"][name] = {"error": _reason(e)}
+                        _progress(f"{name}: raw transport failed ({_reason(e)}); ratio left out")
+                try:
+                    node_rtts, raw_rtts, ratios = interleaved_rtts(node_rt, raw_rt, payload, args.n,
+                                                                   args.warmup, args.rounds)
+                except BaseException as e:
+                    if isinstance(e, KeyboardInterrupt):
+                        raise
+                    details["skipped"][name] = f"measurement failed: {_reason(e)}"
+                    _progress(f"{name}: skipped ({details['skipped'][name]})")
+                    continue
+            node = summarize(node_rtts)
+            raw = summarize(raw_rtts) if raw_rtts is not None else None
             if raw is not None:
                 details["raw"][name] = raw
+                details["round_ratios"][name] = ratios
             results[name] = {
                 "half_rtt_us": node["half_rtt_us"],
                 "raw_half_rtt_us": raw["half_rtt_us"] if raw else None,
@@ -319,16 +359,16 @@ def format_table(results: dict[str, Any], details: dict[str, Any], args: argpars
     from .raw_transports import RAW
 
     lines = [
-        f"RIO middleware latency: {args.payload_bytes}-byte payload, {args.warmup} warm-up + {args.n} timed "
-        "round trips; one-way latency = RTT/2, microseconds",
+        f"RIO middleware latency: {args.payload_bytes}-byte payload, {args.rounds} alternating node/raw rounds of "
+        f"{args.warmup} warm-up + {args.n} timed round trips; one-way latency = RTT/2, microseconds",
         "  node = client.echo(payload) through ServerManager + connect; raw = the bare transport underneath;",
         "  mean ± std after dropping the 1st and 99th percentiles; paper = the RIO paper's one-way mean",
     ]
     if args.n < 1000:
         lines.append(f"  (n={args.n} is below the method's 1000 round trips: a smoke run, not a measurement)")
     lines.append("")
-    head = (f"{'middleware':<11}{'node p50':>10}{'raw p50':>10}{'ratio':>8}{'node mean ± std':>20}{'p99':>10}"
-            f"   {'paper mean':<22}{'speed-up':>9}")
+    head = (f"{'middleware':<11}{'node p50':>10}{'raw p50':>10}{'ratio':>8}{'rounds':>12}{'node mean ± std':>20}"
+            f"{'p99':>10}   {'paper mean':<22}{'speed-up':>9}")
     lines += [head, "-" * len(head)]
     for name, r in results.items():
         if name == "images":
@@ -337,8 +377,11 @@ def format_table(results: dict[str, Any], details: dict[str, Any], args: argpars
         paper_s = f"{paper[1]:.1f} ({paper[0]})" if paper else "-"
         speed = f"{paper[1] / r['mean_us']:.1f}x" if paper and r["mean_us"] > 0 else "-"
         ms = f"{r['mean_us']:.1f} ± {r['std_us']:.1f}"
+        rr = details["round_ratios"].get(name)
+        rounds = f"{min(rr):.2f}-{max(rr):.2f}" if rr else "-"
         lines.append(f"{name:<11}{_fmt(r['half_rtt_us']):>10}{_fmt(r['raw_half_rtt_us']):>10}"
-                     f"{_fmt(r['ratio'], '.2f'):>8}{ms:>20}{_fmt(r['p99_us']):>10}   {paper_s:<22}{speed:>9}")
+                     f"{_fmt(r['ratio'], '.2f'):>8}{rounds:>12}{ms:>20}{_fmt(r['p99_us']):>10}   "
+                     f"{paper_s:<22}{speed:>9}")
     lines.append("")
     lines.append("raw transports:")
     for name in results:
@@ -369,8 +412,9 @@ def format_table(results: dict[str, Any], details: dict[str, Any], args: argpars
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if args.n < 1 or args.warmup < 0 or args.payload_bytes < 1:
-        print("rio bench middleware: --n and --payload-bytes must be >= 1, --warmup >= 0", file=sys.stderr)
+    if args.n < 1 or args.warmup < 0 or args.payload_bytes < 1 or args.rounds < 1:
+        print("rio bench middleware: --n, --rounds and --payload-bytes must be >= 1, --warmup >= 0",
+              file=sys.stderr)
         return 2
     t0 = time.monotonic()
     with _stdout_to_stderr():

@@ -5,7 +5,8 @@
 - Requests: a bounded queue in a second segment. Producers (any client, any process) serialize on
   `flock` of their own descriptor of that segment — a lock the kernel releases if its holder dies,
   unlike a semaphore — and wake the node through a FIFO when it sleeps waiting for requests.
-- API calls: a Unix stream socket in the manager's run directory, length-prefixed rio.wire frames.
+- API calls: per client, a shared-memory message area and a wake-up pipe each way, handed to the
+  node over a Unix socket in the manager's run directory (`shm_calls`).
 - Segments and files are created and removed by the ServerManager (`prepare`/`release`), never by
   the node process, so a SIGKILLed node leaves nothing in /dev/shm.
 """
@@ -19,10 +20,8 @@ import mmap
 import os
 import select
 import socket
-import struct
 import threading
 import uuid
-from collections.abc import Callable
 from typing import Any
 
 from .. import time as rtime
@@ -31,11 +30,11 @@ from ..buffers import RequestQueue, RingBuffer
 from ..errors import ConfigError, NodeDiedError, NodeError, NodeTimeout
 from ..node import Node
 from .base import ClientTransport, Middleware, NodeLayouts, ProcessWatch, ServerTransport
+from .shm_calls import CallChannel, PeerGone, accept_channel, open_client_channel
 
 log = logging.getLogger("rio.middleware.shm")
 
-_LEN = 4  # bytes of the frame length prefix
-_POLL_S = 0.05  # how often a waiting call re-checks that the server lives
+_POLL_S = 0.05  # how often a waiting call re-checks that the server lives and its deadline
 
 
 # -- shared memory ----------------------------------------------------------------------------------
@@ -133,68 +132,11 @@ def _attach(layouts: NodeLayouts, res: dict[str, Any]) -> tuple[list[_Segment], 
     return segments, ring, queue, notifier
 
 
-# -- framing on the API socket ----------------------------------------------------------------------
-def _send_frame(sock: socket.socket, payload: bytes) -> None:
-    sock.sendall(len(payload).to_bytes(_LEN, "little") + payload)
-
-
-def _no_idle() -> None:
-    pass
-
-
 #: A reply usually arrives within tens of microseconds: poll for it this long before sleeping in the
-#: kernel, because a wake-up from a blocked recv costs ~10-30 us on this class of machine.
+#: kernel, because waking a process that sleeps on another core costs ~10-30 us on this class of machine.
 SPIN_S = float(os.environ.get("RIO_SHM_SPIN_US", "50")) * 1e-6
-#: The node's API thread polls as long for the next call after answering one (back-to-back calls).
+#: The node's serving thread polls as long for the next call after answering one (back-to-back calls).
 SERVER_SPIN_S = float(os.environ.get("RIO_SHM_SERVER_SPIN_US", "50")) * 1e-6
-
-
-def _recv(sock: socket.socket, n: int, on_idle: Callable[[], None], spin_s: float = 0.0) -> bytes:
-    """recv() that first polls for `spin_s` (yielding the CPU between tries), then blocks, calling
-    `on_idle()` each time the kernel receive timeout (SO_RCVTIMEO) expires."""
-    if spin_s > 0:
-        t_end = rtime.now() + spin_s
-        while True:
-            try:
-                return sock.recv(n, socket.MSG_DONTWAIT)
-            except BlockingIOError:
-                if rtime.now() > t_end:
-                    break
-                os.sched_yield()
-    while True:
-        try:
-            return sock.recv(n)
-        except BlockingIOError:
-            on_idle()
-
-
-def _recv_frame(sock: socket.socket, on_idle: Callable[[], None] = _no_idle, spin_s: float = 0.0) -> bytes | None:
-    """One frame, or None on EOF. Usually a single recv() for small frames."""
-    buf = _recv(sock, 65536, on_idle, spin_s)
-    if not buf:
-        return None
-    while len(buf) < _LEN:
-        more = _recv(sock, 65536, on_idle)
-        if not more:
-            return None
-        buf += more
-    n = int.from_bytes(buf[:_LEN], "little")
-    if len(buf) - _LEN >= n:
-        return buf[_LEN:_LEN + n]
-    body = bytearray(buf[_LEN:])
-    while len(body) < n:
-        more = _recv(sock, max(n - len(body), 65536), on_idle)
-        if not more:
-            return None
-        body += more
-    return bytes(body)
-
-
-def _set_recv_timeout(sock: socket.socket, seconds: float) -> None:
-    """Kernel-side receive timeout. Python's own settimeout() polls before every recv, which cost
-    ~35 us per round trip here; a blocking recv with SO_RCVTIMEO costs nothing extra."""
-    sec = int(seconds)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, struct.pack("ll", sec, int((seconds - sec) * 1e6)))
 
 
 # -- server -----------------------------------------------------------------------------------------
@@ -219,31 +161,39 @@ class ShmServer(ServerTransport):
                 conn, _ = self._listener.accept()
             except OSError:
                 return
-            threading.Thread(target=self._serve_conn, args=(conn,), name=f"rio-{self.name}-conn", daemon=True).start()
+            threading.Thread(target=self._serve, args=(conn,), name=f"rio-{self.name}-calls", daemon=True).start()
 
-    def _serve_conn(self, conn: socket.socket) -> None:
-        """One thread per client connection, blocked in recv: one wake-up per call."""
-        with conn:
+    def _serve(self, conn: socket.socket) -> None:
+        """One thread per client: take its call channel, then wait for a call, run it, answer;
+        until the client goes away."""
+        try:
+            with conn:
+                channel = accept_channel(conn)
+        except (OSError, ConnectionError) as e:
+            log.warning("node '%s': refused an API connection: %s", self.name, e)
+            return
+        try:
             while True:
                 try:
-                    frame = _recv_frame(conn, spin_s=SERVER_SPIN_S)
-                except OSError:
-                    return
-                if frame is None:
+                    message = channel.receive(SERVER_SPIN_S)  # sleeps until a call or a hang-up
+                except PeerGone:
                     return
                 try:
-                    cid, method, args, kwargs = wire.unpack_call(frame)
-                except Exception as e:  # a malformed frame is the client's bug: answer, keep serving
-                    reply = wire.pack_reply(-1, False, wire.error_payload(e))
+                    method, args, kwargs = wire.read_call(message)
+                except Exception as e:  # a malformed message is the client's bug: answer, keep serving
+                    reply = wire.reply_message(False, wire.error_payload(e))
                 else:
                     try:
-                        reply = wire.pack_reply(cid, True, self._dispatch(method, args, kwargs))
+                        reply = wire.reply_message(True, self._dispatch(method, args, kwargs))
                     except Exception as e:
-                        reply = wire.pack_reply(cid, False, wire.error_payload(e))
+                        reply = wire.reply_message(False, wire.error_payload(e))
+                del message  # a view of the area the reply is about to overwrite
                 try:
-                    _send_frame(conn, reply)
-                except OSError:
+                    channel.send(reply)
+                except PeerGone:
                     return
+        finally:
+            channel.close()
 
     def close(self) -> None:
         self._closing = True
@@ -269,9 +219,8 @@ class ShmClient(ClientTransport):
         self._watch = ProcessWatch(int(addr["pid"]), node.name)
         self._segments, self.ring_buffer, self.request_queue, self._notifier = _attach(layouts, addr)
         self._sock_path = addr["sock"]
-        self._sock: socket.socket | None = None
+        self._channel: CallChannel | None = None
         self._lock = threading.Lock()
-        self._call_id = 0
 
     def check_alive(self) -> None:
         self._watch.check()
@@ -281,53 +230,45 @@ class ShmClient(ClientTransport):
             return NodeDiedError(self.name, f"server process {self._watch.pid} exited")
         return NodeDiedError(self.name, detail)
 
-    def _connect(self) -> socket.socket:
-        if self._sock is None:
-            s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    def _connect(self) -> CallChannel:
+        if self._channel is None:
             try:
-                s.connect(self._sock_path)
-            except OSError as e:
-                s.close()
+                self._channel = open_client_channel(self._sock_path, min(self.call_timeout, 10.0))
+            except (OSError, ConnectionError) as e:
                 raise self._died(f"API socket unreachable: {e}") from None
-            _set_recv_timeout(s, _POLL_S)
-            self._sock = s
-        return self._sock
+        return self._channel
 
     def call(self, method: str, args: tuple, kwargs: dict) -> Any:
         with self._lock:
             self._watch.check()
-            sock = self._connect()
-            self._call_id += 1
+            channel = self._connect()
             deadline = rtime.now() + self.call_timeout
 
             def on_idle() -> None:
                 if self._watch.dead():
-                    self._drop_socket()
+                    self._drop_channel()
                     raise NodeDiedError(self.name, f"server process {self._watch.pid} exited during '{method}'")
                 if rtime.now() > deadline:
-                    self._drop_socket()  # a late reply must not be read as the next call's
+                    self._drop_channel()  # a late reply must not be read as the next call's
                     raise NodeTimeout(self.name, f"call '{method}'", self.call_timeout)
 
             try:
-                _send_frame(sock, wire.pack_call(self._call_id, method, args, kwargs))
-                frame = _recv_frame(sock, on_idle, SPIN_S)
-            except (BrokenPipeError, ConnectionResetError):
-                frame = None
-            if frame is None:
-                self._drop_socket()
-                raise self._died(f"connection closed during '{method}'")
-            _, ok, value = wire.unpack_reply(frame)
+                channel.send(wire.call_message(method, args, kwargs))
+                ok, value = wire.read_reply(channel.receive(SPIN_S, _POLL_S, on_idle))
+            except PeerGone:
+                self._drop_channel()
+                raise self._died(f"connection closed during '{method}'") from None
             if not ok:
                 raise NodeError(self.name, *value)
             return value
 
-    def _drop_socket(self) -> None:
-        if self._sock is not None:
-            self._sock.close()
-            self._sock = None
+    def _drop_channel(self) -> None:
+        if self._channel is not None:
+            self._channel.close()
+            self._channel = None
 
     def close(self) -> None:
-        self._drop_socket()
+        self._drop_channel()
         if self._notifier is not None:
             self._notifier.close()
         for seg in self._segments:
