@@ -105,3 +105,6 @@ def test_malformed_array_messages_are_refused():
         wire.read_call(good.replace(b"<f8", b"<fX"))  # not a dtype
     with pytest.raises(ValueError, match="dtype"):
         wire.read_call(good.replace(b"<f8", b"|O8"))  # object arrays are never built
+    for cut in range(1, 12):  # a header cut short anywhere is an error, never an IndexError
+        with pytest.raises(ValueError):
+            wire.read_call(good[:cut])

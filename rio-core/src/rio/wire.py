@@ -73,8 +73,11 @@ def _parse_head(head: bytes) -> tuple[np.dtype, tuple[int, ...], bool, int]:
 def _read_array(buf: Any, off: int) -> tuple[Any, int]:
     """The array whose header starts at `buf[off]`, copied out (writable, owns its memory), and the
     offset just past its data."""
-    hlen = 3 + buf[off] + 4 * buf[off + 1]
-    dt, shape, is_scalar, count = _parse_head(bytes(buf[off:off + hlen]))
+    try:
+        hlen = 3 + buf[off] + 4 * buf[off + 1]
+        dt, shape, is_scalar, count = _parse_head(bytes(buf[off:off + hlen]))
+    except (IndexError, struct.error):
+        raise ValueError("malformed array header") from None
     off += hlen
     end = off + count * dt.itemsize
     if end > len(buf):
@@ -198,14 +201,17 @@ def _array_specs(header: bytes) -> tuple[str, tuple]:
     """(method, ((dtype, shape, count, nbytes), ...)) of an array-message header, cached."""
     specs = _ARRAY_SPECS.get(header)
     if specs is None:
-        mlen = header[0]
-        method = header[1:1 + mlen].decode()
-        off, arrays = 2 + mlen, []
-        for _ in range(header[1 + mlen]):
-            hlen = 3 + header[off] + 4 * header[off + 1]
-            dt, shape, _, count = _parse_head(header[off:off + hlen])
-            arrays.append((dt, shape, count, count * dt.itemsize))
-            off += hlen
+        try:
+            mlen = header[0]
+            method = header[1:1 + mlen].decode()
+            off, arrays = 2 + mlen, []
+            for _ in range(header[1 + mlen]):
+                hlen = 3 + header[off] + 4 * header[off + 1]
+                dt, shape, _, count = _parse_head(header[off:off + hlen])
+                arrays.append((dt, shape, count, count * dt.itemsize))
+                off += hlen
+        except (IndexError, struct.error, UnicodeDecodeError):
+            raise ValueError("malformed array message header") from None
         if off != len(header):
             raise ValueError("malformed array message header")
         specs = (method, tuple(arrays))
@@ -215,6 +221,8 @@ def _array_specs(header: bytes) -> tuple[str, tuple]:
 
 
 def _read_arrays(buf: Any) -> tuple[str, list]:
+    if len(buf) < 3:
+        raise ValueError("array message shorter than its header")
     hlen = buf[1] | buf[2] << 8
     header = bytes(buf[3:3 + hlen])
     method, specs = _ARRAY_SPECS.get(header) or _array_specs(header)

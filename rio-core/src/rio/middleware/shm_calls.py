@@ -10,8 +10,8 @@ against.
   kernel frees it with the last descriptor) and both pipes, and hands the node's ends over the node's
   Unix socket (SCM_RIGHTS). The socket is closed after that hand-over.
 - Calls strictly alternate (the client holds a lock), so one area carries the call, then its reply.
-  A 16-byte header holds the area's size, the message length and a message counter, written last.
-  A message that does not fit grows the area; the other side re-maps when it sees the larger size.
+  A 16-byte header holds the message length and a message counter, written last. A message that
+  does not fit grows the file; the other side re-maps when a message is longer than its mapping.
 - Waiting: watch the counter, yielding the CPU, for a few tens of microseconds, then block on the
   pipe. Waking a process that sleeps on the other core costs ~10-30 us here, more than the whole
   call, and each extra system call ~0.5 us. Every message also writes a wake-up byte, so a sleeping
@@ -31,15 +31,14 @@ import os
 import platform
 import select
 import socket
-import sys
 import tempfile
 from collections.abc import Callable
 
 from .. import time as rtime
 from ..wire import Message
 
-# Header: u64 file size at 0, u32 message length at 8, u32 count of messages written so far at 12.
-# Read and written through native-int memoryviews: each field is one aligned load or store.
+# Header: 8 bytes reserved, u32 message length at 8, u32 count of messages written so far at 12.
+# Read and written through a native-int memoryview: each field is one aligned load or store.
 # (struct.pack_into zeroes its bytes first and then writes them one by one, so a peer polling the
 # counter could read a count that was never written.)
 _HEADER_SIZE = 16
@@ -60,8 +59,6 @@ def _anonymous_memory(size: int) -> int:
         fd, path = tempfile.mkstemp(prefix="rio-calls-", dir="/dev/shm" if os.path.isdir("/dev/shm") else None)
         os.unlink(path)
     os.ftruncate(fd, size)
-    with mmap.mmap(fd, _HEADER_SIZE) as mm:
-        mm[0:8] = size.to_bytes(8, sys.byteorder)  # the header's file size, read as a native u64
     return fd
 
 
@@ -83,7 +80,6 @@ class CallChannel:
         # An older mapping is only dropped, never closed: a caller may still hold a view of it.
         self._mm = mmap.mmap(self._fd, size)
         self._view = memoryview(self._mm)
-        self._file_size = self._view[0:8].cast("Q")
         self._length_count = self._view[8:16].cast("I")
         self._size = size
 
@@ -116,7 +112,6 @@ class CallChannel:
         size = max(need, 2 * self._size, os.fstat(self._fd).st_size)  # never shrink under the peer
         os.ftruncate(self._fd, size)
         self._map(size)
-        self._file_size[0] = size
 
     # -- receiving ----------------------------------------------------------------------------------
     def receive(self, spin_s: float, poll_s: float = 0.05, on_idle: Callable[[], None] | None = None) -> memoryview:
@@ -126,8 +121,10 @@ class CallChannel:
         if not (self._watch_memory and self._watch(spin_s)):
             self._block(spin_s, poll_s, on_idle)
         n = self._length_count[0]
-        if self._file_size[0] > self._size:  # the peer grew the area
-            self._map(self._file_size[0])
+        if _HEADER_SIZE + n > self._size:  # the peer grew the area
+            self._map(os.fstat(self._fd).st_size)
+            if _HEADER_SIZE + n > self._size:
+                raise PeerGone(f"peer wrote a {n}-byte message into a {self._size}-byte area")
         return self._view[_HEADER_SIZE:_HEADER_SIZE + n]
 
     def _arrived(self) -> bool:
@@ -173,7 +170,6 @@ class CallChannel:
             except OSError:
                 pass
         try:
-            self._file_size.release()
             self._length_count.release()
             self._view.release()
             self._mm.close()
