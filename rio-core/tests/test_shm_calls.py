@@ -6,10 +6,11 @@ x86 uses) and polling the pipe (what other architectures use).
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import os
 import signal
 import socket
+import subprocess
+import sys
 import threading
 import time
 
@@ -121,29 +122,31 @@ def test_a_message_sent_just_before_hanging_up_is_still_delivered():
     client.close()
 
 
-def _echo_server(path: str, ready: mp.Event) -> None:
-    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as listener:
-        listener.bind(path)
-        listener.listen(1)
-        ready.set()
-        conn, _ = listener.accept()
-        with conn:
-            channel = shm_calls.accept_channel(conn)
-    while True:
-        message = channel.receive(1e-4, 1.0)
-        if bytes(message[:4]) == b"stop":
-            time.sleep(60)  # stays silent: the client must be told when this process is killed
-        channel.send((bytes(message), ()))
+# The node side runs in its own interpreter (a script, not a multiprocessing target: spawned
+# children cannot import test modules by name under pytest's importlib mode).
+_ECHO_NODE = """
+import socket, sys, time
+from rio.middleware import shm_calls
+with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as listener:
+    listener.bind(sys.argv[1])
+    listener.listen(1)
+    print("ready", flush=True)
+    conn, _ = listener.accept()
+    with conn:
+        channel = shm_calls.accept_channel(conn)
+while True:
+    message = channel.receive(1e-4)
+    if bytes(message[:4]) == b"stop":
+        time.sleep(60)  # stays silent: the client must be told when this process is killed
+    channel.send((bytes(message), ()))
+"""
 
 
 def test_across_processes_and_a_killed_node_is_noticed_at_once(tmp_path):
-    ctx = mp.get_context("spawn")
-    ready = ctx.Event()
     path = str(tmp_path / "node.sock")
-    proc = ctx.Process(target=_echo_server, args=(path, ready), daemon=True)
-    proc.start()
+    proc = subprocess.Popen([sys.executable, "-c", _ECHO_NODE, path], stdout=subprocess.PIPE, text=True)
     try:
-        assert ready.wait(30)
+        assert proc.stdout.readline().strip() == "ready"
         channel = shm_calls.open_client_channel(path, 10.0)
         for i in range(200):
             channel.send((b"ping %d" % i, ()))
@@ -157,7 +160,8 @@ def test_across_processes_and_a_killed_node_is_noticed_at_once(tmp_path):
         channel.close()
     finally:
         proc.kill()
-        proc.join(5)
+        proc.wait(5)
+        proc.stdout.close()
 
 
 def test_a_connection_that_is_not_a_call_channel_is_refused():
