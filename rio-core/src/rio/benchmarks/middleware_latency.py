@@ -204,6 +204,18 @@ def _reason(e: BaseException) -> str:
     return first if len(first) <= 300 else first[:297] + "..."
 
 
+def _failure(e: BaseException) -> str:
+    """Why a step failed, for the report. A failing middleware is skipped, but Ctrl+C still stops."""
+    if isinstance(e, KeyboardInterrupt):
+        raise e
+    return _reason(e)
+
+
+def _skip(details: dict[str, Any], name: str, why: str) -> None:
+    details["skipped"][name] = why
+    _progress(f"{name}: skipped ({why})")
+
+
 # -- command line ----------------------------------------------------------------------------------
 def registered_middlewares() -> list[str]:
     try:
@@ -286,10 +298,7 @@ def run(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
 
                 get_middleware(name)
             except BaseException as e:
-                if isinstance(e, KeyboardInterrupt):
-                    raise
-                details["skipped"][name] = f"did not import: {_reason(e)}"
-                _progress(f"{name}: skipped ({details['skipped'][name]})")
+                _skip(details, name, f"did not import: {_failure(e)}")
                 continue
             _progress(f"{name}: node API client.echo() and the raw transport, {args.rounds} alternating "
                       f"rounds of {args.warmup} warm-up + {args.n} round trips ...")
@@ -297,10 +306,7 @@ def run(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
                 try:
                     node_rt = stack.enter_context(node_roundtrip(name, station, payload))
                 except BaseException as e:
-                    if isinstance(e, KeyboardInterrupt):
-                        raise
-                    details["skipped"][name] = f"node API failed: {_reason(e)}"
-                    _progress(f"{name}: skipped ({details['skipped'][name]})")
+                    _skip(details, name, f"node API failed: {_failure(e)}")
                     continue
                 raw_rt = None
                 if name not in RAW:
@@ -309,18 +315,13 @@ def run(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
                     try:
                         raw_rt = stack.enter_context(raw_roundtrip(name, payload))
                     except BaseException as e:
-                        if isinstance(e, KeyboardInterrupt):
-                            raise
-                        details["raw"][name] = {"error": _reason(e)}
-                        _progress(f"{name}: raw transport failed ({_reason(e)}); ratio left out")
+                        details["raw"][name] = {"error": _failure(e)}
+                        _progress(f"{name}: raw transport failed ({details['raw'][name]['error']}); ratio left out")
                 try:
                     node_rtts, raw_rtts, ratios = interleaved_rtts(node_rt, raw_rt, payload, args.n,
                                                                    args.warmup, args.rounds)
                 except BaseException as e:
-                    if isinstance(e, KeyboardInterrupt):
-                        raise
-                    details["skipped"][name] = f"measurement failed: {_reason(e)}"
-                    _progress(f"{name}: skipped ({details['skipped'][name]})")
+                    _skip(details, name, f"measurement failed: {_failure(e)}")
                     continue
             node = summarize(node_rtts)
             raw = summarize(raw_rtts) if raw_rtts is not None else None
@@ -340,10 +341,8 @@ def run(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
                 try:
                     images[name] = image_stream(name, station, args.image_seconds, args.image_rate, poll_s)
                 except BaseException as e:
-                    if isinstance(e, KeyboardInterrupt):
-                        raise
-                    details["images_skipped"][name] = _reason(e)
-                    _progress(f"{name}: image stream failed ({_reason(e)})")
+                    details["images_skipped"][name] = _failure(e)
+                    _progress(f"{name}: image stream failed ({details['images_skipped'][name]})")
         _progress(f"{name}: done in {time.monotonic() - t0:.1f} s")
 
     if args.images:
