@@ -63,3 +63,38 @@ def test_node_killed_during_a_call_is_reported_within_a_second():
             with pytest.raises(rio.NodeDiedError, match="victim"):
                 c.sleep(30.0)
             assert time.monotonic() - t0 < 1.2  # 0.2 s until the kill, then well under a second
+
+
+def test_a_forked_child_can_use_the_parents_client(manager):
+    """`multiprocessing`'s default start method on Linux is fork: a worker may inherit a connected
+    client. Parent and child then call and send requests at the same time; each must get its own
+    replies, and no request may be lost or torn."""
+    from rio.testing import wait_until
+
+    n = 300
+    with connect(EchoNode, "shm", name="echo") as c:
+        c.echo(np.zeros(3))  # the parent's call channel exists before the fork
+        before = len(c.handled())
+        pid = os.fork()
+        if pid == 0:  # child: report through the exit code only
+            code = 1
+            try:
+                for seq in range(n):
+                    c.send_request(q=np.full(6, float(seq)), client=7, seq=seq)
+                    x = np.full(4, float(seq))
+                    if not np.array_equal(c.echo(x), x):
+                        break
+                else:
+                    code = 0
+            finally:
+                os._exit(code)
+        for seq in range(n):
+            c.send_request(q=np.full(6, -float(seq)), client=8, seq=seq)
+            x = np.full(5, -float(seq))
+            np.testing.assert_array_equal(c.echo(x), x)
+        _, status = os.waitpid(pid, 0)
+        assert os.waitstatus_to_exitcode(status) == 0, "the forked child got a wrong reply or an error"
+        assert wait_until(lambda: len(c.handled()) - before >= 2 * n), "requests were lost"
+        got = [tuple(x) for x in c.handled()[before:]]
+        for cid in (7, 8):
+            assert [s for k, s in got if k == cid] == list(range(n)), f"client {cid} lost or reordered requests"

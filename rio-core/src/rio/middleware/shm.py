@@ -22,6 +22,7 @@ import select
 import socket
 import threading
 import uuid
+import weakref
 from typing import Any
 
 from .. import time as rtime
@@ -73,6 +74,13 @@ class _FlockLock:
 
     def __init__(self, fd: int):
         self.fd = fd
+        self._tlock = threading.Lock()
+
+    def reopen(self, segment: str) -> None:
+        """In a forked child: flock belongs to the open file, which the child shares with its
+        parent, so the two would not exclude each other. Take a file of our own (and a fresh thread
+        lock: another thread may have held the old one at the moment of the fork)."""
+        self.fd = _posixshmem.shm_open("/" + segment, os.O_RDWR, mode=0o600)
         self._tlock = threading.Lock()
 
     def __enter__(self) -> None:
@@ -219,8 +227,20 @@ class ShmClient(ClientTransport):
         self._watch = ProcessWatch(int(addr["pid"]), node.name)
         self._segments, self.ring_buffer, self.request_queue, self._notifier = _attach(layouts, addr)
         self._sock_path = addr["sock"]
+        self._req_segment = addr.get("req")
         self._channel: CallChannel | None = None
         self._lock = threading.Lock()
+        _CLIENTS.add(self)
+
+    def _after_fork(self) -> None:
+        """The child of a fork gets its own call channel and request lock (see `_FlockLock.reopen`);
+        sharing the parent's would interleave both processes' messages."""
+        self._lock = threading.Lock()
+        if self._channel is not None:
+            self._channel.close()  # the child's copies only; the parent's channel is untouched
+            self._channel = None
+        if self.request_queue is not None and self._req_segment:
+            self.request_queue.lock.reopen(self._req_segment)
 
     def check_alive(self) -> None:
         self._watch.check()
@@ -268,12 +288,24 @@ class ShmClient(ClientTransport):
             self._channel = None
 
     def close(self) -> None:
+        _CLIENTS.discard(self)
         self._drop_channel()
         if self._notifier is not None:
             self._notifier.close()
         for seg in self._segments:
             seg.close()
         self._watch.close()
+
+
+_CLIENTS: weakref.WeakSet[ShmClient] = weakref.WeakSet()
+
+
+def _after_fork_in_child() -> None:
+    for client in list(_CLIENTS):
+        client._after_fork()
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
 class ShmMiddleware(Middleware):
