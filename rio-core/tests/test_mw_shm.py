@@ -1,5 +1,5 @@
 """shm-specific behaviour of API calls, beyond the conformance suite: deadlines, many clients,
-and a node killed in the middle of a call."""
+a node killed in the middle of a call, and a client inherited through fork."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 import rio
 from rio import ServerManager, connect, serve
 from rio.middleware.shm import ShmMiddleware
-from rio.testing import EchoNode
+from rio.testing import EchoNode, wait_until
 
 
 @pytest.fixture(scope="module")
@@ -69,8 +69,6 @@ def test_a_forked_child_can_use_the_parents_client(manager):
     """`multiprocessing`'s default start method on Linux is fork: a worker may inherit a connected
     client. Parent and child then call and send requests at the same time; each must get its own
     replies, and no request may be lost or torn."""
-    from rio.testing import wait_until
-
     n = 300
     with connect(EchoNode, "shm", name="echo") as c:
         c.echo(np.zeros(3))  # the parent's call channel exists before the fork
