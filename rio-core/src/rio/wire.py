@@ -70,15 +70,19 @@ def _parse_head(head: bytes) -> tuple[np.dtype, tuple[int, ...], bool, int]:
     return parsed
 
 
+def _head_at(buf: Any, off: int) -> tuple[np.dtype, tuple[int, ...], bool, int, int]:
+    """`_parse_head` of the array header starting at `buf[off]`, plus the offset just past it."""
+    try:
+        end = off + 3 + buf[off] + 4 * buf[off + 1]
+        return (*_parse_head(bytes(buf[off:end])), end)
+    except (IndexError, struct.error):
+        raise ValueError("malformed array header") from None
+
+
 def _read_array(buf: Any, off: int) -> tuple[Any, int]:
     """The array whose header starts at `buf[off]`, copied out (writable, owns its memory), and the
     offset just past its data."""
-    try:
-        hlen = 3 + buf[off] + 4 * buf[off + 1]
-        dt, shape, is_scalar, count = _parse_head(bytes(buf[off:off + hlen]))
-    except (IndexError, struct.error):
-        raise ValueError("malformed array header") from None
-    off += hlen
+    dt, shape, is_scalar, count, off = _head_at(buf, off)
     end = off + count * dt.itemsize
     if end > len(buf):
         raise ValueError("array data runs past the end of the message")
@@ -204,14 +208,13 @@ def _array_specs(header: bytes) -> tuple[str, tuple]:
         try:
             mlen = header[0]
             method = header[1:1 + mlen].decode()
-            off, arrays = 2 + mlen, []
-            for _ in range(header[1 + mlen]):
-                hlen = 3 + header[off] + 4 * header[off + 1]
-                dt, shape, _, count = _parse_head(header[off:off + hlen])
-                arrays.append((dt, shape, count, count * dt.itemsize))
-                off += hlen
-        except (IndexError, struct.error, UnicodeDecodeError):
+            nargs = header[1 + mlen]
+        except (IndexError, UnicodeDecodeError):
             raise ValueError("malformed array message header") from None
+        off, arrays = 2 + mlen, []
+        for _ in range(nargs):
+            dt, shape, _, count, off = _head_at(header, off)
+            arrays.append((dt, shape, count, count * dt.itemsize))
         if off != len(header):
             raise ValueError("malformed array message header")
         specs = (method, tuple(arrays))

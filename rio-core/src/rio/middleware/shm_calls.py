@@ -62,6 +62,19 @@ def _anonymous_memory(size: int) -> int:
     return fd
 
 
+def _spin_until(ready: Callable[[], bool], spin_s: float) -> bool:
+    """Poll `ready()` for up to `spin_s`, yielding the CPU between tries (a pure busy loop would
+    starve the peer on a 2-core machine)."""
+    if ready():
+        return True
+    t_end = rtime.now() + spin_s
+    while rtime.now() < t_end:
+        os.sched_yield()
+        if ready():
+            return True
+    return False
+
+
 class CallChannel:
     """One end of a call line. `send(message)` writes a message and wakes the peer; `receive()`
     waits for the peer's message and returns a memoryview of it, valid until the next `send`."""
@@ -118,7 +131,7 @@ class CallChannel:
         """Wait for the peer's next message: watch for `spin_s`, then sleep. With `on_idle`, sleep in
         steps of `poll_s` seconds and call `on_idle()` (which may raise) after each step without a
         message; without it, sleep until a message or a hang-up."""
-        if not (self._watch_memory and self._watch(spin_s)):
+        if not (self._watch_memory and _spin_until(self._arrived, spin_s)):
             self._block(spin_s, poll_s, on_idle)
         n = self._length_count[0]
         if _HEADER_SIZE + n > self._size:  # the peer grew the area
@@ -134,24 +147,12 @@ class CallChannel:
         self._count = count
         return True
 
-    def _watch(self, spin_s: float) -> bool:
-        if self._arrived():
-            return True
-        t_end = rtime.now() + spin_s
-        while rtime.now() < t_end:
-            os.sched_yield()
-            if self._arrived():
-                return True
-        return False
-
     def _block(self, spin_s: float, poll_s: float, on_idle: Callable[[], None] | None) -> None:
         """Sleep on the pipe until the counter moves. Each wake-up read takes every byte pending,
         including those of messages caught earlier by watching; the system call also orders the
         counter's read after it on any architecture."""
-        if not self._watch_memory and spin_s > 0:  # spin on the pipe instead of the counter
-            t_end = rtime.now() + spin_s
-            while not self._poller.poll(0) and rtime.now() < t_end:
-                os.sched_yield()
+        if not self._watch_memory:  # spin on the pipe instead of the counter
+            _spin_until(lambda: bool(self._poller.poll(0)), spin_s)
         timeout_ms = max(1, int(poll_s * 1000))
         while True:
             if on_idle is not None and not self._poller.poll(timeout_ms):
