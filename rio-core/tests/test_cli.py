@@ -24,7 +24,7 @@ from rio.specs import Spec
 
 @hookimpl
 def rio_drivers():
-    return [Spec("acme.arm", "arm", "cli_good_driver:AcmeArm", "an arm", config="cli_good_driver:Cfg")]
+    return [Spec("acme.arm", "arm", "cli_good_driver:AcmeArm", "an arm")]
 '''
 DRIVER = "import numpy\nraise RuntimeError('the driver module must not be imported by a listing')\n"
 
@@ -128,9 +128,10 @@ def test_doctor_finds_sdks_without_importing_them(tmp_path):
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
     assert data["python"] == sys.version.split()[0]
-    sdks = {s["module"]: s for s in data["sdks"]}
-    assert sdks["scservo_sdk"]["ok"] is True and not marker.exists()
-    assert sdks["pyrealsense2"]["install"] == "pip install pyrealsense2"
+    so100 = {r["module"]: r for r in data["requirements"]["rio-so100"]}
+    assert so100["scservo_sdk"]["present"] is True and not marker.exists()
+    assert so100["scservo_sdk"]["install"] == "pip install feetech-servo-sdk"
+    assert {r["module"] for r in data["requirements"]["rio-core"]} >= {"zenoh", "copier", "av"}
     mws = {m["middleware"]: m for m in data["middlewares"]}
     assert mws["thread"]["ok"] is True and mws["thread"]["plugin"] == "rio-core"
     assert "rio-core" in [p["name"] for p in data["plugins"]]

@@ -15,6 +15,7 @@ from pydantic import ValidationError
 from rio import ServerManager, connect, serve
 from rio.errors import ConfigError
 from rio.middleware.zmq import ZmqMiddleware
+from rio.node import remote
 from rio.testing import EchoNode, ImageNode, wait_until
 
 
@@ -111,7 +112,7 @@ def test_options_validated():
         ZmqMiddleware(bogus=1)
     with pytest.raises(ValidationError):
         ZmqMiddleware(state_port=70000)
-    assert ZmqMiddleware().options.host == "127.0.0.1"
+    assert ZmqMiddleware().config.host == "127.0.0.1"
 
 
 def test_sigkill_reported_within_a_second():
@@ -229,12 +230,10 @@ def test_restarted_server_is_a_new_server():
 
 
 class _ReqOnly(rio.Node):
-    __api__ = ("send_request", "ping")
-
-    def __init__(self) -> None:
-        super().__init__()
+    def setup(self) -> None:
         self.example_request = {"cmd": np.zeros(3)}
 
+    @remote
     def ping(self) -> str:
         return "pong"
 

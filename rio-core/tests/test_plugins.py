@@ -19,7 +19,7 @@ from rio.specs import Spec
 
 @hookimpl
 def rio_drivers():
-    return [Spec("acme.arm", "arm", "tp_good_driver:AcmeArm", "an arm", config="tp_good_driver:Cfg")]
+    return [Spec("acme.arm", "arm", "tp_good_driver:AcmeArm", "an arm")]
 
 @hookimpl
 def rio_stations():

@@ -7,15 +7,12 @@ import time
 import numpy as np
 import pytest
 import rio
-from rio import Node, ServerManager, client_side, connect, serve
+from rio import Node, ServerManager, client_side, connect, remote, serve
 from rio.testing import wait_until
 
 
 class PubOnly(Node):
-    __api__ = ("get_state",)
-
-    def __init__(self, **kw):
-        super().__init__(**kw)
+    def setup(self):
         self.example_data = {"i": 0}
         self.i = 0
 
@@ -25,10 +22,7 @@ class PubOnly(Node):
 
 
 class ReqOnly(Node):
-    __api__ = ("send_request", "seen", "loop_thread")
-
-    def __init__(self, **kw):
-        super().__init__(**kw)
+    def setup(self):
         self.example_request = {"v": 0.0}
         self.values = []
         self.threads = set()
@@ -37,19 +31,20 @@ class ReqOnly(Node):
         self.values.append(float(r["v"]))
         self.threads.add(threading.current_thread().name)
 
+    @remote
     def seen(self):
         return self.values
 
+    @remote
     def loop_thread(self):
         return sorted(self.threads)
 
 
 class Both(ReqOnly):
-    __api__ = ("get_state", "send_request", "seen", "loop_thread", "move")
     worker = "req"
 
-    def __init__(self, **kw):
-        super().__init__(**kw)
+    def setup(self):
+        super().setup()
         self.example_data = {"v": 0.0}
 
     def read_state(self):
@@ -110,7 +105,7 @@ def test_duplicate_server_names_rejected():
 
 
 def test_bad_node_config_fails_in_caller():
-    with pytest.raises(TypeError):
+    with pytest.raises(rio.RioError, match=r"node 'x' \(PubOnly\) config:\n  nonsense: unknown field"):
         serve(PubOnly, name="x", nonsense=1)
 
 

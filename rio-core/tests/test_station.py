@@ -7,18 +7,22 @@ import textwrap
 import types
 
 import pytest
-from pydantic import Field
-from rio.config import DriverConfig
 from rio.errors import ConfigError
 from rio.hookspecs import hookimpl
 from rio.plugins import Registry
 from rio.specs import Spec
 from rio.station import load_station, make_station, parse_station
 
+SERIAL_ARM = """
+from pydantic import Field
+from rio.testing import FakeArm
 
-class SerialArmConfig(DriverConfig):
-    port: str
-    baudrate: int = Field(1_000_000, gt=0)
+
+class SerialArm(FakeArm):
+    class Config(FakeArm.Config):
+        port: str
+        baudrate: int = Field(1_000_000, gt=0)
+"""
 
 
 @pytest.fixture
@@ -29,12 +33,13 @@ def reg(tmp_path):
     pkg = tmp_path / "stpkg"
     (pkg / "stations").mkdir(parents=True)
     (pkg / "__init__.py").write_text("")
+    (pkg / "serial_arm.py").write_text(SERIAL_ARM)
     (pkg / "stations" / "demo.toml").write_text('name = "pkg-demo"\n[components.arm]\ndriver = "rio.fake_arm"\n')
     (tmp_path / "abs.toml").write_text('name = "abs-demo"\n[components.humanoid]\ndriver = "rio.fake_humanoid"\n')
 
     @hookimpl
     def rio_drivers():
-        return [Spec("acme.serial_arm", "arm", "rio.testing:FakeArm", "needs a port", config=SerialArmConfig)]
+        return [Spec("acme.serial_arm", "arm", "stpkg.serial_arm:SerialArm", "needs a port")]
 
     @hookimpl
     def rio_stations():
@@ -47,6 +52,7 @@ def reg(tmp_path):
     yield reg
     sys.path.remove(str(tmp_path))
     sys.modules.pop("stpkg", None)
+    sys.modules.pop("stpkg.serial_arm", None)
 
 
 def write(tmp_path, text: str, name: str = "station.toml"):
@@ -85,7 +91,8 @@ def test_valid_station(tmp_path, reg):
     assert st.roles() == {"arm", "gripper", "wrist_camera"}
     arm = st.components["arm"]
     assert (arm.kind, arm.driver, arm.spec.plugin) == ("arm", "rio.fake_arm", "rio-core")
-    assert arm.kwargs() == {"dof": 7, "rate_hz": 100.0, "home": None}
+    assert arm.kwargs()["dof"] == 7 and arm.kwargs()["rate_hz"] == 100.0 and arm.kwargs()["home"] is None
+    assert isinstance(arm.config, arm.node_class().Config)  # the validated object the node receives
     assert st.components["wrist_camera"].kwargs()["depth"] is True
     assert st.embodiment is None and st.embodiment_options == {}
 
@@ -125,7 +132,7 @@ def test_field_errors_give_full_paths_all_at_once(reg):
     assert "components.arm.port: required field missing" in body
     assert "components.arm.baudrate: Input should be greater than 0 (got -1)" in body
     assert ("components.gripper.max_widht: unknown field; did you mean 'max_width'? "
-            "(allowed: max_width, rate_hz)") in body
+            "(allowed: disable_on_close, enable_on_open, force, max_step_m, max_width, rate_hz, watchdog_s)") in body
     assert "components.amr2: unknown role 'amr2'; did you mean 'arm2'?" in body
     assert ("components.front_camera.driver: required field missing "
             "(a registered camera driver: rio.fake_camera)") in body

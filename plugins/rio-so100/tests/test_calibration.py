@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 import pytest
+from rio.testing import lifecycle
 from rio_so100.calibrate import Calibrator
 from rio_so100.calibration import (
     MID,
@@ -77,16 +78,12 @@ def test_follower_uses_the_calibration(make_vbus):
     bus = make_vbus()
     for sid, servo in bus.servos.items():
         servo.encoder = hand.middles[sid] + (100 if sid == 2 else 0)
-    node = So100Follower(port=bus.port, calibration="arm1")
-    node.open()
-    try:
+    with lifecycle(So100Follower(port=bus.port, calibration="arm1")) as node:
         s = node.read_state()
         assert np.allclose(s["joint_pos"], [0, 100 * RAD_PER_STEP, 0, 0, 0], atol=1e-9)
         assert bus.servo(2).homing_offset == result.joint("shoulder_lift").homing_offset
         lower, upper = node.joint_limits()
         assert np.allclose(upper, [result.joint(j).limits_rad()[1] for j in ARM_JOINTS])
-    finally:
-        node.close()
 
 
 def test_calibration_path_respects_xdg_and_accepts_paths(config_home, tmp_path):

@@ -25,7 +25,7 @@ def test_follower_moves_to_joint_targets_within_limits(vbus, calibrated):
     with ServerManager(MW, [serve(So100Follower, name="arm", port=vbus.port, rate_hz=100)]):
         with connect(So100Follower, MW, name="arm", port=vbus.port) as arm:
             s = arm.get_state()
-            assert np.allclose(s["joint_pos"], 0.0) and s["torque"] and np.all(np.isnan(s["eef_pose"]))
+            assert np.allclose(s["joint_pos"], 0.0) and s["enabled"] and np.all(np.isnan(s["eef_pose"]))
             lower, upper = (np.array(x) for x in arm.joint_limits())
             cal = default_calibration("so100", "follower")
             assert np.allclose(np.transpose([lower, upper]), [cal.joint(j).limits_rad() for j in arm.joint_names()])
@@ -35,8 +35,8 @@ def test_follower_moves_to_joint_targets_within_limits(vbus, calibrated):
             arm.move_joints([9.0, 0, 0, 0, 0], time.monotonic() + 0.1)  # far outside: clipped to the limit
             assert wait_until(lambda: abs(arm.get_state()["joint_pos"][0] - upper[0]) < 2 * RAD_PER_STEP)
             assert vbus.servo(1).reg(T.GOAL_POSITION) == cal.joint("shoulder_pan").range_max
-            arm.torque(False)
-            assert vbus.servo(1).reg(T.TORQUE_ENABLE) == 0 and wait_until(lambda: not arm.get_state()["torque"])
+            arm.disable()
+            assert vbus.servo(1).reg(T.TORQUE_ENABLE) == 0 and wait_until(lambda: not arm.get_state()["enabled"])
     assert all(vbus.servo(i).reg(T.TORQUE_ENABLE) == 0 for i in range(1, 6))  # released on close
 
 

@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 import pytest
+from rio.testing import lifecycle
 
 pytestmark = pytest.mark.hardware
 
@@ -59,18 +60,14 @@ def test_node_reads_calibrated_joints_within_limits():
     from rio_so100.leader.driver import So100Leader
 
     cls = So100Follower if ROLE == "follower" else So100Leader
-    node = cls(port=PORT, calibration=CALIBRATION, model=MODEL)
-    node.open()
-    try:
+    with lifecycle(cls(port=PORT, calibration=CALIBRATION, model=MODEL)) as node:
         s = node.read_state()
         print("joint_pos", np.round(s["joint_pos"], 3), "error", s["error"])
         assert not np.any(s["error"])
         if ROLE == "follower":
             lower, upper = (np.array(x) for x in node.joint_limits())
             assert np.all(s["joint_pos"] >= lower - 0.05) and np.all(s["joint_pos"] <= upper + 0.05)
-            assert s["torque"]
-    finally:
-        node.close()
+            assert s["enabled"]
 
 
 def test_follower_small_wrist_roll_motion():
@@ -79,9 +76,7 @@ def test_follower_small_wrist_roll_motion():
     from rio import time as rtime
     from rio_so100.follower.driver import So100Follower
 
-    node = So100Follower(port=PORT, calibration=CALIBRATION, model=MODEL)
-    node.open()
-    try:
+    with lifecycle(So100Follower(port=PORT, calibration=CALIBRATION, model=MODEL)) as node:
         q0 = node.read_state()["joint_pos"].copy()
         for delta in (0.15, 0.0):
             target = q0.copy()
@@ -92,5 +87,3 @@ def test_follower_small_wrist_roll_motion():
                 s = node.read_state()
                 time.sleep(0.01)
             assert abs(s["joint_pos"][4] - target[4]) < 0.03, s["joint_pos"]
-    finally:
-        node.close()

@@ -23,8 +23,9 @@ def test_drivers_and_stations_are_registered():
     drivers = {s.name: s for s in reg.specs("rio_drivers") if s.plugin == "rio-so100"}
     assert {n: s.kind for n, s in drivers.items()} == DRIVERS
     for spec in drivers.values():
-        assert spec.load_config().model_fields["port"].is_required()
-        assert spec.load().__name__.startswith(spec.name.split(".")[0].capitalize())
+        assert spec.config_model().model_fields["port"].is_required()
+        assert spec.load().__name__.startswith("So100")  # one class per device; SO-101 is a preset
+        assert spec.preset == {"model": spec.name.split(".")[0]}
     assert sorted(s.name for s in reg.specs("rio_stations") if s.plugin == "rio-so100") == sorted(STATIONS)
 
 
@@ -39,7 +40,7 @@ def test_packaged_stations_validate(name):
 
 def test_listing_imports_no_sdk():
     code = ("import sys; from rio.plugins import Registry; r = Registry(); "
-            "[s.load_config() for s in r.specs('rio_drivers')]; "
+            "[s.config_model() for s in r.specs('rio_drivers')]; "
             "import rio_so100.follower.driver, rio_so100.leader.driver; print('scservo_sdk' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.stdout.strip() == "False", out.stderr

@@ -15,11 +15,11 @@ _EXPORTS = {
     "RioError": ".errors", "InvalidRequest": ".errors", "NodeDiedError": ".errors", "NodeError": ".errors",
     "NodeTimeout": ".errors", "QueueFull": ".errors",
     "ServerManager": ".manager", "ServerSpec": ".manager", "connect": ".manager", "serve": ".manager",
-    "Node": ".node", "client_side": ".node",
+    "Node": ".node", "client_side": ".node", "remote": ".node",
 }
 
 __all__ = [
-    "Node", "client_side", "serve", "connect", "ServerManager", "ServerSpec", "NodeClient",
+    "Node", "client_side", "remote", "serve", "connect", "ServerManager", "ServerSpec", "NodeClient",
     "RioError", "InvalidRequest", "NodeError", "NodeDiedError", "NodeTimeout", "QueueFull",
 ]
 
@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from .client import NodeClient
     from .errors import InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull, RioError
     from .manager import ServerManager, ServerSpec, connect, serve
-    from .node import Node, client_side
+    from .node import Node, client_side, remote
 
 
 def __getattr__(name: str) -> Any:

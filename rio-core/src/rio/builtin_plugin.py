@@ -4,6 +4,7 @@ the same hooks a third-party plugin uses (so nothing in core is special-cased)."
 from __future__ import annotations
 
 from .hookspecs import hookimpl
+from .requirements import Requirement
 from .specs import Spec
 
 
@@ -27,9 +28,9 @@ def rio_middlewares() -> list[Spec]:
 def rio_embodiments() -> list[Spec]:
     return [
         Spec("single_arm", "embodiment", "rio.embodiments.single_arm:SingleArm",
-             "arm [+ gripper] [+ hand] -> SingleArmObs", config="rio.embodiments.single_arm:ArmOptions"),
+             "arm [+ gripper] [+ hand] -> SingleArmObs"),
         Spec("bimanual", "embodiment", "rio.embodiments.bimanual:Bimanual",
-             "arm + arm2, each [+ gripper] [+ hand] -> BimanualObs", config="rio.embodiments.single_arm:ArmOptions"),
+             "arm + arm2, each [+ gripper] [+ hand] -> BimanualObs"),
         Spec("humanoid", "embodiment", "rio.embodiments.humanoid:Humanoid",
              "humanoid [+ hand, hand2] -> HumanoidObs"),
     ]
@@ -42,18 +43,30 @@ _FAKE = "in-process fake, no hardware or simulator (tests, examples)"
 def rio_drivers() -> list[Spec]:
     t = "rio.testing"
     return [
-        Spec("rio.fake_arm", "arm", f"{t}:FakeArm", f"arm: {_FAKE}", config=f"{t}:FakeArmConfig"),
-        Spec("rio.fake_gripper", "gripper", f"{t}:FakeGripper", f"gripper: {_FAKE}", config=f"{t}:FakeGripperConfig"),
-        Spec("rio.fake_camera", "camera", f"{t}:FakeCamera", f"camera: {_FAKE}", config=f"{t}:FakeCameraConfig"),
-        Spec("rio.fake_teleop", "teleop", f"{t}:FakeTeleop", f"teleop: {_FAKE}", config=f"{t}:FakeTeleopConfig"),
-        Spec("rio.fake_hand", "hand", f"{t}:FakeHand", f"hand: {_FAKE}", config=f"{t}:FakeHandConfig"),
-        Spec("rio.fake_humanoid", "humanoid", f"{t}:FakeHumanoid", f"humanoid: {_FAKE}",
-             config=f"{t}:FakeHumanoidConfig"),
+        Spec("rio.fake_arm", "arm", f"{t}:FakeArm", f"arm: {_FAKE}"),
+        Spec("rio.fake_gripper", "gripper", f"{t}:FakeGripper", f"gripper: {_FAKE}"),
+        Spec("rio.fake_camera", "camera", f"{t}:FakeCamera", f"camera: {_FAKE}"),
+        Spec("rio.fake_teleop", "teleop", f"{t}:FakeTeleop", f"teleop: {_FAKE}"),
+        Spec("rio.fake_hand", "hand", f"{t}:FakeHand", f"hand: {_FAKE}"),
+        Spec("rio.fake_humanoid", "humanoid", f"{t}:FakeHumanoid", f"humanoid: {_FAKE}"),
         # Teleop devices that need no hardware
         Spec("teleop.scripted", "teleop", "rio.teleop.scripted:ScriptedTeleop",
-             "scripted end-effector moves (pick and place); headless demos and tests",
-             config="rio.teleop.scripted:ScriptedTeleopConfig"),
+             "scripted end-effector moves (pick and place); headless demos and tests"),
         Spec("teleop.keyboard", "teleop", "rio.teleop.keyboard:KeyboardTeleop",
-             "terminal keys (works over SSH): move, rotate, gripper, mode, finish",
-             config="rio.teleop.keyboard:KeyboardTeleopConfig"),
+             "terminal keys (works over SSH): move, rotate, gripper, mode, finish"),
+    ]
+
+
+@hookimpl
+def rio_requirements() -> list[Requirement]:
+    """The core's optional extras: each is needed only by the feature named in its purpose."""
+    ik = "pip install 'rio-core[ik]'"
+    return [
+        Requirement("zenoh", "pip install 'rio-core[zenoh]'", "the zenoh middleware (multi-machine through routers)"),
+        Requirement("portal", "pip install 'rio-core[portal]'", "the portal middleware"),
+        Requirement("copier", "pip install 'rio-core[new]'", "`rio new plugin` templates"),
+        Requirement("av", "pip install 'rio-core[record]'", "recording: camera streams encoded as video"),
+        Requirement("mujoco", ik, "rio.kinematics: MuJoCo models (MinkSolver)"),
+        Requirement("mink", ik, "rio.kinematics: inverse kinematics on MuJoCo models (MinkSolver)"),
+        Requirement("pinocchio", ik, "rio.kinematics: inverse kinematics on URDF models (PinocchioSolver)"),
     ]

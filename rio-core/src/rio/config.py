@@ -1,37 +1,72 @@
-"""Driver config models and readable validation errors.
+"""One config convention for every component: drivers, policies, middlewares, embodiments, dataset formats.
 
-A driver's config model is a pydantic model whose fields are its node's constructor keyword
-arguments: the station file's `[components.<role>]` table (less `driver`) is validated by it, and the
-validated values are what `serve(NodeCls, mw, **values)` receives. Subclass `DriverConfig` so
-unknown keys are errors (a typo in a station file must not be silently ignored).
+A component class declares its pydantic `Config` once, as a nested class (or a class attribute). Its
+defaults, descriptions and constraints live only there: the station file's table is validated by it,
+`rio drivers show` documents it, and the component receives the validated object as `self.config`.
+
+    class AcmeArm(ArmNode):
+        class Config(ArmNode.Config):
+            port: str = Field(description="serial port")
+
+        def setup(self):            # cheap, runs in servers and clients alike
+            self.port = self.config.port
+
+A component is built from a config object or from fields (`AcmeArm(port="/dev/ttyUSB0")`, what
+`serve(AcmeArm, mw, port=...)` and station files do); both go through `Configurable.__init__`, so there is
+no constructor signature to keep in sync with the model. A plugin registers a variant of a component
+as a spec carrying preset field values (`Spec(..., preset={"model": "so101"})`), not as a subclass.
 """
 
 from __future__ import annotations
 
-import inspect
-from typing import Any
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, ValidationError, create_model
+from pydantic import BaseModel, ConfigDict, ValidationError
 
 from .suggest import closest
 
 
-class DriverConfig(BaseModel):
-    """Base class of driver (and policy) config models: unknown fields are rejected."""
+class Config(BaseModel):
+    """Base of every component's config model: unknown fields are errors (a typo in a station file must
+    not be silently ignored)."""
 
     model_config = ConfigDict(extra="forbid")
 
 
-def model_from_signature(cls: type) -> type[BaseModel]:
-    """A config model derived from `cls.__init__`'s keyword arguments, for drivers registered
-    without one (their annotations and defaults become the fields)."""
-    fields: dict[str, Any] = {}
-    for p in list(inspect.signature(cls.__init__).parameters.values())[1:]:
-        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
-            continue
-        ann = Any if p.annotation is inspect.Parameter.empty or isinstance(p.annotation, str) else p.annotation
-        fields[p.name] = (ann, ... if p.default is inspect.Parameter.empty else p.default)
-    return create_model(f"{cls.__name__}Config", __base__=DriverConfig, **fields)
+def validate_config(model: type[BaseModel], config: Any = None, fields: Mapping[str, Any] | None = None) -> Any:
+    """`config` (an instance of `model`, of a parent model, or a dict) with `fields` applied on top,
+    validated by `model`. Raises pydantic's ValidationError naming each bad field."""
+    if isinstance(config, model) and not fields:
+        return config
+    base = config.model_dump() if isinstance(config, BaseModel) else dict(config or {})
+    return model.model_validate({**base, **(fields or {})})
+
+
+class Configurable:
+    """Mixin: `Cls(config=None, /, **fields)` validates into `self.config` (an instance of `Cls.Config`),
+    then calls `setup()`, where a component derives what it needs from its config (cheaply: clients and
+    tools build components too). Components override `setup()`, never `__init__`."""
+
+    Config: ClassVar[type[Config]] = Config
+    config: Any
+
+    def __init__(self, config: Any = None, /, **fields: Any):
+        self.config = validate_config(type(self).Config, config, fields)
+        self.setup()
+
+    def setup(self) -> None:
+        """Derive state from `self.config`. No hardware, no heavy imports, no network."""
+
+
+def apply_preset(preset: Mapping[str, Any], fields: Mapping[str, Any], owner: str) -> dict[str, Any]:
+    """Station fields over a spec's preset values. A preset is what makes the variant (SO-101 is the SO-100
+    driver with `model = "so101"`), so a field that contradicts it is an error rather than a silent override."""
+    for key, value in fields.items():
+        if key in preset and preset[key] != value:
+            raise ValueError(f"{key}: '{owner}' fixes it to {preset[key]!r} (got {value!r}); "
+                             "use the driver registered for that variant instead")
+    return {**preset, **fields}
 
 
 def error_lines(exc: ValidationError, prefix: str, model: type[BaseModel] | None = None) -> list[str]:

@@ -14,16 +14,16 @@ from typing import Any
 import numpy as np
 
 from . import time as rtime
-from .embodiments.base import Embodiment, EmbodimentOptions
+from .embodiments.base import Embodiment, EmbodimentConfig
 from .errors import RioError
 from .schema import Camera, Step
 
 
 class Env:
-    def __init__(self, embodiment: type[Embodiment], options: EmbodimentOptions,
+    def __init__(self, embodiment: type[Embodiment], config: EmbodimentConfig,
                  robot_clients: dict[str, Callable[[], Any]], camera_clients: dict[str, Callable[[], Any]],
                  *, rate_hz: float = 30.0, station: str = "rio"):
-        self.embodiment_cls, self.options = embodiment, options
+        self.embodiment_cls, self.config = embodiment, config
         self.robot_clients, self.camera_clients = robot_clients, camera_clients
         self.rate_hz, self.station = float(rate_hz), station
         self.robot: Embodiment | None = None
@@ -39,7 +39,7 @@ class Env:
         try:
             clients = {role: stack.enter_context(make()) for role, make in self.robot_clients.items()}
             self.cameras = {name: stack.enter_context(make()) for name, make in self.camera_clients.items()}
-            self.robot = self.embodiment_cls(clients, self.options)
+            self.robot = self.embodiment_cls(clients, self.config)
         except BaseException:
             stack.close()
             raise

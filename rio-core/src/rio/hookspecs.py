@@ -11,6 +11,7 @@ from typing import Any
 
 import pluggy
 
+from .requirements import Requirement
 from .specs import Spec
 
 hookspec = pluggy.HookspecMarker("rio")
@@ -49,6 +50,13 @@ def rio_embodiments() -> list[Spec]:
 def rio_stations() -> list[Spec]:
     """Packaged station files (kind 'station'); target is an absolute path of a .toml file or a
     package resource 'package:relative/path.toml' (read with importlib.resources)."""
+
+
+@hookspec
+def rio_requirements() -> list[Requirement]:
+    """What the plugin needs from the machine: optional modules (with the command that installs each)
+    and system checks ('package.module:function' returning None or a one-line problem). Shown by
+    `rio doctor`, grouped per plugin; modules are located with find_spec, never imported."""
 
 
 @hookspec

@@ -22,8 +22,11 @@ import uuid
 from dataclasses import dataclass, field
 from typing import Any
 
+from pydantic import ValidationError
+
 from . import time as rtime
 from .client import NodeClient
+from .config import error_lines
 from .errors import ConfigError, NodeDiedError, RioError
 from .middleware.base import Middleware, NodeLayouts, machine_id
 from .node import Node
@@ -46,7 +49,11 @@ def _middleware(mw: str | Middleware, station: str, options: dict | None = None)
 def _build_node(cls: type[Node], name: str | None, config: dict[str, Any]) -> Node:
     if not (isinstance(cls, type) and issubclass(cls, Node)):
         raise ConfigError(f"{cls!r} is not a rio.Node subclass")
-    node = cls(**config)
+    try:
+        node = cls(**config)
+    except ValidationError as e:
+        raise ConfigError(f"node '{name or cls.__name__.lower()}' ({cls.__name__}) config:\n  "
+                          + "\n  ".join(error_lines(e, "", cls.Config))) from None
     node.name = name or node.name
     return node
 
@@ -183,7 +190,7 @@ class _ProcessHandle:
         self.proc = ctx.Process(
             target=_child_main, name=f"rio-{spec.name}", daemon=False,
             args=(spec.cls, spec.name, spec.config, type(mw), mw.station,
-                  mw.options.model_dump(), self.resources, child_conn, os.getpid()),
+                  mw.config.model_dump(), self.resources, child_conn, os.getpid()),
         )
         self.proc.start()
         child_conn.close()

@@ -2,49 +2,80 @@
 
 A node author writes only hardware logic:
 
-- `example_data` / `example_request` (set in `__init__`): dicts of arrays and scalars that fix the
-  ring-buffer and request-queue slots. `__init__` must be cheap and touch no hardware: clients build
-  the same object to learn the layout and the client-side methods.
+- `Config`: the node's pydantic config model (see `rio.config`); the node receives it as `self.config`.
+- `setup()`: cheap, touches no hardware: read `self.config` and set `example_data` / `example_request`
+  (dicts of arrays and scalars that fix the ring-buffer and request-queue slots). Clients build the same
+  object to learn the layout and the client-side methods.
 - `open()` / `close()`: acquire and release the device (server side only).
 - `read_state() -> dict`: one sample, for publishing loops.
 - `handle_request(req: dict)`: apply one command, for request loops.
-- `__api__`: the method names a client may call. Methods marked `@client_side` run in the client's
-  process against its local ring buffer / request queue (never block); the rest run inside the node
-  (a remote call, return values and exceptions carried back).
+- methods marked `@remote` run inside the node when a client calls them (return values and exceptions
+  carried back); methods marked `@client_side` run in the client's process against its local ring
+  buffer / request queue (never block). The node's API (`__api__`) is exactly the marked methods, so
+  a base class's API (an arm's `robot_description`, `home`, ...) is inherited without being listed.
 
-The runtime (`rio.runtime`) owns the loop, its timing, ready/exit events and error reporting.
+The runtime (`rio.runtime`) owns the loop, its timing, ready/exit events and error reporting; the
+standard kinds (`rio.interfaces`) use `opened()` / `closing()` to run their contract (safety, enable)
+around the driver's own `open()` / `close()`.
 """
 
 from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Mapping
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, TypeVar
 
+from pydantic import Field
+
+from .config import Config, Configurable
 from .layout import Layout
 
 LoopShape = Literal["pub", "req", "pubreq"]
+F = TypeVar("F", bound=Callable[..., Any])
 
-_CLIENT_SIDE = "__rio_client_side__"
+_MARK = "__rio_api__"
 
 
-def client_side(fn: Callable) -> Callable:
-    """Mark an `__api__` method to run in the client against its local buffers (no remote call)."""
-    setattr(fn, _CLIENT_SIDE, True)
+def remote(fn: F) -> F:
+    """Mark a method as part of the node's API, run inside the node when a client calls it."""
+    setattr(fn, _MARK, "remote")
     return fn
 
 
+def client_side(fn: F) -> F:
+    """Mark a method as part of the node's API, run in the client against its local buffers."""
+    setattr(fn, _MARK, "client")
+    return fn
+
+
+def api_kind(cls: type, method: str) -> str | None:
+    """'remote', 'client' or None (not part of the API). An override keeps the mark of the method it
+    overrides, so a driver implementing its kind's `robot_description()` needs no decorator."""
+    for klass in cls.__mro__:
+        mark = getattr(klass.__dict__.get(method), _MARK, None)
+        if mark is not None:
+            return mark
+    return None
+
+
 def is_client_side(cls: type, method: str) -> bool:
-    return bool(getattr(getattr(cls, method, None), _CLIENT_SIDE, False))
+    return api_kind(cls, method) == "client"
 
 
-class Node:
-    __api__: ClassVar[tuple[str, ...]] = ("get_state",)
+class NodeConfig(Config):
+    """Fields every node accepts."""
+
+    rate_hz: float = Field(100.0, gt=0, description="loop rate (Hz): state published / commands applied")
+
+
+class Node(Configurable):
+    Config: ClassVar[type[NodeConfig]] = NodeConfig
+    #: The marked methods, derived for each class (never written by hand).
+    __api__: ClassVar[tuple[str, ...]] = ()
     #: Loop shape. None infers it: publishes and accepts requests -> "pubreq"; only one -> that one.
     loop: ClassVar[LoopShape | None] = None
     #: Run the complementary operation ("pub" or "req") in a worker thread instead of the main loop.
     worker: ClassVar[Literal["pub", "req"] | None] = None
-    rate_hz: float = 100.0
     buffer_capacity: ClassVar[int] = 64
     request_capacity: ClassVar[int] = 64
 
@@ -57,15 +88,34 @@ class Node:
     request_queue: Any = None
     exit_event: threading.Event
 
-    def __init__(self, *, rate_hz: float | None = None):
-        if rate_hz is not None:
-            self.rate_hz = float(rate_hz)
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "__api__" in cls.__dict__:
+            raise TypeError(f"{cls.__name__} lists __api__ by hand; mark its methods with @remote or "
+                            "@client_side instead (the API is derived from them)")
+        cls.__api__ = tuple(sorted(m for m in dir(cls) if api_kind(cls, m) is not None))
+
+    def __init__(self, config: Any = None, /, **fields: Any):
         self.name = type(self).__name__.lower()
         self.exit_event = threading.Event()
+        super().__init__(config, **fields)
+
+    @property
+    def rate_hz(self) -> float:
+        return float(self.config.rate_hz)
 
     # -- hardware logic (override) ------------------------------------------------------------------
+    def setup(self) -> None:
+        """Declare layouts from `self.config`. Runs in servers and clients: no hardware, no heavy imports."""
+
     def open(self) -> None:
         """Acquire the device. Runs in the server before the node reports ready."""
+
+    def opened(self) -> None:
+        """Runs after `open()`: where a kind's contract starts (the standard kinds use it; drivers don't)."""
+
+    def closing(self) -> None:
+        """Runs before `close()`, even after an error: where a kind's contract stops (e.g. disable)."""
 
     def close(self) -> None:
         """Release the device. Always runs once the loop ends, including after an error."""
@@ -90,6 +140,10 @@ class Node:
     @client_side
     def send_request(self, request: Mapping[str, Any] | None = None, **fields: Any) -> None:
         """Validate and enqueue a request; raises InvalidRequest naming the field on bad input."""
+        if self.request_queue is None:
+            from .errors import InvalidRequest
+
+            raise InvalidRequest(self.name, None, f"{type(self).__name__} takes no requests")
         self.request_queue.put({**(request or {}), **fields})
 
     # -- introspection used by the runtime ----------------------------------------------------------
@@ -110,4 +164,7 @@ class Node:
 
     @classmethod
     def remote_methods(cls) -> frozenset[str]:
-        return frozenset(m for m in cls.__api__ if not is_client_side(cls, m))
+        return frozenset(m for m in cls.__api__ if api_kind(cls, m) == "remote")
+
+
+Node.__api__ = ("get_state", "send_request")

@@ -11,19 +11,23 @@ loads none but the core's), like datasette's DATASETTE_LOAD_PLUGINS: useful to b
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import pluggy
 
 from . import builtin_plugin, hookspecs
 from .errors import ConfigError
+from .known_plugins import missing_plugin_hint
+from .requirements import Requirement, check_requirement
 from .specs import HOOK_KINDS, Spec, check_spec
 from .suggest import closest, unknown
 
 GROUP = "rio"
 CORE = "rio-core"
 ENV_ONLY = "RIO_LOAD_PLUGINS"
+#: Hooks that return something other than specs (so `specs()` does not handle them).
+OTHER_HOOKS = frozenset({"rio_cli", "rio_requirements"})
 
 
 @dataclass
@@ -110,7 +114,7 @@ class Registry:
         except Exception as e:  # pluggy.PluginValidationError, ValueError (already registered)
             self.report(Problem(name, f"invalid plugin: {e}"))
             return False
-        known = set(HOOK_KINDS) | {"rio_cli"}
+        known = set(HOOK_KINDS) | OTHER_HOOKS
         for caller in self.pm.get_hookcallers(obj) or []:
             if caller.name not in known:
                 hint = closest(caller.name, known)
@@ -154,8 +158,7 @@ class Registry:
                     self.report(Problem(plugin, f"{spec.kind} '{spec.name}' is already provided by "
                                                 f"'{out[spec.name].plugin}'; skipped"))
                     continue
-                out[spec.name] = Spec(spec.name, spec.kind, spec.target, spec.description, spec.config,
-                                      plugin=self.plugins[plugin].dist if plugin in self.plugins else plugin)
+                out[spec.name] = replace(spec, plugin=self.plugins[plugin].dist if plugin in self.plugins else plugin)
                 info = self.plugins.get(plugin)
                 if info is not None and spec.name not in info.provides.setdefault(spec.kind, []):
                     info.provides[spec.kind].append(spec.name)
@@ -169,8 +172,40 @@ class Registry:
         """The spec called `name`, or a ConfigError with the closest registered name."""
         by_name = {s.name: s for s in self.specs(hook)}
         if name not in by_name:
-            raise ConfigError(unknown(what or HOOK_KINDS[hook][0], name, by_name))
+            raise ConfigError(unknown(what or HOOK_KINDS[hook][0], name, by_name)
+                              + self.plugin_hint(HOOK_KINDS[hook][0], name))
         return by_name[name]
+
+    def plugin_hint(self, kind: str, name: str) -> str:
+        """" (provided by rio-sim, which is not installed: pip install rio-sim)" when one of RIO's own
+        plugins, not loaded here, provides `name` of `kind`; "" otherwise. Append it to an unknown-name error."""
+        return missing_plugin_hint(kind, name, {p.dist for p in self.plugins.values()}) or ""
+
+    def requirements(self) -> dict[str, list[Requirement]]:
+        """{plugin distribution: its valid requirements}, from each plugin's `rio_requirements` hook in
+        turn; a hook that raises or returns something malformed is reported as a Problem and skipped."""
+        out: dict[str, list[Requirement]] = {}
+        for impl in self._impls("rio_requirements"):
+            plugin = impl.plugin_name
+            dist = self.plugins[plugin].dist if plugin in self.plugins else plugin
+            try:
+                result = impl.function()
+            except Exception as e:
+                self.report(Problem(plugin, f"hook rio_requirements raised {type(e).__name__}: {e}"))
+                continue
+            if result is None:
+                continue
+            if not isinstance(result, (list, tuple)):
+                self.report(Problem(plugin, f"hook rio_requirements returned {type(result).__name__}, "
+                                            "not a list of Requirement"))
+                continue
+            for req in result:
+                why = check_requirement(req)
+                if why is not None:
+                    self.report(Problem(plugin, f"rio_requirements: {why}; skipped"))
+                    continue
+                out.setdefault(dist, []).append(req)
+        return out
 
     def extend_cli(self, app: Any) -> None:
         """Let each plugin add subcommands; a plugin whose hook fails is reported and skipped."""

@@ -99,6 +99,7 @@ class NodeRunner:
         node = self.node
         node.open()
         try:
+            node.opened()
             has_pub = node.ring_buffer is not None
             has_req = node.request_queue is not None
             if has_pub:
@@ -127,4 +128,7 @@ class NodeRunner:
             if self._worker_error is not None:
                 raise self._worker_error
         finally:
-            node.close()
+            try:
+                node.closing()
+            finally:
+                node.close()

@@ -51,16 +51,25 @@ class Spec:
     #: 'module:attr' of the class; for kind 'station', a .toml path or 'package:resource/path.toml'.
     target: str
     description: str = ""
-    #: Pydantic model (class or import path) validating this component's station-file fields.
-    config: Any = None
+    #: Config values this name fixes: a model variant is the same class with a preset
+    #: (`Spec("so101.follower", "arm", ".../driver:So100Follower", preset={"model": "so101"})`).
+    preset: dict[str, Any] = field(default_factory=dict, hash=False)
     #: Filled in by the loader: the distribution that registered this spec.
     plugin: str = field(default="", compare=False)
 
     def load(self) -> Any:
         return import_path(self.target)
 
-    def load_config(self) -> Any:
-        return import_path(self.config) if isinstance(self.config, str) else self.config
+    def config_model(self) -> Any:
+        """The component class's `Config` (imports the class module: keep vendor SDK imports out of it)."""
+        return getattr(self.load(), "Config", None)
+
+    def validate(self, fields: dict[str, Any]) -> Any:
+        """The component's validated config for station `fields` over this spec's preset. Raises
+        pydantic's ValidationError, or ValueError for a field that contradicts the preset."""
+        from .config import apply_preset
+
+        return self.config_model().model_validate(apply_preset(self.preset, fields, self.name))
 
 
 def check_spec(spec: Any, allowed_kinds: tuple[str, ...]) -> str | None:
@@ -80,10 +89,8 @@ def check_spec(spec: Any, allowed_kinds: tuple[str, ...]) -> str | None:
                     "package resource like 'package:stations/name.toml'")
     elif not _IMPORT_PATH.match(spec.target):
         return f"spec '{spec.name}' target {spec.target!r} is not an import path like 'package.module:Class'"
-    config_ok = (spec.config is None or hasattr(spec.config, "model_validate")
-                 or (isinstance(spec.config, str) and _IMPORT_PATH.match(spec.config)))
-    if not config_ok:
-        return f"spec '{spec.name}' config must be a pydantic model class or its import path, got {spec.config!r:.60}"
+    if not isinstance(spec.preset, dict) or not all(isinstance(k, str) for k in spec.preset):
+        return f"spec '{spec.name}' preset must be a dict of config field values, got {spec.preset!r:.60}"
     if not isinstance(spec.description, str):
         return f"spec '{spec.name}' description must be a string"
     return None

@@ -8,11 +8,16 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
+from pydantic import Field
 
-from .node import Node
+from . import interfaces as ifc
+from . import time as rtime
+from .node import Node, NodeConfig, remote
 
 
 def wait_until(pred: Any, timeout: float = 3.0, period: float = 0.005) -> bool:
@@ -27,14 +32,33 @@ def wait_until(pred: Any, timeout: float = 3.0, period: float = 0.005) -> bool:
     return bool(pred())
 
 
+@contextmanager
+def lifecycle(node: Node) -> Iterator[Node]:
+    """A node's server lifecycle in the caller's thread, without a middleware: `open()`, `opened()` (the
+    kind's contract: limits, commander, enable), then on exit `closing()` and `close()`, exactly as the
+    runtime runs them. For unit tests and hardware bring-up: `with lifecycle(Arm(port=...)) as arm:
+    arm.read_state()`."""
+    node.open()
+    try:
+        node.opened()
+        yield node
+    finally:
+        try:
+            node.closing()
+        finally:
+            node.close()
+
+
 class EchoNode(Node):
     """Publishes a counter and the last request; `echo` returns its argument (latency benchmarks)."""
 
-    __api__ = ("get_state", "send_request", "echo", "fail", "pid", "handled", "sleep")
+    class Config(NodeConfig):
+        rate_hz: float = Field(200.0, gt=0)
+        payload_bytes: int = Field(2048, ge=0)
+        n: int = Field(6, ge=1)
 
-    def __init__(self, payload_bytes: int = 2048, rate_hz: float = 200.0, n: int = 6):
-        super().__init__(rate_hz=rate_hz)
-        self.payload_bytes, self.n = payload_bytes, n
+    def setup(self) -> None:
+        n = self.n = self.config.n
         self.example_data = {"tick": 0, "q": np.zeros(n), "last": np.zeros(n)}
         self.example_request = {"q": np.zeros(n), "client": 0, "seq": 0}
         self.tick = 0
@@ -49,19 +73,24 @@ class EchoNode(Node):
         self.last = np.asarray(request["q"]).copy()
         self.received.append((int(request["client"]), int(request["seq"])))
 
+    @remote
     def echo(self, payload: Any) -> Any:
         return payload
 
+    @remote
     def fail(self, message: str) -> None:
         raise ValueError(message)
 
+    @remote
     def pid(self) -> int:
         return os.getpid()
 
+    @remote
     def handled(self) -> list[list[int]]:
         """Every (client, seq) request handled so far, in order."""
         return [list(x) for x in self.received]
 
+    @remote
     def sleep(self, seconds: float) -> float:
         time.sleep(seconds)
         return seconds
@@ -70,12 +99,15 @@ class EchoNode(Node):
 class ImageNode(Node):
     """Publishes HxWx3 uint8 frames as fast as its rate allows (image-streaming benchmark)."""
 
-    __api__ = ("get_state",)
+    class Config(NodeConfig):
+        rate_hz: float = Field(30.0, gt=0)
+        height: int = Field(480, ge=1)
+        width: int = Field(640, ge=1)
 
-    def __init__(self, height: int = 480, width: int = 640, rate_hz: float = 30.0):
-        super().__init__(rate_hz=rate_hz)
-        self.example_data = {"rgb": np.zeros((height, width, 3), np.uint8), "frame": 0}
-        self._frames = [np.full((height, width, 3), i, np.uint8) for i in range(4)]
+    def setup(self) -> None:
+        h, w = self.config.height, self.config.width
+        self.example_data = {"rgb": np.zeros((h, w, 3), np.uint8), "frame": 0}
+        self._frames = [np.full((h, w, 3), i, np.uint8) for i in range(4)]
         self.frame = 0
 
     def read_state(self) -> dict[str, Any]:
@@ -86,112 +118,81 @@ class ImageNode(Node):
 class FailingOpenNode(Node):
     """Raises in open(): start-up errors must reach ServerManager with the node's name."""
 
-    __api__ = ("get_state",)
-
-    def __init__(self) -> None:
-        super().__init__()
+    def setup(self) -> None:
         self.example_data = {"x": 0.0}
 
     def open(self) -> None:
         raise RuntimeError("device /dev/ttyFAKE not found")
 
 
-# -- Fake devices behind the standard interfaces (rio.interfaces) ------------------------------------
+# -- Fake devices behind the standard kinds (rio.interfaces) -----------------------------------------
 # In-process stand-ins with no hardware and no simulator: registered by the core as `rio.fake_*`
 # drivers so stations, embodiments, docs examples and generated plugins can be exercised anywhere.
-# Targets are reached by linear interpolation in time towards `t_cmd_target`; there is no physics and
-# no kinematics (an arm's eef_pose moves only when commanded in Cartesian space).
-
-from pydantic import Field as _Field  # noqa: E402
-
-from . import interfaces as _ifc  # noqa: E402
-from . import time as _rtime  # noqa: E402
-from .config import DriverConfig as _DriverConfig  # noqa: E402
+# Each one's hardware follows the goal it is written at once: the kind's commander (interpolation,
+# limits, step limit, watchdog) is what makes it move smoothly, exactly as on a real driver.
 
 
-class LinearTarget:
-    """A value moving linearly from where it was when commanded to a target reached at t_target."""
+class FakeArm(ifc.ArmNode):
+    """Arm with joint and Cartesian control, tracked independently (no kinematics: an end-effector goal
+    moves the reported pose, not the joints)."""
 
-    def __init__(self, value: Any):
-        self.value = np.array(value, dtype=np.float64)
-        self._start, self._goal, self._t0, self._t1 = self.value.copy(), self.value.copy(), 0.0, 0.0
+    class Config(ifc.ArmNode.Config):
+        dof: int = Field(6, ge=1, le=64, description="number of joints (named joint1..N)")
+        max_step_rad: float = Field(0.5, gt=0, description="largest joint goal change per cycle (rad)")
+        max_step_m: float = Field(0.05, gt=0, description="largest end-effector travel per cycle (m)")
+        max_step_eef_rad: float = Field(0.5, gt=0, description="largest end-effector rotation per cycle (rad)")
 
-    def command(self, goal: Any, t_target: float) -> None:
-        t = _rtime.now()
-        self._start, self._goal = self.value.copy(), np.array(goal, dtype=np.float64)
-        self._t0, self._t1 = t, max(float(t_target), t)
+    def default_joint_names(self) -> list[str]:
+        return [f"joint{i + 1}" for i in range(self.config.dof)]
 
-    def update(self) -> np.ndarray:
-        t = _rtime.now()
-        span = self._t1 - self._t0
-        a = 1.0 if span <= 0 else min(max((t - self._t0) / span, 0.0), 1.0)
-        self.value = self._start + a * (self._goal - self._start)
-        return self.value
+    def open(self) -> None:
+        home = self.config.home
+        self.q = np.zeros(self.dof) if home is None else np.asarray(home, dtype=np.float64)
+        self.pose = ifc.IDENTITY_POSE.copy()
+        self._q_prev, self._t_prev = self.q.copy(), rtime.now()
 
+    def read_joints(self) -> dict[str, Any]:
+        t = rtime.now()
+        vel = (self.q - self._q_prev) / max(t - self._t_prev, 1e-6)
+        self._q_prev, self._t_prev = self.q.copy(), t
+        return {"joint_pos": self.q.copy(), "joint_vel": vel, "eef_pose": self.pose.copy()}
 
-class FakeArmConfig(_DriverConfig):
-    dof: int = _Field(6, ge=1, le=64, description="number of joints")
-    rate_hz: float = _Field(100.0, gt=0, description="state publishing rate (Hz)")
-    home: list[float] | None = _Field(None, description="initial joint positions (rad); zeros if omitted")
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.q = np.array(joint_pos, dtype=np.float64)
 
-
-class FakeArm(_ifc.ArmNode):
-    """Arm with joint and Cartesian targets, tracked independently (no kinematics)."""
-
-    def __init__(self, dof: int = 6, rate_hz: float = 100.0, home: list[float] | None = None):
-        super().__init__(dof, rate_hz=rate_hz)
-        home_q = np.zeros(self.dof) if home is None else np.asarray(home, dtype=np.float64)
-        if home_q.shape != (self.dof,):
-            raise ValueError(f"home has {home_q.size} values, dof is {self.dof}")
-        self.joints, self.pose = LinearTarget(home_q), LinearTarget(_ifc.IDENTITY_POSE)
-        self._q_prev, self._t_prev = home_q.copy(), _rtime.now()
-
-    def read_state(self) -> dict[str, Any]:
-        t, q = _rtime.now(), self.joints.update().copy()
-        vel = (q - self._q_prev) / max(t - self._t_prev, 1e-6)
-        self._q_prev, self._t_prev = q, t
-        return {"joint_pos": q, "joint_vel": vel, "eef_pose": self.pose.update()}
-
-    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
-        self.joints.command(joint_pos, t_cmd_target)
-
-    def command_eef(self, eef_pose: np.ndarray, t_cmd_target: float) -> None:
-        self.pose.command(eef_pose, t_cmd_target)
+    def write_pose(self, eef_pose: np.ndarray) -> None:
+        self.pose = np.array(eef_pose, dtype=np.float64)
 
 
-class FakeGripperConfig(_DriverConfig):
-    max_width: float = _Field(0.08, gt=0, description="full opening (m)")
-    rate_hz: float = _Field(100.0, gt=0)
+class FakeGripper(ifc.GripperNode):
+    """Parallel gripper whose fingers follow the goal; starts fully open."""
+
+    class Config(ifc.GripperNode.Config):
+        rate_hz: float = Field(100.0, gt=0)
+        max_step_m: float = Field(0.05, gt=0, description="largest opening change per cycle (m)")
+
+    def open(self) -> None:
+        self.opening = self.width
+
+    def read_width(self) -> dict[str, Any]:
+        return {"position": float(self.opening)}
+
+    def write_width(self, width: float, force: float) -> None:
+        self.opening = float(width)
 
 
-class FakeGripper(_ifc.GripperNode):
-    """Parallel gripper reaching its target opening at t_cmd_target; starts fully open."""
-
-    def __init__(self, max_width: float = 0.08, rate_hz: float = 100.0):
-        super().__init__(max_width, rate_hz=rate_hz)
-        self.opening = LinearTarget(self.width)
-
-    def read_state(self) -> dict[str, Any]:
-        return {"position": float(self.opening.update()), "max_width": self.width}
-
-    def command_position(self, position: float, t_cmd_target: float) -> None:
-        self.opening.command(position, t_cmd_target)
-
-
-class FakeCameraConfig(_DriverConfig):
-    width: int = _Field(64, ge=1, le=4096)
-    height: int = _Field(48, ge=1, le=4096)
-    depth: bool = False
-    rate_hz: float = _Field(30.0, gt=0)
-
-
-class FakeCamera(_ifc.CameraNode):
+class FakeCamera(ifc.CameraNode):
     """Frames whose every pixel is the frame counter (mod 256); depth is a flat 1 m."""
 
-    def __init__(self, width: int = 64, height: int = 48, depth: bool = False, rate_hz: float = 30.0):
-        super().__init__(width, height, depth=depth, rate_hz=rate_hz)
+    class Config(ifc.CameraNode.Config):
+        width: int = Field(64, ge=1, le=4096)
+        height: int = Field(48, ge=1, le=4096)
+
+    def setup(self) -> None:
+        super().setup()
         self.frame = 0
-        self.k = np.array([[width, 0.0, width / 2], [0.0, width, height / 2], [0.0, 0.0, 1.0]])
+        w, h = self.width, self.height
+        self.k = np.array([[w, 0.0, w / 2], [0.0, w, h / 2], [0.0, 0.0, 1.0]])
 
     def read_state(self) -> dict[str, Any]:
         self.frame += 1
@@ -203,64 +204,57 @@ class FakeCamera(_ifc.CameraNode):
         return out
 
 
-class FakeTeleopConfig(_DriverConfig):
-    twist: list[float] = _Field(default_factory=lambda: [0.0] * 6, min_length=6, max_length=6,
-                                description="constant twist published (m/s, rad/s)")
-    gripper: float = _Field(1.0, ge=0, le=1, description="0 closed .. 1 open")
-    buttons: int = _Field(2, ge=0, le=32)
-    rate_hz: float = _Field(100.0, gt=0)
-
-
-class FakeTeleop(_ifc.TeleopNode):
+class FakeTeleop(ifc.TeleopNode):
     """A teleop device held still: publishes a constant twist, gripper command and released buttons."""
 
-    def __init__(self, twist: list[float] | None = None, gripper: float = 1.0, buttons: int = 2,
-                 rate_hz: float = 100.0):
-        super().__init__(buttons, rate_hz=rate_hz)
-        self.twist = np.zeros(6) if twist is None else np.asarray(twist, dtype=np.float64)
-        self.gripper, self.n_buttons = float(gripper), int(buttons)
+    class Config(ifc.TeleopNode.Config):
+        twist: list[float] = Field(default_factory=lambda: [0.0] * 6, min_length=6, max_length=6,
+                                   description="constant twist published (m/s, rad/s)")
+        gripper: float = Field(1.0, ge=0, le=1, description="0 closed .. 1 open")
 
     def read_state(self) -> dict[str, Any]:
-        return {"twist": self.twist, "gripper": self.gripper, "buttons": np.zeros(self.n_buttons, bool)}
+        return {"twist": np.asarray(self.config.twist, dtype=np.float64), "gripper": self.config.gripper,
+                "buttons": np.zeros(self.config.buttons, bool)}
 
 
-class FakeHandConfig(_DriverConfig):
-    dof: int = _Field(6, ge=1, le=64)
-    rate_hz: float = _Field(100.0, gt=0)
+class _FakeJoints:
+    """Joints that follow the goal (for the fake hand and humanoid)."""
+
+    config: Any
+    dof: int
+
+    def default_joint_names(self) -> list[str]:
+        return [f"joint{i + 1}" for i in range(self.config.dof)]
+
+    def open(self) -> None:
+        self.q = np.zeros(self.dof)
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.q = np.array(joint_pos, dtype=np.float64)
 
 
-class FakeHumanoidConfig(_DriverConfig):
-    dof: int = _Field(12, ge=1, le=128)
-    rate_hz: float = _Field(100.0, gt=0)
+class FakeHand(_FakeJoints, ifc.HandNode):
+    """Hand whose joints follow their goal."""
+
+    class Config(ifc.HandNode.Config):
+        dof: int = Field(6, ge=1, le=64, description="number of joints (named joint1..N)")
+        max_step_rad: float = Field(0.5, gt=0)
+
+    def read_joints(self) -> dict[str, Any]:
+        return {"joint_pos": self.q.copy()}
 
 
-class FakeHand(_ifc.HandNode):
-    """Hand whose joints reach their targets at t_cmd_target."""
+class FakeHumanoid(_FakeJoints, ifc.HumanoidNode):
+    """Humanoid standing still (identity base orientation) whose joints follow their goal."""
 
-    def __init__(self, dof: int = 6, rate_hz: float = 100.0):
-        super().__init__(dof, rate_hz=rate_hz)
-        self.joints = LinearTarget(np.zeros(self.dof))
+    class Config(ifc.HumanoidNode.Config):
+        dof: int = Field(12, ge=1, le=128, description="number of joints (named joint1..N)")
+        rate_hz: float = Field(100.0, gt=0)
+        max_step_rad: float = Field(0.5, gt=0)
 
-    def read_state(self) -> dict[str, Any]:
-        return {"joint_pos": self.joints.update()}
-
-    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
-        self.joints.command(joint_pos, t_cmd_target)
-
-
-class FakeHumanoid(_ifc.HumanoidNode):
-    """Humanoid standing still (identity base orientation) whose joints track their targets."""
-
-    def __init__(self, dof: int = 12, rate_hz: float = 100.0):
-        super().__init__(dof, rate_hz=rate_hz)
-        self.joints = LinearTarget(np.zeros(self.dof))
-
-    def read_state(self) -> dict[str, Any]:
-        return {"joint_pos": self.joints.update(), "joint_vel": np.zeros(self.dof),
+    def read_joints(self) -> dict[str, Any]:
+        return {"joint_pos": self.q.copy(), "joint_vel": np.zeros(self.dof),
                 "base_quat": np.array([1.0, 0.0, 0.0, 0.0]), "base_ang_vel": np.zeros(3)}
-
-    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
-        self.joints.command(joint_pos, t_cmd_target)
 
 
 def write_plugin_dist(root: Any, dist: str, version: str, modules: dict[str, str],

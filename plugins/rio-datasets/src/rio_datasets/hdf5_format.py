@@ -22,7 +22,8 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+from rio.config import Config
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
 
@@ -30,8 +31,7 @@ from .common import ExportError, check_same_layout, common_fps, image_streams, l
 from .native_writer import episode_steps, open_recorder
 
 
-class Hdf5Options(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class Hdf5Config(Config):
     layout: Literal["aloha", "robomimic"] = "aloha"
     depth: bool = Field(True, description="export depth streams")
     compression: int = Field(4, ge=0, le=9, description="gzip level for images (0: none)")
@@ -45,11 +45,10 @@ class Hdf5Format(DatasetFormat):
     name = "hdf5"
     can_import = True
 
-    def __init__(self, options: Hdf5Options | None = None):
-        super().__init__(options or Hdf5Options())
+    Config = Hdf5Config
 
     def _image(self, group: Any, name: str, x: np.ndarray) -> None:
-        kw = {"compression": "gzip", "compression_opts": self.options.compression} if self.options.compression else {}
+        kw = {"compression": "gzip", "compression_opts": self.config.compression} if self.config.compression else {}
         group.create_dataset(name, data=x, chunks=(1, *x.shape[1:]), **kw)
 
     def _write_episode(self, ep: Any, obs: Any, top: Any, aloha: bool) -> None:
@@ -62,7 +61,7 @@ class Hdf5Format(DatasetFormat):
             name = ("qpos" if aloha else "state") if field == "proprio" else field
             obs.create_dataset(name, data=x)
         obs.create_dataset("timestamp", data=t - t[0])
-        for cam, kind in image_streams(ep, depth=self.options.depth):
+        for cam, kind in image_streams(ep, depth=self.config.depth):
             x = _frames(ep, cam, kind)
             if aloha:
                 self._image(obs.require_group("images" if kind == "rgb" else "depth"), cam, x)
@@ -80,7 +79,7 @@ class Hdf5Format(DatasetFormat):
         fps = common_fps(eps)
         out = Path(out)
         total, done = sum(len(e) for e in eps), 0
-        if self.options.layout == "aloha":
+        if self.config.layout == "aloha":
             out.mkdir(parents=True, exist_ok=True)
             if any(out.glob("episode_*.hdf5")):
                 raise ExportError(f"{out} already holds episode_*.hdf5 files")

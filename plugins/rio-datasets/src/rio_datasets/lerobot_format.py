@@ -16,7 +16,8 @@ from typing import Any, Literal
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+from rio.config import Config
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
 
@@ -27,8 +28,7 @@ from .native_writer import episode_steps, open_recorder
 EEF_NAMES = ["x", "y", "z", "qw", "qx", "qy", "qz"]
 
 
-class LeRobotOptions(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class LeRobotConfig(Config):
     codec: Literal["av1", "h264"] = Field("av1", description="video codec of the exported mp4 files")
     crf: int = Field(30, ge=0, le=63)
     gop: int = Field(2, ge=1, description="keyframe interval in frames (lerobot uses 2: fast random access)")
@@ -43,7 +43,7 @@ class LeRobotOptions(BaseModel):
 class _VideoFile:
     """One mp4 that episodes of one camera are appended to (pts = frame number at the dataset rate)."""
 
-    def __init__(self, path: Path, fps: int, height: int, width: int, opts: LeRobotOptions):
+    def __init__(self, path: Path, fps: int, height: int, width: int, opts: LeRobotConfig):
         import av
 
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -108,13 +108,12 @@ class LeRobotFormat(DatasetFormat):
     name = "lerobot"
     can_import = True
 
-    def __init__(self, options: LeRobotOptions | None = None):
-        super().__init__(options or LeRobotOptions())
+    Config = LeRobotConfig
 
     # -- export -------------------------------------------------------------------------------------
     def _features(self, ep: Any) -> tuple[dict, dict[str, str]]:
         """(lerobot features, {lerobot key: rio column}) for the numeric columns."""
-        o = self.options
+        o = self.config
         cols = lowdim(ep)
         names = ep.meta.get("action_names")
         mapping = {"observation.state": "proprio", "action": "action"}
@@ -131,7 +130,7 @@ class LeRobotFormat(DatasetFormat):
 
     def export(self, dataset: Dataset, out: Path, *, episodes: list[int] | None = None,
                progress: Progress | None = None) -> dict[str, Any]:
-        o = self.options
+        o = self.config
         out = Path(out)
         if out.exists() and any(out.iterdir()):
             raise ExportError(f"{out} exists and is not empty")

@@ -19,7 +19,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+from rio.config import Config
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
 
@@ -27,8 +28,7 @@ from .common import ExportError, check_same_layout, common_fps, image_streams, l
 from .native_writer import episode_steps, open_recorder
 
 
-class ZarrOptions(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class ZarrConfig(Config):
     depth: bool = Field(True, description="export depth streams")
     compression_level: int = Field(5, ge=0, le=9, description="Blosc zstd level")
 
@@ -49,8 +49,7 @@ class ZarrFormat(DatasetFormat):
     name = "zarr"
     can_import = True
 
-    def __init__(self, options: ZarrOptions | None = None):
-        super().__init__(options or ZarrOptions())
+    Config = ZarrConfig
 
     def export(self, dataset: Dataset, out: Path, *, episodes: list[int] | None = None,
                progress: Progress | None = None) -> dict[str, Any]:
@@ -63,12 +62,12 @@ class ZarrFormat(DatasetFormat):
         out = Path(out)
         if out.exists():
             raise ExportError(f"{out} already exists")
-        comp = Blosc(cname="zstd", clevel=self.options.compression_level, shuffle=Blosc.BITSHUFFLE)
+        comp = Blosc(cname="zstd", clevel=self.config.compression_level, shuffle=Blosc.BITSHUFFLE)
         root = zarr.open_group(str(out), mode="w", zarr_format=2)
         data, meta = root.create_group("data"), root.create_group("meta")
         total = sum(len(e) for e in eps)
         arrays: dict[str, Any] = {}
-        streams = image_streams(eps[0], depth=self.options.depth)
+        streams = image_streams(eps[0], depth=self.config.depth)
 
         def array(name: str, shape: tuple, dtype: Any, chunks: tuple) -> Any:
             if name not in arrays:

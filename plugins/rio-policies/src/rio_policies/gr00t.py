@@ -47,8 +47,7 @@ class Gr00tPolicy(Policy):
     name = "gr00t.remote"
     Config = Gr00tConfig
 
-    def __init__(self, **config: Any):
-        super().__init__(**config)
+    def setup(self) -> None:
         self.ctx = self.sock = None
 
     def _connect(self) -> None:

@@ -32,8 +32,7 @@ class LeRobotPolicy(Policy):
     name = "lerobot.local"
     Config = LeRobotConfig
 
-    def __init__(self, **config: Any):
-        super().__init__(**config)
+    def setup(self) -> None:
         self.model: Any = None
         self.pre = self.post = None
 

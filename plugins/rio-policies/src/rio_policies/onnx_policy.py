@@ -37,8 +37,7 @@ class OnnxPolicy(Policy):
     name = "onnx.local"
     Config = OnnxConfig
 
-    def __init__(self, **config: Any):
-        super().__init__(**config)
+    def setup(self) -> None:
         self.session: Any = None
         self.prev: np.ndarray | None = None
         self.current: np.ndarray | None = None

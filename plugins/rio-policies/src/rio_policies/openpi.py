@@ -44,8 +44,7 @@ class OpenPIPolicy(Policy):
     name = "openpi.remote"
     Config = OpenPIConfig
 
-    def __init__(self, **config: Any):
-        super().__init__(**config)
+    def setup(self) -> None:
         self.ws: Any = None
         self.server_metadata: dict = {}
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from rio.hookspecs import hookimpl
+from rio.requirements import Requirement
 from rio.specs import Spec
 
 _P = "rio_policies"
@@ -12,18 +13,25 @@ _P = "rio_policies"
 def rio_policies() -> list[Spec]:
     return [
         Spec("openpi.remote", "policy", f"{_P}.openpi:OpenPINode",
-             "an openpi policy server (pi0, pi0.5) over its websocket + msgpack protocol",
-             config=f"{_P}.openpi:OpenPIConfig"),
+             "an openpi policy server (pi0, pi0.5) over its websocket + msgpack protocol"),
         Spec("gr00t.remote", "policy", f"{_P}.gr00t:Gr00tNode",
-             "an Isaac-GR00T inference server (N1.5 / N1.6) over its ZMQ request/reply protocol",
-             config=f"{_P}.gr00t:Gr00tConfig"),
+             "an Isaac-GR00T inference server (N1.5 / N1.6) over its ZMQ request/reply protocol"),
         Spec("lerobot.local", "policy", f"{_P}.lerobot_policy:LeRobotNode",
-             "a LeRobot ACT or Diffusion checkpoint from a local directory (needs lerobot)",
-             config=f"{_P}.lerobot_policy:LeRobotConfig"),
+             "a LeRobot ACT or Diffusion checkpoint from a local directory (needs lerobot)"),
         Spec("onnx.local", "policy", f"{_P}.onnx_policy:OnnxNode",
-             "an ONNX model (RL locomotion, exported policies) on onnxruntime",
-             config=f"{_P}.onnx_policy:OnnxConfig"),
+             "an ONNX model (RL locomotion, exported policies) on onnxruntime"),
         Spec("replay.episode", "policy", f"{_P}.replay:ReplayNode",
-             "plays back the actions of a recorded episode, time-aligned",
-             config=f"{_P}.replay:ReplayConfig"),
+             "plays back the actions of a recorded episode, time-aligned"),
+    ]
+
+
+@hookimpl
+def rio_requirements() -> list[Requirement]:
+    """What each adapter imports when its node starts (openpi.remote: websockets; gr00t.remote: pyzmq, a
+    core dependency; replay.episode: nothing extra)."""
+    return [
+        Requirement("websockets", "pip install websockets", "openpi.remote: the openpi server's websocket protocol"),
+        Requirement("onnxruntime", "pip install 'rio-policies[onnx]'", "onnx.local: running ONNX models"),
+        Requirement("lerobot", "pip install 'lerobot==0.4.4'", "lerobot.local: ACT and Diffusion checkpoints"),
+        Requirement("torch", "pip install torch", "lerobot.local: the checkpoint's model (lerobot's torch)"),
     ]

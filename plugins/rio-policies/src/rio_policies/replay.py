@@ -30,8 +30,7 @@ class ReplayPolicy(Policy):
     name = "replay.episode"
     Config = ReplayConfig
 
-    def __init__(self, **config: Any):
-        super().__init__(**config)
+    def setup(self) -> None:
         self.actions = np.zeros((0, 0))
         self.dt = 0.0
         self.t0: float | None = None

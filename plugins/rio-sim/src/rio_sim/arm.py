@@ -1,10 +1,10 @@
-"""`sim.arm`: an arm of a sim world behind the standard `ArmNode` interface.
+"""`sim.arm`: an arm of a sim world behind the standard `ArmNode` contract.
 
-Joint targets go straight to the world (which interpolates them in physics time). End-effector
-targets are turned into joint targets here, by the shared IK (`rio.kinematics.MinkSolver` on the
-robot's own MJCF, so poses are in the arm's base frame), warm-started from the last joint target so
-consecutive teleop targets give continuous joints. `robot_description()` hands the same model to a
-control loop that prefers to do IK itself (a joint-space action space).
+The world is this driver's hardware: each cycle the arm reads its joints from the world bus and writes
+the commander's goal for the next tick (the world interpolates it in physics time). Joint limits come
+from the robot's MJCF; `robot_description()` hands out the same model, so the arm kind computes the
+end-effector pose and solves end-effector targets with the shared IK, as it would for any real arm
+that ships a model.
 """
 
 from __future__ import annotations
@@ -13,8 +13,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
-from rio.config import DriverConfig
-from rio.errors import InvalidRequest
+from rio import time as rtime
 from rio.interfaces import ArmNode
 
 from .attached import Attached
@@ -22,63 +21,43 @@ from .indices import arm_indices
 from .robots import ROBOTS, get_robot
 
 
-class SimArmConfig(DriverConfig):
-    robot: str = Field("so100", description=f"robot model: {', '.join(sorted(ROBOTS))}")
-    arm: str = Field("arm", description="which arm of the scene (its name prefix: arm, left, right)")
-    world: str = Field("sim", description="the sim.world this arm lives in")
-    rate_hz: float = Field(100.0, gt=0, description="state publishing rate (Hz)")
-    ik_orientation_cost: float = Field(1.0, ge=0, description="orientation vs position weight of eef IK")
-
-
 class SimArm(Attached, ArmNode):
-    __api__ = (*ArmNode.__api__, "robot_description", "home")
+    class Config(ArmNode.Config):
+        robot: str = Field("so100", description=f"robot model: {', '.join(sorted(ROBOTS))}")
+        arm: str = Field("arm", description="which arm of the scene (its name prefix: arm, left, right)")
+        world: str = Field("sim", description="the sim.world this arm lives in")
+        max_step_rad: float = Field(0.1, gt=0, description="largest joint goal change per cycle (rad)")
 
-    def __init__(self, robot: str = "so100", arm: str = "arm", world: str = "sim", rate_hz: float = 100.0,
-                 ik_orientation_cost: float = 1.0):
-        self.robot = get_robot(robot)
-        super().__init__(self.robot.dof, rate_hz=rate_hz)
-        self.arm, self.world, self.ik_orientation_cost = arm, world, float(ik_orientation_cost)
-        self._ik = None
-        self._q_cmd: np.ndarray | None = None
+    def setup(self) -> None:
+        self.robot = get_robot(self.config.robot)
+        self.arm, self.world = self.config.arm, self.config.world
+        super().setup()
+
+    def default_joint_names(self) -> list[str]:
+        return list(self.robot.arm_joints)
+
+    def default_home(self) -> list[float]:
+        return list(self.robot.home)
 
     def open(self) -> None:
-        from rio.kinematics import MinkSolver
-
         self.attach_world()
         self.idx = arm_indices(self.model, self.arm, self.robot)
-        self._ik = MinkSolver(str(self.robot.path), self.robot.tool_site, joints=list(self.robot.arm_joints),
-                              orientation_cost=self.ik_orientation_cost, damping=1e-4)
-        self._lower, self._upper = self._ik.lower, self._ik.upper
 
     def close(self) -> None:
         self.detach_world()
 
-    def read_state(self) -> dict[str, Any]:
+    def hardware_limits(self) -> tuple[np.ndarray, np.ndarray]:
+        ranges = np.array([self.model.joint(f"{self.arm}/{n}").range for n in self.robot.arm_joints])
+        return ranges[:, 0], ranges[:, 1]
+
+    def read_joints(self) -> dict[str, Any]:
         s = self.world_state()
-        q = s["qpos"][self.idx.qpos]
-        return {"joint_pos": q, "joint_vel": s["qvel"][self.idx.dof], "eef_pose": self._ik.fk(q)}
+        return {"joint_pos": s["qpos"][self.idx.qpos], "joint_vel": s["qvel"][self.idx.dof]}
 
-    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
-        q = np.clip(joint_pos, self._lower, self._upper)
-        self._q_cmd = q
-        self.bus.command(self.idx.act, q, t_cmd_target)
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.bus.command(self.idx.act, joint_pos, rtime.now() + 1.0 / self.rate_hz)
 
-    def command_eef(self, eef_pose: np.ndarray, t_cmd_target: float) -> None:
-        seed = self._q_cmd if self._q_cmd is not None else self.world_state()["qpos"][self.idx.qpos]
-        try:
-            res = self._ik.solve(eef_pose, seed, max_iters=15)
-        except ValueError as e:  # a zero quaternion
-            raise InvalidRequest(self.name, "eef_pose", str(e)) from None
-        self.command_joints(res.q, t_cmd_target)
-
-    # -- remote API -----------------------------------------------------------------------------
     def robot_description(self) -> dict[str, Any]:
-        """The arm's kinematic model for client-side IK (`rio.kinematics.solver_from_description`)."""
+        """The robot's MJCF, its tool site and arm joints (shared IK and forward kinematics)."""
         return {"format": "mjcf", "xml": self.robot.xml(), "frame": self.robot.tool_site, "frame_type": "site",
                 "joints": list(self.robot.arm_joints), "home": list(self.robot.home)}
-
-    def home(self, seconds: float = 2.0) -> None:
-        """Move to the home joints over `seconds`."""
-        from rio import time as rtime
-
-        self.command_joints(np.asarray(self.robot.home), rtime.now() + float(seconds))

@@ -37,6 +37,9 @@ _VERSION = 1
 _H_MAGIC, _H_VERSION, _H_PID, _H_READY, _H_CLOSED, _H_SEQ, _H_NQ, _H_NV, _H_NU = range(9)
 _NHDR = 16
 _NAME_BYTES = 128
+#: How long a reader waits for a write in progress before calling the writer dead (a preempted writer on
+#: a loaded machine can hold the lock for tens of milliseconds).
+_LOCKED_S = 1.0
 
 
 def session_id() -> str:
@@ -215,17 +218,22 @@ class WorldBus:
         out = out if out is not None else {"qpos": np.empty(self.nq), "qvel": np.empty(self.nv),
                                            "ctrl": np.empty(self.nu)}
         hdr = self.hdr
-        for attempt in range(10000):
+        deadline = None
+        for attempt in range(1 << 30):
             s1 = int(hdr[_H_SEQ])
-            if s1 & 1:
+            if s1 & 1:  # a write is in progress; its writer may be preempted on a busy machine
                 if attempt % 16 == 15:
+                    now = rtime.now()
+                    deadline = deadline or now + _LOCKED_S
+                    if now > deadline:
+                        break
                     os.sched_yield()
                 continue
             out["qpos"][:], out["qvel"][:], out["ctrl"][:] = self.qpos, self.qvel, self.ctrl
             out["sim_time"], out["wall_time"] = float(self._times[0]), float(self._times[1])
             if int(hdr[_H_SEQ]) == s1:
                 return out
-        raise RioError("sim world state stayed locked (a writer died mid-write?)")
+        raise RioError(f"sim world state stayed locked for {_LOCKED_S} s (a writer died mid-write?)")
 
     # -- commands -------------------------------------------------------------------------------
     def command(self, actuators: np.ndarray, targets, t_target: float) -> None:

@@ -19,7 +19,6 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
-from rio.config import DriverConfig
 from rio.interfaces import CameraNode
 
 from .attached import Attached
@@ -31,21 +30,19 @@ log = logging.getLogger("rio_sim.camera")
 MAX_DEPTH_M = 10.0
 
 
-class SimCameraConfig(DriverConfig):
-    camera: str = Field("front", description="scene camera: 'front', or '<arm>/wrist' (e.g. arm/wrist, left/wrist)")
-    world: str = Field("sim", description="the sim.world it looks at")
-    width: int = Field(320, ge=16, le=1280)
-    height: int = Field(240, ge=16, le=960)
-    depth: bool = Field(False, description="also render metric depth (uint16 mm, depth_scale 0.001)")
-    rate_hz: float = Field(30.0, gt=0)
-    require_gl: bool = Field(False, description="fail instead of publishing placeholder frames without OpenGL")
-
-
 class SimCamera(Attached, CameraNode):
-    def __init__(self, camera: str = "front", world: str = "sim", width: int = 320, height: int = 240,
-                 depth: bool = False, rate_hz: float = 30.0, require_gl: bool = False):
-        super().__init__(width, height, depth=depth, rate_hz=rate_hz)
-        self.camera, self.world, self.require_gl = camera, world, bool(require_gl)
+    class Config(CameraNode.Config):
+        camera: str = Field("front", description="scene camera: 'front', or '<arm>/wrist' (e.g. arm/wrist)")
+        world: str = Field("sim", description="the sim.world it looks at")
+        width: int = Field(320, ge=16, le=1280)
+        height: int = Field(240, ge=16, le=960)
+        depth: bool = Field(False, description="also render metric depth (uint16 mm, depth_scale 0.001)")
+        require_gl: bool = Field(False, description="fail instead of publishing placeholder frames without OpenGL")
+
+    def setup(self) -> None:
+        super().setup()
+        c = self.config
+        self.camera, self.world, self.require_gl = c.camera, c.world, c.require_gl
         self.example_data["rendered"] = True
         self.renderer = None
 

@@ -1,5 +1,5 @@
-"""`sim.gripper`: the parallel gripper of a sim arm behind the standard `GripperNode` interface.
-The opening (m) is the sum of the finger slides; a target is split evenly between the fingers.
+"""`sim.gripper`: the parallel gripper of a sim arm behind the standard `GripperNode` contract.
+The opening (m) is the sum of the finger slides; a goal is split evenly between the fingers.
 Grasping is physics: fingers stop on an object and squeeze it with their actuators' force."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
-from rio.config import DriverConfig
+from rio import time as rtime
 from rio.interfaces import GripperNode
 
 from .attached import Attached
@@ -16,18 +16,19 @@ from .indices import arm_indices
 from .robots import ROBOTS, get_robot
 
 
-class SimGripperConfig(DriverConfig):
-    robot: str = Field("so100", description=f"robot model the gripper belongs to: {', '.join(sorted(ROBOTS))}")
-    arm: str = Field("arm", description="which arm of the scene the gripper is on")
-    world: str = Field("sim", description="the sim.world it lives in")
-    rate_hz: float = Field(50.0, gt=0)
-
-
 class SimGripper(Attached, GripperNode):
-    def __init__(self, robot: str = "so100", arm: str = "arm", world: str = "sim", rate_hz: float = 50.0):
-        self.robot = get_robot(robot)
-        super().__init__(self.robot.max_width, rate_hz=rate_hz)
-        self.arm, self.world = arm, world
+    class Config(GripperNode.Config):
+        robot: str = Field("so100", description=f"robot model the gripper belongs to: {', '.join(sorted(ROBOTS))}")
+        arm: str = Field("arm", description="which arm of the scene the gripper is on")
+        world: str = Field("sim", description="the sim.world it lives in")
+        max_width: float | None = Field(None, gt=0, description="full opening (m); default: the robot model's")
+
+    def setup(self) -> None:
+        self.robot = get_robot(self.config.robot)
+        if self.config.max_width is None:
+            self.config = self.config.model_copy(update={"max_width": self.robot.max_width})
+        self.arm, self.world = self.config.arm, self.config.world
+        super().setup()
 
     def open(self) -> None:
         self.attach_world()
@@ -36,10 +37,9 @@ class SimGripper(Attached, GripperNode):
     def close(self) -> None:
         self.detach_world()
 
-    def read_state(self) -> dict[str, Any]:
-        s = self.world_state()
-        return {"position": float(np.sum(s["qpos"][self.idx.finger_qpos])), "max_width": self.width}
+    def read_width(self) -> dict[str, Any]:
+        return {"position": float(np.sum(self.world_state()["qpos"][self.idx.finger_qpos]))}
 
-    def command_position(self, position: float, t_cmd_target: float) -> None:
+    def write_width(self, width: float, force: float) -> None:
         n = len(self.idx.finger_act)
-        self.bus.command(self.idx.finger_act, np.full(n, position / n), t_cmd_target)
+        self.bus.command(self.idx.finger_act, np.full(n, width / n), rtime.now() + 1.0 / self.rate_hz)

@@ -4,6 +4,7 @@ Specs only: nothing here imports MuJoCo."""
 from __future__ import annotations
 
 from rio.hookspecs import hookimpl
+from rio.requirements import Requirement
 from rio.specs import Spec
 
 _S = "rio_sim"
@@ -13,14 +14,13 @@ _S = "rio_sim"
 def rio_drivers() -> list[Spec]:
     return [
         Spec("sim.world", "sensor", f"{_S}.world:SimWorld",
-             "MuJoCo physics of a sim station (scene, objects' ground-truth poses)",
-             config=f"{_S}.world:SimWorldConfig"),
+             "MuJoCo physics of a sim station (scene, objects' ground-truth poses)"),
         Spec("sim.arm", "arm", f"{_S}.arm:SimArm",
-             "simulated arm (so100, xarm7): joint and end-effector control, IK", config=f"{_S}.arm:SimArmConfig"),
+             "simulated arm (so100, xarm7): joint and end-effector control, IK"),
         Spec("sim.gripper", "gripper", f"{_S}.gripper:SimGripper",
-             "simulated parallel gripper", config=f"{_S}.gripper:SimGripperConfig"),
+             "simulated parallel gripper"),
         Spec("sim.camera", "camera", f"{_S}.camera:SimCamera",
-             "simulated camera: RGB and depth by offscreen rendering", config=f"{_S}.camera:SimCameraConfig"),
+             "simulated camera: RGB and depth by offscreen rendering"),
     ]
 
 
@@ -34,3 +34,12 @@ _STATIONS = {
 @hookimpl
 def rio_stations() -> list[Spec]:
     return [Spec(name, "station", f"{_S}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+
+
+@hookimpl
+def rio_requirements() -> list[Requirement]:
+    return [
+        Requirement("mujoco", "pip install mujoco", "physics and rendering of every sim driver",
+                    check=f"{_S}.gl:gl_problem"),  # offscreen OpenGL for sim.camera (tries a 16x16 context)
+        Requirement("mink", "pip install mink", "sim.arm end-effector control (IK through rio.kinematics)"),
+    ]

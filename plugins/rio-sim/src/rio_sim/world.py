@@ -19,8 +19,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 from rio import time as rtime
-from rio.config import DriverConfig
-from rio.node import Node, client_side
+from rio.node import Node, NodeConfig, client_side, remote
 
 from .bus import WorldBus
 from .indices import arm_indices
@@ -28,21 +27,17 @@ from .robots import get_robot
 from .scenes import get_scene
 
 
-class SimWorldConfig(DriverConfig):
-    scene: str = Field("so100", description="packaged scene: so100, so100_bimanual, xarm7")
-    world: str = Field("sim", description="name the station's sim nodes use to find this world")
-    rate_hz: float = Field(250.0, gt=0, description="physics batches per second (state published at this rate)")
-    max_steps_per_tick: int = Field(20, ge=1, description="physics steps per tick at most (then time slows)")
-
-
 class SimWorld(Node):
-    __api__ = ("get_state", "object_names", "reset", "set_object_pose")
+    class Config(NodeConfig):
+        scene: str = Field("so100", description="packaged scene: so100, so100_bimanual, xarm7")
+        world: str = Field("sim", description="name the station's sim nodes use to find this world")
+        rate_hz: float = Field(250.0, gt=0, description="physics batches per second (state published at this rate)")
+        max_steps_per_tick: int = Field(20, ge=1, description="physics steps per tick at most (then time slows)")
 
-    def __init__(self, scene: str = "so100", world: str = "sim", rate_hz: float = 250.0,
-                 max_steps_per_tick: int = 20):
-        super().__init__(rate_hz=rate_hz)
-        self.scene_name, self.world, self.max_steps = scene, world, int(max_steps_per_tick)
-        self.scene = get_scene(scene)
+    def setup(self) -> None:
+        c = self.config
+        self.scene_name, self.world, self.max_steps = c.scene, c.world, int(c.max_steps_per_tick)
+        self.scene = get_scene(c.scene)
         self.objects = [o.name for o in self.scene.free_objects]
         n = max(len(self.objects), 1)
         self.example_data = {"sim_time": 0.0, "rtf": 1.0, "object_poses": np.zeros((n, 7))}
@@ -136,12 +131,14 @@ class SimWorld(Node):
         return {"sim_time": float(d.time), "rtf": float(self._rtf), "object_poses": poses}
 
     # -- remote API -----------------------------------------------------------------------------
+    @remote
     def reset(self) -> None:
         """Put objects and arms back where the scene starts them (arms jump home)."""
         self._home()
         self._seen = self.bus.cmd_stamp.copy()
         self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
 
+    @remote
     def set_object_pose(self, name: str, pose: list[float]) -> None:
         """Teleport a free object to `[x, y, z, qw, qx, qy, qz]` (world frame) at rest."""
         if name not in self.objects:

@@ -6,25 +6,22 @@ from __future__ import annotations
 from typing import Any
 
 from rio.hookspecs import hookimpl
+from rio.requirements import Requirement
 from rio.specs import Spec
 
 _P = "rio_so100"
 
 
 def _arm_specs(model: str) -> list[Spec]:
-    cap = model.capitalize()                        # So100 / So101: class name prefix
-    so101 = "So101" if model == "so101" else ""     # config models: FollowerConfig / So101FollowerConfig
     label = "SO-101" if model == "so101" else "SO-100"
+    preset = {"model": model}  # SO-101 is the same driver with another calibration folder
     return [
-        Spec(f"{model}.follower", "arm", f"{_P}.follower.driver:{cap}Follower",
-             f"{label} follower arm joints (Feetech STS3215 bus, or port = \"virtual\")",
-             config=f"{_P}.follower.config:{so101}FollowerConfig"),
-        Spec(f"{model}.gripper", "gripper", f"{_P}.gripper.driver:{cap}Gripper",
-             f"{label} jaw servo as a gripper (shares the follower's bus)",
-             config=f"{_P}.gripper.config:{so101}GripperConfig"),
-        Spec(f"{model}.leader", "teleop", f"{_P}.leader.driver:{cap}Leader",
-             f"{label} leader arm (torque off), joint positions for leader-follower teleop",
-             config=f"{_P}.leader.config:{so101}LeaderConfig"),
+        Spec(f"{model}.follower", "arm", f"{_P}.follower.driver:So100Follower",
+             f"{label} follower arm joints (Feetech STS3215 bus, or port = \"virtual\")", preset=preset),
+        Spec(f"{model}.gripper", "gripper", f"{_P}.gripper.driver:So100Gripper",
+             f"{label} jaw servo as a gripper (shares the follower's bus)", preset=preset),
+        Spec(f"{model}.leader", "teleop", f"{_P}.leader.driver:So100Leader",
+             f"{label} leader arm (torque off), joint positions for leader-follower teleop", preset=preset),
     ]
 
 
@@ -47,6 +44,34 @@ _STATIONS = {
 @hookimpl
 def rio_stations() -> list[Spec]:
     return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+
+
+@hookimpl
+def rio_requirements() -> list[Requirement]:
+    return [
+        Requirement("scservo_sdk", "pip install feetech-servo-sdk",
+                    "the Feetech STS3215 bus of every SO-100/SO-101 driver", check=f"{_P}.plugin:serial_port_problem"),
+        Requirement("serial", "pip install pyserial", "serial ports under the Feetech SDK"),
+    ]
+
+
+def serial_port_problem() -> str | None:
+    """`rio doctor` check: USB serial adapters that exist but that this user may not open (Linux: the
+    ports belong to a group such as dialout or uucp). No port at all is fine: arms may be unplugged."""
+    import glob
+    import os
+
+    ports = sorted(glob.glob("/dev/ttyACM*") + glob.glob("/dev/ttyUSB*"))
+    denied = [p for p in ports if not os.access(p, os.R_OK | os.W_OK)]
+    if not denied:
+        return None
+    try:
+        import grp
+
+        group = grp.getgrgid(os.stat(denied[0]).st_gid).gr_name
+    except (ImportError, KeyError, OSError):
+        group = "dialout"
+    return f"no permission on {', '.join(denied)}: sudo usermod -aG {group} $USER, then log in again"
 
 
 @hookimpl

@@ -1,45 +1,57 @@
-"""What every servo-driving node of this plugin does the same way: start the commander on the
-calibrated limits, run one bus cycle per tick, switch torque, and always release the port."""
+"""What every servo-driving node of this plugin does the same way: open its calibrated servos on the
+arm's bus, read them once per tick (servo error bits stop the node, naming the servo), switch their
+torque, and always release the port. The kinds' contracts (`rio.interfaces`) do the rest."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
-from rio import time as rtime
+from pydantic import Field
+from rio.config import Config
 
-from .safety import JointCommander
+from .connection import ArmConnection
 
 
-class ServoNodeMixin:
-    """Mixed into a driver that has `conn`, `group`, `max_step`, `watchdog_s`, `_torque`,
-    `disable_torque_on_close` (set by its `__init__` / `open`)."""
+class ServoConfig(Config):
+    """Station fields every SO-arm servo node takes (mixed into each driver's Config)."""
 
-    def _start(self) -> None:
-        lower, upper = self.group.limits_rad()
-        self.commander = JointCommander(lower, upper, self.max_step, self.watchdog_s)
-        self.torque(True)
+    port: str = Field(description='serial port of the arm\'s bus (e.g. /dev/ttyACM0), or "virtual" for an '
+                                  'emulated arm, or "sim:ARM@WORLD" for servos backed by rio-sim')
+    calibration: str = Field("default", description="calibration name (in $XDG_CONFIG_HOME/rio/calibration/"
+                                                    "<model>-<role>/) or a .json path")
+    model: Literal["so100", "so101"] = Field("so100", description="which arm (selects the calibration folder)")
+    baudrate: int = 1_000_000
+    retries: int = Field(2, ge=0, le=10, description="retries of a failed exchange before it is an error")
 
-    def _cycle(self) -> dict[str, Any]:
-        """One tick: SYNC READ, stop on servo error bits, then SYNC WRITE this cycle's goal."""
+
+class ServoDriver:
+    """Mixed into a node whose config is a `ServoConfig` and whose `role` names its calibration role."""
+
+    config: Any
+    role: str
+    group: Any = None
+    conn: ArmConnection | None = None
+    enabled: bool = False
+
+    def open_group(self, joints: list[str], virtual_motion: str = "none") -> None:
+        c = self.config
+        self.conn = ArmConnection(c.port, model=c.model, role=self.role, calibration=c.calibration,
+                                  baudrate=c.baudrate, retries=c.retries, virtual_motion=virtual_motion)
+        self.group = self.conn.open(joints)
+
+    def read_group(self) -> dict[str, Any]:
+        """One SYNC READ; servo error bits raise `ServoFault` (freezing the servos first when enabled)."""
         s = self.group.read()
-        self.group.check_faults(s, hold=self._torque)
-        if self._torque:
-            self.group.write_rad(self.commander.step(rtime.now()))
+        self.group.check_faults(s, hold=self.enabled)
         return s
 
-    def torque(self, enabled: bool = True) -> bool:
-        """Enable (hold the present pose) or disable (limp) the servos' torque."""
+    def hardware_limits(self) -> Any:
+        return self.group.limits_rad()
+
+    def set_enabled(self, enabled: bool) -> None:
+        """Torque on holds the present position (goal = present first, so nothing jumps)."""
         self.group.set_torque(bool(enabled))
-        self._torque = bool(enabled)
-        if enabled:
-            self.commander.reset(self.group.read()["joint_pos"], rtime.now())
-        return self._torque
 
     def close(self) -> None:
-        try:
-            if self.group is not None and self.disable_torque_on_close and self._torque:
-                self.group.set_torque(False)
-        except Exception:
-            pass  # closing must release the port whatever state the bus is in
-        finally:
+        if self.conn is not None:
             self.conn.close()

@@ -1,33 +1,17 @@
-"""`rio doctor`: what this machine can run. Checks modules with `importlib.util.find_spec` only, so a
-broken or slow vendor SDK is never imported just to be listed."""
+"""`rio doctor`: what this machine can run. What each plugin needs comes from the plugins themselves
+(the `rio_requirements` hook), so the list grows with what is installed instead of with core's guesses.
+Modules are located with `importlib.util.find_spec` only, so a broken or slow vendor SDK is never
+imported just to be listed; a plugin's system check that fails is shown, never raised."""
 
 from __future__ import annotations
 
 import platform
 import sys
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
-# (import name, distribution to install, what needs it)
-VENDOR_SDKS = [
-    ("scservo_sdk", "feetech-servo-sdk", "Feetech servo bus (SO-100/SO-101)"),
-    ("dynamixel_sdk", "dynamixel-sdk", "Dynamixel servo bus (Koch, ALOHA)"),
-    ("xarm", "xarm-python-sdk", "UFactory xArm"),
-    ("rtde_control", "ur-rtde", "Universal Robots (RTDE)"),
-    ("franky", "franky-control", "Franka (franky)"),
-    ("piper_sdk", "piper-sdk", "AgileX PiPER"),
-    ("can", "python-can", "CAN bus devices"),
-    ("unitree_sdk2py", "unitree-sdk2py-dimos", "Unitree G1/H1 (DDS)"),
-    ("pyrealsense2", "pyrealsense2", "Intel RealSense cameras"),
-    ("pyspacemouse", "pyspacemouse", "3Dconnexion SpaceMouse teleop"),
-    ("mujoco", "mujoco", "simulation (rio-sim)"),
-    ("av", "av", "video encoding for recording"),
-    ("lerobot", "lerobot", "LeRobot datasets and policies"),
-    ("openpi_client", "openpi-client", "openpi policy servers"),
-    ("onnxruntime", "onnxruntime", "ONNX policies"),
-    ("torch", "torch", "PyTorch policies"),
-]
+from ..requirements import evaluate, module_present
 
 # middleware name -> (import name or None, install command)
 MIDDLEWARE_DEPS = {
@@ -38,56 +22,55 @@ MIDDLEWARE_DEPS = {
     "portal": ("portal", "pip install 'rio-core[portal]'"),
 }
 
-EXTRAS = [("copier", "pip install 'rio-core[new]'", "`rio new plugin` templates")]
+
+def _middleware_rows(reg: Any) -> list[dict[str, Any]]:
+    rows = []
+    for spec in reg.specs("rio_middlewares"):
+        module, install = MIDDLEWARE_DEPS.get(spec.name, (None, ""))
+        dep_ok = module is None or module_present(module)
+        # the implementing module itself (find_spec imports only its parent packages)
+        impl_ok = module_present(spec.target.partition(":")[0])
+        why = install if not dep_ok else ("" if impl_ok else f"{spec.target} not found (plugin {spec.plugin})")
+        rows.append({"middleware": spec.name, "plugin": spec.plugin, "dependency": module or "-",
+                     "ok": dep_ok and impl_ok, "install": why})
+    return rows
 
 
-def found(module: str) -> bool:
-    import importlib.util
-
-    try:
-        return importlib.util.find_spec(module) is not None
-    except (ImportError, ValueError):
-        return False
+def _check_text(row: dict[str, Any]) -> str:
+    if row["check"] is None:
+        return "-"
+    if not row["checked"]:
+        return "not run (module missing)"
+    return row["problem"] or "ok"
 
 
 def doctor(as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False) -> None:
-    """Python version, plugins found, vendor SDKs and middleware dependencies present."""
+    """Python version, plugins found, what each plugin needs and whether this machine has it."""
     from .. import __version__
     from ..plugins import get_registry
     from .output import console, print_json, table, warn_problems
 
     reg = get_registry()
     reg.all_specs()
-    middlewares = {s.name: s for s in reg.specs("rio_middlewares")}
-    mw_rows = []
-    for name, spec in middlewares.items():
-        module, install = MIDDLEWARE_DEPS.get(name, (None, ""))
-        dep_ok = module is None or found(module)
-        # the implementing module itself (find_spec imports only its parent packages)
-        impl_ok = found(spec.target.partition(":")[0])
-        why = install if not dep_ok else ("" if impl_ok else f"{spec.target} not found (plugin {spec.plugin})")
-        mw_rows.append({"middleware": name, "plugin": spec.plugin, "dependency": module or "-",
-                        "ok": dep_ok and impl_ok, "install": why})
-    sdk_rows = [{"module": m, "distribution": d, "for": what, "ok": found(m), "install": f"pip install {d}"}
-                for m, d, what in VENDOR_SDKS]
-    extra_rows = [{"module": m, "for": what, "ok": found(m), "install": cmd} for m, cmd, what in EXTRAS]
+    mw_rows = _middleware_rows(reg)
+    needs = {dist: [evaluate(r).as_dict() for r in reqs] for dist, reqs in reg.requirements().items()}
     info = {"python": sys.version.split()[0], "platform": platform.platform(), "rio": __version__,
             "executable": sys.executable}
     if as_json:
         print_json({**info, "plugins": [{"name": p.dist, "version": p.version} for p in reg.plugins.values()],
-                    "problems": [str(p) for p in reg.problems], "middlewares": mw_rows, "sdks": sdk_rows,
-                    "extras": extra_rows})
+                    "problems": [str(p) for p in reg.problems], "middlewares": mw_rows, "requirements": needs})
         return
     out = console()
     out.print(f"rio {info['rio']} on Python {info['python']} ({info['platform']})\n{info['executable']}", markup=False)
     table("plugins", ("plugin", "version"), [(p.dist, p.version) for p in reg.plugins.values()])
     from rich.text import Text
 
-    mark = {True: Text("yes", style="green"), False: Text("no", style="red")}
+    mark = {True: Text("yes", style="green"), False: Text("no", style="red"), None: "-"}
     table("middlewares", ("middleware", "needs", "present", "to install"),
           [(r["middleware"], r["dependency"], mark[r["ok"]], r["install"]) for r in mw_rows])
-    table("vendor SDKs", ("module", "for", "present", "to install"),
-          [(r["module"], r["for"], mark[r["ok"]], "" if r["ok"] else r["install"]) for r in sdk_rows])
-    table("optional tools", ("module", "for", "present", "to install"),
-          [(r["module"], r["for"], mark[r["ok"]], "" if r["ok"] else r["install"]) for r in extra_rows])
+    for dist, rows in needs.items():
+        table(f"{dist} needs", ("module", "for", "present", "check", "to install"),
+              [(r["module"] or "-", r["purpose"], mark[r["present"]],
+                Text(_check_text(r), style="red") if r["problem"] else _check_text(r),
+                "" if r["present"] is not False else r["install"]) for r in rows])
     warn_problems(reg)

@@ -38,11 +38,10 @@ def list_drivers(
 
 @app.command("show")
 def show(name: Annotated[str, typer.Argument(help="Registered driver or policy name, e.g. rio.fake_arm.")]) -> None:
-    """The station-file fields a driver accepts (its config model): name, type, default, description.
-    Imports the driver's config model (not its SDK, if the plugin keeps them apart)."""
+    """The station-file fields a driver accepts (its class's `Config`): name, type, default, description.
+    Imports the driver's module (not its SDK: drivers import that in `open()`)."""
     from pydantic_core import PydanticUndefined
 
-    from ..config import model_from_signature
     from ..errors import ConfigError
     from ..plugins import get_registry
     from ..suggest import unknown
@@ -53,10 +52,12 @@ def show(name: Annotated[str, typer.Argument(help="Registered driver or policy n
     if name not in specs:
         raise ConfigError(unknown("driver", name, specs))
     spec = specs[name]
-    model = spec.load_config() or model_from_signature(spec.load())
+    model = spec.config_model()
     rows = []
     for field, info in model.model_fields.items():
-        if info.default_factory is not None:
+        if field in spec.preset:
+            default = f"{spec.preset[field]!r} (fixed by {spec.name})"
+        elif info.default_factory is not None:
             default = repr(info.default_factory())
         else:
             default = "(required)" if info.default is PydanticUndefined else repr(info.default)

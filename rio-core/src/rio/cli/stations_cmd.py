@@ -46,5 +46,5 @@ def check(
              ", ".join(f"{k}={v!r}" for k, v in c.kwargs().items())) for role, c in st.components.items()]
     table(f"station '{st.name}' ({st.source})", ("role", "kind", "driver", "plugin", "config"), rows)
     emb_text = f"{emb.name} ({options.model_dump()})" if emb else "none (no arm or humanoid role)"
-    console().print(f"middleware: {mw.name} {mw.options.model_dump()}\ncontrol rate: {st.rate_hz:g} Hz\n"
+    console().print(f"middleware: {mw.name} {mw.config.model_dump()}\ncontrol rate: {st.rate_hz:g} Hz\n"
                     f"embodiment: {emb_text}\nok", markup=False)

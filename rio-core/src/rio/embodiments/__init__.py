@@ -1,8 +1,8 @@
 """Embodiments: SingleArm, Bimanual and Humanoid, registered through the `rio_embodiments` hook."""
 
-from .base import Embodiment, EmbodimentOptions
+from .base import Embodiment, EmbodimentConfig
 from .bimanual import Bimanual
 from .humanoid import Humanoid
-from .single_arm import ArmOptions, SingleArm
+from .single_arm import ArmEmbodimentConfig, SingleArm
 
-__all__ = ["Embodiment", "EmbodimentOptions", "ArmOptions", "SingleArm", "Bimanual", "Humanoid"]
+__all__ = ["Embodiment", "EmbodimentConfig", "ArmEmbodimentConfig", "SingleArm", "Bimanual", "Humanoid"]

@@ -11,32 +11,30 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict
 
+from ..config import Config, Configurable
 from ..schema import Observation
 
 
-class EmbodimentOptions(BaseModel):
-    """Options from the station's `[embodiment]` table."""
-
-    model_config = ConfigDict(extra="forbid")
+class EmbodimentConfig(Config):
+    """Fields of the station's `[embodiment]` table."""
 
 
-class Embodiment:
+class Embodiment(Configurable):
     name: ClassVar[str] = ""
     #: Roles that must all be present for this embodiment to apply; the most specific match wins.
     required_roles: ClassVar[frozenset[str]] = frozenset()
     #: Roles it uses when present.
     optional_roles: ClassVar[frozenset[str]] = frozenset()
-    Options: ClassVar[type[EmbodimentOptions]] = EmbodimentOptions
+    Config: ClassVar[type[EmbodimentConfig]] = EmbodimentConfig
 
-    def __init__(self, clients: dict[str, Any], options: EmbodimentOptions | None = None):
+    def __init__(self, clients: dict[str, Any], config: Any = None, /, **fields: Any):
         self.clients = dict(clients)
-        self.options = options or self.Options()
         #: Sample timestamp of each role at the last `observe()`.
         self.timestamps: dict[str, float] = {}
         for role, client in self.clients.items():  # `env.robot.arm.get_state()`, as in the paper
             setattr(self, role, client)
+        super().__init__(config, **fields)
 
     @classmethod
     def roles(cls) -> frozenset[str]:

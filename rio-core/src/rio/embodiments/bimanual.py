@@ -11,18 +11,17 @@ import numpy as np
 from ..schema import BimanualObs
 from .arm_group import ArmGroup
 from .base import Embodiment
-from .single_arm import ArmOptions
+from .single_arm import ArmEmbodimentConfig
 
 
 class Bimanual(Embodiment):
     name = "bimanual"
     required_roles = frozenset({"arm", "arm2"})
     optional_roles = frozenset({"gripper", "gripper2", "hand", "hand2"})
-    Options = ArmOptions
+    Config = ArmEmbodimentConfig
 
-    def __init__(self, clients, options=None):
-        super().__init__(clients, options)
-        space = self.options.action_space
+    def setup(self) -> None:
+        space = self.config.action_space
         self.left = ArmGroup(self, "arm", "gripper", "hand", space, prefix="arm1_")
         self.right = ArmGroup(self, "arm2", "gripper2", "hand2", space, prefix="arm2_")
 

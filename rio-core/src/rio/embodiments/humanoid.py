@@ -16,8 +16,7 @@ class Humanoid(Embodiment):
     required_roles = frozenset({"humanoid"})
     optional_roles = frozenset({"hand", "hand2"})
 
-    def __init__(self, clients, options=None):
-        super().__init__(clients, options)
+    def setup(self) -> None:
         self.hands = [r for r in ("hand", "hand2") if r in self.clients]
         self.dofs = {r: int(self.clients[r].num_joints()) for r in ("humanoid", *self.hands)}
 

@@ -9,25 +9,26 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
+from pydantic import Field
 
 from ..schema import SingleArmObs
 from .arm_group import ArmGroup
-from .base import Embodiment, EmbodimentOptions
+from .base import Embodiment, EmbodimentConfig
 
 
-class ArmOptions(EmbodimentOptions):
-    action_space: Literal["joint_pos", "eef_pose"] = "joint_pos"
+class ArmEmbodimentConfig(EmbodimentConfig):
+    action_space: Literal["joint_pos", "eef_pose"] = Field("joint_pos", description="what an action commands "
+                                                                                  "for each arm")
 
 
 class SingleArm(Embodiment):
     name = "single_arm"
     required_roles = frozenset({"arm"})
     optional_roles = frozenset({"gripper", "hand"})
-    Options = ArmOptions
+    Config = ArmEmbodimentConfig
 
-    def __init__(self, clients, options=None):
-        super().__init__(clients, options)
-        self.group = ArmGroup(self, "arm", "gripper", "hand", self.options.action_space)
+    def setup(self) -> None:
+        self.group = ArmGroup(self, "arm", "gripper", "hand", self.config.action_space)
 
     def action_layout(self) -> list[tuple[str, int]]:
         return self.group.layout()

@@ -18,20 +18,19 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import Field
 
 from .. import time as rtime
+from ..config import Config, Configurable
 from ..errors import NodeDiedError
 from ..layout import Layout
 from ..node import Node
 
 
-class MiddlewareOptions(BaseModel):
-    """Options every middleware accepts; subclasses add their own (validated from the station file)."""
+class MiddlewareConfig(Config):
+    """Fields every middleware accepts (the station file's `[middleware]` table); subclasses add their own."""
 
-    model_config = ConfigDict(extra="forbid")
-    #: Seconds a remote API call may take before NodeTimeout.
-    call_timeout: float = 10.0
+    call_timeout: float = Field(10.0, gt=0, description="seconds a remote API call may take before NodeTimeout")
 
 
 @dataclass
@@ -79,15 +78,15 @@ class ClientTransport(ABC):
         """Stop threads and release sockets; the default has nothing to release."""
 
 
-class Middleware(ABC):
+class Middleware(Configurable, ABC):
     name: ClassVar[str]
     #: False: nodes run as threads of the calling process (the thread middleware).
     process_per_node: ClassVar[bool] = True
-    Options: ClassVar[type[MiddlewareOptions]] = MiddlewareOptions
+    Config: ClassVar[type[MiddlewareConfig]] = MiddlewareConfig
 
-    def __init__(self, station: str = "rio", **options: Any):
+    def __init__(self, config: Any = None, /, *, station: str = "rio", **fields: Any):
+        super().__init__(config, **fields)
         self.station = station
-        self.options = self.Options(**options)
 
     def prepare(self, layouts: NodeLayouts, run_dir: str) -> dict[str, Any]:
         """Create resources that must survive the server (parent side). Default: none."""

@@ -50,7 +50,7 @@ from .. import wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
 from ..node import Node
-from .base import ClientTransport, Middleware, MiddlewareOptions, NodeLayouts, ServerTransport, local_process_watch
+from .base import ClientTransport, Middleware, MiddlewareConfig, NodeLayouts, ServerTransport, local_process_watch
 
 log = logging.getLogger("rio.middleware.portal")
 
@@ -90,7 +90,7 @@ def _one_bytes_argument(frame: Any) -> bool:
         return False
 
 
-class PortalOptions(MiddlewareOptions):
+class PortalConfig(MiddlewareConfig):
     #: Interface the server binds; "0.0.0.0" (or a machine's address) to serve other machines.
     host: str = "127.0.0.1"
     #: TCP port; None picks a free one (reported in the address). One port serves one node.
@@ -109,8 +109,8 @@ class PortalOptions(MiddlewareOptions):
 
 # -- server -------------------------------------------------------------------------------------------
 class PortalServer(ServerTransport):
-    def __init__(self, node: Node, layouts: NodeLayouts, options: PortalOptions):
-        self.name, self.layouts, self.options = node.name, layouts, options
+    def __init__(self, node: Node, layouts: NodeLayouts, config: PortalConfig):
+        self.name, self.layouts, self.config = node.name, layouts, config
         self.ring_buffer = (RingBuffer(layouts.data, layouts.buffer_capacity, on_put=self._on_put)
                             if layouts.data is not None else None)
         self.request_queue = (RequestQueue(layouts.request, layouts.request_capacity)
@@ -157,7 +157,7 @@ class PortalServer(ServerTransport):
             new = min(max(count - since, 0), len(self._recent))
             picked, size = [], 0
             for data in reversed(self._recent):
-                if len(picked) == new or (picked and size + len(data) > self.options.max_batch_bytes):
+                if len(picked) == new or (picked and size + len(data) > self.config.max_batch_bytes):
                     break
                 picked.append(data)
                 size += len(data)
@@ -191,7 +191,7 @@ class PortalServer(ServerTransport):
     def start(self, dispatch: Any) -> dict[str, Any]:
         portal = _portal()
         self._dispatch = dispatch
-        opts = self.options
+        opts = self.config
         ipv6 = ":" in opts.host
         self._server = server = portal.Server(
             opts.port or 0, f"rio-{self.name}", workers=1, errors=False,
@@ -383,8 +383,8 @@ class _Connection:
 
 
 class PortalClient(ClientTransport):
-    def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], options: PortalOptions):
-        self.name, self.options = node.name, options
+    def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], config: PortalConfig):
+        self.name, self.config = node.name, config
         host, port = str(address["host"]), int(address["port"])
         self._watch = local_process_watch(address, self.name)
         self._dead: str | None = None
@@ -397,7 +397,7 @@ class PortalClient(ClientTransport):
         self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity) if layouts.data is not None else None
         self.request_queue = RequestSender(layouts.request, self._send_request) if layouts.request is not None else None
         try:
-            self._conn = _Connection(host, port, self.name, options.connect_timeout, max(options.call_timeout, 1.0))
+            self._conn = _Connection(host, port, self.name, config.connect_timeout, max(config.call_timeout, 1.0))
         except OSError as e:
             if self._watch is not None:
                 self._watch.close()
@@ -411,7 +411,7 @@ class PortalClient(ClientTransport):
         self._poller.start()
 
     def _handshake(self, layouts: NodeLayouts, where: str) -> None:
-        hello = wire.unpack(self._rpc(b"hello", b"\0", self.options.connect_timeout, "handshake"))
+        hello = wire.unpack(self._rpc(b"hello", b"\0", self.config.connect_timeout, "handshake"))
         if list(hello["fingerprint"]) != layouts.fingerprint():
             raise ConfigError(f"node '{self.name}': the server at {where} has a different data/request layout "
                               f"(fingerprints {hello['fingerprint']} != {layouts.fingerprint()}); "
@@ -485,8 +485,8 @@ class PortalClient(ClientTransport):
             except NodeDiedError as e:
                 self._dead = self._dead or e.detail
                 raise
-        elif conn is not None and rtime.now() - conn.last_rx > self.options.heartbeat_timeout:
-            raise self._lost(f"no heartbeat for {self.options.heartbeat_timeout:.3g} s")
+        elif conn is not None and rtime.now() - conn.last_rx > self.config.heartbeat_timeout:
+            raise self._lost(f"no heartbeat for {self.config.heartbeat_timeout:.3g} s")
         if conn is not None and conn.lost is not None and not self._closing:
             raise self._lost(conn.lost)
 
@@ -497,9 +497,9 @@ class PortalClient(ClientTransport):
                 reply = self._inflight.popleft()
                 if reply.data is not None and bytes(reply.data) != _OK:  # the server refused it (and logged it)
                     log.warning("node '%s': request refused: %s", self.name, bytes(reply.data).decode(errors="replace"))
-            oldest = self._inflight[0] if len(self._inflight) >= self.options.max_inflight_requests else None
+            oldest = self._inflight[0] if len(self._inflight) >= self.config.max_inflight_requests else None
         if oldest is not None:  # back-pressure: the node is not keeping up
-            self._wait(oldest, self.options.call_timeout, "send_request (request queue backlog)")
+            self._wait(oldest, self.config.call_timeout, "send_request (request queue backlog)")
         reply = _Reply()
         with self._inflight_lock:
             try:
@@ -511,7 +511,7 @@ class PortalClient(ClientTransport):
     def call(self, method: str, args: tuple, kwargs: dict) -> Any:
         self.check_alive()
         call_id = next(self._ids)
-        data = self._rpc(b"call", wire.pack_call(call_id, method, args, kwargs), self.options.call_timeout,
+        data = self._rpc(b"call", wire.pack_call(call_id, method, args, kwargs), self.config.call_timeout,
                          f"call {method}()")
         reply_id, ok, value = wire.unpack_reply(data)
         if reply_id != call_id:
@@ -532,10 +532,10 @@ class PortalClient(ClientTransport):
 
 class PortalMiddleware(Middleware):
     name = "portal"
-    Options = PortalOptions
+    Config = PortalConfig
 
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> PortalServer:
-        return PortalServer(node, layouts, self.options)
+        return PortalServer(node, layouts, self.config)
 
     def make_client(self, node: Node, layouts: NodeLayouts, address: dict[str, Any]) -> PortalClient:
-        return PortalClient(node, layouts, address, self.options)
+        return PortalClient(node, layouts, address, self.config)

@@ -349,4 +349,4 @@ class ShmMiddleware(Middleware):
         return ShmServer(node, layouts, resources)
 
     def make_client(self, node: Node, layouts: NodeLayouts, address: dict[str, Any]) -> ShmClient:
-        return ShmClient(node, layouts, address, self.options.call_timeout)
+        return ShmClient(node, layouts, address, self.config.call_timeout)

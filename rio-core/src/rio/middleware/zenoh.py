@@ -39,7 +39,7 @@ from .. import wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
 from ..node import Node
-from .base import ClientTransport, Middleware, MiddlewareOptions, NodeLayouts, ServerTransport, local_process_watch
+from .base import ClientTransport, Middleware, MiddlewareConfig, NodeLayouts, ServerTransport, local_process_watch
 
 log = logging.getLogger("rio.zenoh")
 
@@ -95,7 +95,7 @@ def _endpoint(host: str, port: int) -> str:
     return f"tcp/[{host.strip('[]')}]:{port}" if ":" in host.strip("[]") else f"tcp/{host}:{port}"
 
 
-class ZenohOptions(MiddlewareOptions):
+class ZenohConfig(MiddlewareConfig):
     #: Interface the server listens on (peer mode). "0.0.0.0" for other machines to connect.
     host: str = "127.0.0.1"
     #: TCP port to listen on; None picks a free one (each node needs its own, so only fix it for
@@ -164,9 +164,9 @@ def _undeclare(*entities: Any) -> None:
 class ZenohServer(ServerTransport):
     """Runs in the node's process: publishes samples, feeds requests to the queue, answers calls."""
 
-    def __init__(self, prefix: str, layouts: NodeLayouts, options: ZenohOptions):
+    def __init__(self, prefix: str, layouts: NodeLayouts, config: ZenohConfig):
         z = _zenoh()
-        self.prefix, self.layouts, self.options = prefix, layouts, options
+        self.prefix, self.layouts, self.config = prefix, layouts, config
         self._closed = threading.Event()
         self.session, self.endpoints = self._open_session()
         cc, prio = z.CongestionControl, z.Priority
@@ -187,7 +187,7 @@ class ZenohServer(ServerTransport):
         self.dispatch: Any = None
 
     def _open_session(self) -> tuple[Any, list[str]]:
-        o = self.options
+        o = self.config
         if o.mode == "client":
             if not o.connect:
                 raise ConfigError("zenoh middleware: mode 'client' needs at least one router in 'connect'")
@@ -205,7 +205,7 @@ class ZenohServer(ServerTransport):
 
     def _advertised_host(self) -> str:
         """What clients connect to: the bound host, or this machine's name for a wildcard bind."""
-        host = self.options.host
+        host = self.config.host
         return socket.getfqdn() if host.strip("[]") in ("0.0.0.0", "::", "") else host
 
     # -- hot paths (node loop thread / zenoh callback threads) -------------------------------------
@@ -316,8 +316,8 @@ class ZenohServer(ServerTransport):
 class ZenohClient(ClientTransport):
     """A local mirror of the node's ring buffer, a request sender and remote calls, over zenoh."""
 
-    def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], options: ZenohOptions):
-        self.name, self.options = node.name, options
+    def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], config: ZenohConfig):
+        self.name, self.config = node.name, config
         self._closed = False
         self._session_key: tuple[str, ...] | None = None
         self._entities: list[Any] = []
@@ -335,7 +335,7 @@ class ZenohClient(ClientTransport):
 
     def _open(self, layouts: NodeLayouts, address: dict[str, Any], endpoints: list[str]) -> None:
         z = _zenoh()
-        o, p = self.options, self.prefix
+        o, p = self.config, self.prefix
         self._watch = local_process_watch(address, self.name)
         try:
             self._session_key, self.session = _SESSIONS.acquire(endpoints, o.connect_timeout)
@@ -376,19 +376,19 @@ class ZenohClient(ClientTransport):
 
     def _wait_matching(self, entity: Any, what: str) -> None:
         """Block until the server's side of `entity` is known here (else the first messages vanish)."""
-        deadline = rtime.now() + self.options.connect_timeout
+        deadline = rtime.now() + self.config.connect_timeout
         while not entity.matching_status.matching:
             if self._watch is not None:
                 self._watch.check()
             if rtime.now() > deadline:
                 raise NodeDiedError(self.name, f"no zenoh server answers on '{what}' "
-                                               f"after {self.options.connect_timeout:.3g} s")
+                                               f"after {self.config.connect_timeout:.3g} s")
             rtime.precise_wait(rtime.now() + 0.001)
 
     def _handshake(self, layouts: NodeLayouts) -> None:
         """Check the layouts match the server's and seed the mirror with its newest sample."""
         key = f"{self.prefix}/hello"
-        querier = self._declare(self.session.declare_querier(key, timeout=self.options.connect_timeout))
+        querier = self._declare(self.session.declare_querier(key, timeout=self.config.connect_timeout))
         self._wait_matching(querier, key)
         try:
             reply = querier.get().recv()
@@ -429,11 +429,11 @@ class ZenohClient(ClientTransport):
             self._watch.check()
             return
         silent = rtime.now() - self._last_seen
-        if silent > self.options.heartbeat_timeout:
+        if silent > self.config.heartbeat_timeout:
             raise NodeDiedError(self.name, f"no heartbeat from its zenoh server for {silent:.2f} s")
 
     def call(self, method: str, args: tuple, kwargs: dict) -> Any:
-        timeout = self.options.call_timeout
+        timeout = self.config.call_timeout
         with self._call_lock:
             self.check_alive()
             self._call_id += 1
@@ -470,7 +470,7 @@ class ZenohClient(ClientTransport):
 
 class ZenohMiddleware(Middleware):
     name = "zenoh"
-    Options = ZenohOptions
+    Config = ZenohConfig
 
     def _prefix(self, node: Node) -> str:
         for part in (self.station, node.name):
@@ -480,7 +480,7 @@ class ZenohMiddleware(Middleware):
         return f"rio/{self.station}/{node.name}"
 
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> ZenohServer:
-        return ZenohServer(self._prefix(node), layouts, self.options)
+        return ZenohServer(self._prefix(node), layouts, self.config)
 
     def make_client(self, node: Node, layouts: NodeLayouts, address: dict[str, Any]) -> ZenohClient:
-        return ZenohClient(node, layouts, address, self.options)
+        return ZenohClient(node, layouts, address, self.config)

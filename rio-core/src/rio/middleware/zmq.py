@@ -42,7 +42,7 @@ from .. import wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, NodeDiedError, NodeError, NodeTimeout, RioError
 from ..node import Node
-from .base import ClientTransport, Middleware, MiddlewareOptions, NodeLayouts, ServerTransport, local_process_watch
+from .base import ClientTransport, Middleware, MiddlewareConfig, NodeLayouts, ServerTransport, local_process_watch
 
 log = logging.getLogger("rio.middleware.zmq")
 
@@ -65,7 +65,7 @@ def _hwm(msg_bytes: int) -> int:
     return max(2, min(1000, _HWM_BYTES // max(msg_bytes, 1)))
 
 
-class ZmqOptions(MiddlewareOptions):
+class ZmqConfig(MiddlewareConfig):
     #: Interface to bind. "0.0.0.0" serves other machines (they pass the address with a real host).
     host: str = "127.0.0.1"
     #: Ports of the PUB (state) and ROUTER (requests, calls) sockets; None picks a free port.
@@ -79,8 +79,8 @@ class ZmqOptions(MiddlewareOptions):
 
 # -- server ------------------------------------------------------------------------------------------
 class ZmqServer(ServerTransport):
-    def __init__(self, node: Node, layouts: NodeLayouts, options: ZmqOptions):
-        self.name, self.layouts, self.options = node.name, layouts, options
+    def __init__(self, node: Node, layouts: NodeLayouts, config: ZmqConfig):
+        self.name, self.layouts, self.config = node.name, layouts, config
         self._data_fp = layouts.data.fingerprint if layouts.data else 0
         self._epoch = int.from_bytes(os.urandom(4), "little")
         self.ring_buffer = (RingBuffer(layouts.data, layouts.buffer_capacity, on_put=self._publish)
@@ -102,7 +102,7 @@ class ZmqServer(ServerTransport):
         self._closed = False
 
     def _bind(self, sock: zmq.Socket, port: int | None, what: str) -> int:
-        host = self.options.host
+        host = self.config.host
         try:
             sock.bind(f"tcp://{host}:{'*' if port is None else port}")
         except zmq.ZMQError as e:
@@ -111,19 +111,19 @@ class ZmqServer(ServerTransport):
 
     def start(self, dispatch: Any) -> dict[str, Any]:
         self._dispatch = dispatch
-        state_port = self._bind(self._pub, self.options.state_port, "state_port")
-        rpc_port = self._bind(self._router, self.options.rpc_port, "rpc_port")
+        state_port = self._bind(self._pub, self.config.state_port, "state_port")
+        rpc_port = self._bind(self._router, self.config.rpc_port, "rpc_port")
         for target, what in ((self._serve_rpc, "rpc"), (self._beat, "heartbeat")):
             t = threading.Thread(target=target, name=f"rio-zmq-{self.name}-{what}", daemon=True)
             t.start()
             self._threads.append(t)
-        host = self.options.host
+        host = self.config.host
         return {
             "host": "127.0.0.1" if host in _WILDCARD else host,
             "state_port": state_port,
             "rpc_port": rpc_port,
             "hostname": socket.gethostname(),
-            "heartbeat_s": self.options.heartbeat_s,
+            "heartbeat_s": self.config.heartbeat_s,
         }
 
     # PUB side ------------------------------------------------------------------------------------
@@ -145,7 +145,7 @@ class ZmqServer(ServerTransport):
 
     def _beat(self) -> None:
         """Heartbeat from its own thread: keeps going while the node loop is busy or idle."""
-        while not self._stop.wait(self.options.heartbeat_s):
+        while not self._stop.wait(self.config.heartbeat_s):
             self._send_control(_BEAT)
 
     # ROUTER side ---------------------------------------------------------------------------------
@@ -219,15 +219,15 @@ class ZmqServer(ServerTransport):
 
 # -- client ------------------------------------------------------------------------------------------
 class ZmqClient(ClientTransport):
-    def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], options: ZmqOptions):
-        self.name, self.layouts, self.options = node.name, layouts, options
+    def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], config: ZmqConfig):
+        self.name, self.layouts, self.config = node.name, layouts, config
         try:
             host, state_port, rpc_port = address["host"], int(address["state_port"]), int(address["rpc_port"])
         except (KeyError, TypeError, ValueError) as e:
             raise ConfigError(f"node '{self.name}': zmq address needs host, state_port, rpc_port; got {address}") from e
         self._data_fp = layouts.data.fingerprint if layouts.data else 0
         self._watch = local_process_watch(address, self.name)
-        self._beat_timeout = max(options.heartbeat_timeout, 5 * float(address.get("heartbeat_s", 0.05)))
+        self._beat_timeout = max(config.heartbeat_timeout, 5 * float(address.get("heartbeat_s", 0.05)))
         self._last_heard = rtime.now()
         #: Why the server is known to be gone; sticky: a server that comes back is a new server
         #: (new sequence numbers, maybe a new layout), so the client must connect again.
@@ -326,7 +326,7 @@ class ZmqClient(ClientTransport):
                     return got
 
     def _handshake(self) -> None:
-        timeout = self.options.call_timeout
+        timeout = self.config.call_timeout
         self._send(self._call_sock, _HELLO, "connecting", timeout)
         hello = self._await(_HELLO, wire.unpack, "connecting (handshake)", timeout)
         theirs, ours = list(hello.get("fingerprint", [])), self.layouts.fingerprint()
@@ -357,7 +357,7 @@ class ZmqClient(ClientTransport):
             try:
                 sock.send(data, zmq.NOBLOCK)
             except zmq.Again:
-                self._send(sock, data, f"call '{method}'", self.options.call_timeout)
+                self._send(sock, data, f"call '{method}'", self.config.call_timeout)
             try:
                 msg = sock.recv()
                 if msg[:1] == _CALL:
@@ -365,7 +365,7 @@ class ZmqClient(ClientTransport):
             except zmq.Again:
                 pass
             if reply is None:
-                reply = self._await(_CALL, mine, f"call '{method}'", self.options.call_timeout)
+                reply = self._await(_CALL, mine, f"call '{method}'", self.config.call_timeout)
         _, ok, value = reply
         if ok:
             return value
@@ -429,10 +429,10 @@ class ZmqMiddleware(Middleware):
     """pyzmq over TCP: PUB/SUB for state (mirrored client-side), ROUTER/DEALER for the rest."""
 
     name = "zmq"
-    Options = ZmqOptions
+    Config = ZmqConfig
 
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> ZmqServer:
-        return ZmqServer(node, layouts, self.options)
+        return ZmqServer(node, layouts, self.config)
 
     def make_client(self, node: Node, layouts: NodeLayouts, address: dict[str, Any]) -> ZmqClient:
-        return ZmqClient(node, layouts, address, self.options)
+        return ZmqClient(node, layouts, address, self.config)

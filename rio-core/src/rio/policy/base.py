@@ -25,11 +25,11 @@ import numpy as np
 from pydantic import Field
 
 from .. import time as rtime
-from ..config import DriverConfig
+from ..config import Config, Configurable
 from ..schema import Observation
 
 
-class PolicyConfig(DriverConfig):
+class PolicyConfig(Config):
     """Fields every policy accepts (a station's `[components.policy]` table, or `--policy NAME,k=v`).
     Adapters subclass it with their own fields."""
 
@@ -92,15 +92,16 @@ class ActionChunk:
         return self.t_end - self.t_start
 
 
-class Policy:
-    """Base class of policy adapters. `__init__` must stay cheap (clients build the object too, to
-    learn its config); heavy work belongs in `load`."""
+class Policy(Configurable):
+    """Base class of policy adapters: `Policy(config)` or `Policy(**fields)` (validated into `self.config`).
+    Construction must stay cheap (clients build the object too, to learn its config); heavy work belongs
+    in `load`."""
 
     Config: ClassVar[type[PolicyConfig]] = PolicyConfig
     name: ClassVar[str] = "policy"
 
-    def __init__(self, **config: Any):
-        self.config = self.Config.model_validate(config)
+    def __init__(self, config: Any = None, /, **fields: Any):
+        super().__init__(config, **fields)
         self.spec: Any = None  # rio.policy.obs_layout.ObsSpec, set by load()
 
     # -- to implement -------------------------------------------------------------------------------

@@ -129,9 +129,10 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
         first = env.reset()
         spec = ObsSpec.of(first.observation).to_dict()
         say(f"loading policy '{name}' ...")
-        pserver = serve(node_cls, mw, name=POLICY_ROLE, observation=spec, **policy_kwargs)
+        policy_kwargs = {**policy_kwargs, "observation": spec}
+        pserver = serve(node_cls, mw, name=POLICY_ROLE, **policy_kwargs)
         stack.enter_context(ServerManager([pserver], station=st.name, ready_timeout=ready_timeout))
-        client = stack.enter_context(connect(node_cls, mw, name=POLICY_ROLE, observation=spec, **policy_kwargs))
+        client = stack.enter_context(connect(node_cls, mw, name=POLICY_ROLE, **policy_kwargs))
         meta = PolicyMetadata.from_dict(client.metadata())
         summary.metadata = meta.to_dict()
         recorder = _open_recorder(record, env, freq, instruction, stack) if record else None

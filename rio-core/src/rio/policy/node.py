@@ -24,25 +24,43 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
+from pydantic import Field, create_model
 
 from ..errors import InvalidRequest
-from ..node import Node, client_side
+from ..node import Node, NodeConfig, client_side, remote
 from ..schema import Observation
 from .base import ActionChunk, Policy, PolicyMetadata
 from .obs_layout import ObsSpec
 
 
+class PolicyNodeConfig(NodeConfig):
+    """What the node adds to its policy's `Config`."""
+
+    observation: dict[str, Any] | None = Field(None, description="the station's observation layout "
+                                                                 "(`rio deploy` fills it in)")
+
+
+def node_config(policy_class: type[Policy], name: str) -> type[NodeConfig]:
+    """The policy's own config model plus the node's fields: what a station's policy table validates against."""
+    return create_model(name, __base__=(policy_class.Config, PolicyNodeConfig))
+
+
 class PolicyNode(Node):
-    __api__ = ("get_state", "send_request", "metadata", "request", "chunk_count", "latest_chunk")
     policy_class: ClassVar[type[Policy]] = Policy
     loop = "req"
     buffer_capacity: ClassVar[int] = 4
     #: The client keeps at most one observation in flight; two slots leave room for a retry.
     request_capacity: ClassVar[int] = 2
 
-    def __init__(self, observation: dict[str, Any] | None = None, **config: Any):
-        super().__init__()
-        self.policy = self.policy_class(**config)
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "Config" not in cls.__dict__:
+            cls.Config = node_config(cls.policy_class, f"{cls.__name__}Config")
+
+    def setup(self) -> None:
+        fields = self.config.model_dump(exclude=set(PolicyNodeConfig.model_fields))
+        self.policy = self.policy_class(fields)
+        observation = self.config.observation
         self.spec = ObsSpec.from_dict(observation) if observation else None
         cfg = self.policy.config
         dim = self.spec.action_dim if self.spec is not None else 1
@@ -91,6 +109,7 @@ class PolicyNode(Node):
                 "dt": chunk.dt, "offset": chunk.offset, "t_recv": chunk.t_recv, "t_start": chunk.t_start,
                 "t_end": chunk.t_end}
 
+    @remote
     def metadata(self) -> dict[str, Any]:
         """The loaded policy's `PolicyMetadata` as a dict (a remote call; not on the hot path)."""
         if self._meta is None:
@@ -128,3 +147,6 @@ class PolicyNode(Node):
         h = int(s["horizon"])
         return ActionChunk(np.array(s["actions"][:h]), float(s["t_obs"]), float(s["dt"]), float(s["offset"]),
                            int(s["seq"]), float(s["t_recv"]), float(s["t_start"]), float(s["t_end"]))
+
+
+PolicyNode.Config = node_config(Policy, "PolicyNodeConfig")

@@ -53,19 +53,18 @@ def policy_node_class(name: str, registry: Any = None) -> tuple[type[PolicyNode]
             cls = import_path(name)
         except (ImportError, AttributeError) as e:
             raise ConfigError(f"policy '{name}' cannot be imported: {e}") from None
-        model = None
     else:
         from ..plugins import get_registry
 
         spec = (registry or get_registry()).find("rio_policies", name, "policy")
         try:
-            cls, model = spec.load(), spec.load_config()
+            cls = spec.load()
         except ImportError as e:
             raise ConfigError(f"policy '{name}' (plugin {spec.plugin}) cannot be imported: {e}. "
                               "Is its optional dependency installed? (`rio doctor`)") from None
     if not (isinstance(cls, type) and issubclass(cls, PolicyNode)):
         raise ConfigError(f"policy '{name}' is {cls!r}, not a rio.policy.PolicyNode subclass")
-    return cls, model or cls.policy_class.Config
+    return cls, cls.Config
 
 
 def resolve_policy(ref: str | None, station: Any, registry: Any = None) -> tuple[str, type[PolicyNode], dict[str, Any]]:

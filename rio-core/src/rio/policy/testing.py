@@ -62,8 +62,7 @@ class RampPolicy(_StandIn):
     name = "testing.ramp"
     Config = RampConfig
 
-    def __init__(self, **config: Any):
-        super().__init__(**config)
+    def setup(self) -> None:
         self.t0: float | None = None
         self.start: np.ndarray | None = None
         self._t_obs = 0.0
@@ -98,8 +97,7 @@ class CrashPolicy(SleepPolicy):
     name = "testing.crash"
     Config = CrashConfig
 
-    def __init__(self, **config: Any):
-        super().__init__(**config)
+    def setup(self) -> None:
         self.calls = 0
 
     def infer(self, obs: Observation) -> np.ndarray:

@@ -1,9 +1,9 @@
 """Dataset formats: the interface a `rio_dataset_formats` plugin implements, and the lookup.
 
-A format is registered as a Spec of kind 'dataset_format' whose target is a `DatasetFormat`
-subclass and whose optional config is a pydantic model of its options (`rio export ... -o key=value`
-is validated against it). Export reads a native `Dataset`; import writes a native dataset with a
-`Recorder`, so imported data gets the same crash-safe layout and checks as recorded data.
+A format is registered as a Spec of kind 'dataset_format' whose target is a `DatasetFormat` subclass;
+its `Config` holds its options (`rio export ... -o key=value` is validated against it). Export reads a
+native `Dataset`; import writes a native dataset with a `Recorder`, so imported data gets the same
+crash-safe layout and checks as recorded data.
 """
 
 from __future__ import annotations
@@ -12,19 +12,18 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
 
+from ..config import Config, Configurable
 from .dataset import Dataset
 
 #: progress(done, total, what): called as work advances (the CLI draws a rich progress bar from it)
 Progress = Callable[[int, int, str], None]
 
 
-class DatasetFormat:
+class DatasetFormat(Configurable):
+    Config: ClassVar[type[Config]] = Config
     name: ClassVar[str] = ""
     can_export: ClassVar[bool] = True
     can_import: ClassVar[bool] = False
-
-    def __init__(self, options: Any = None):
-        self.options = options
 
     def export(self, dataset: Dataset, out: Path, *, episodes: list[int] | None = None,
                progress: Progress | None = None) -> dict[str, Any]:
@@ -45,14 +44,12 @@ def get_format(name: str, options: dict[str, Any] | None = None, registry: Any =
     reg = registry or get_registry()
     spec = reg.find("rio_dataset_formats", name, "dataset format")
     cls = spec.load()
-    model = spec.load_config()
-    if model is None:
-        if options:
-            raise ConfigError(f"dataset format '{name}' takes no options (got {sorted(options)})")
-        return cls(None)
     from pydantic import ValidationError
 
     try:
-        return cls(model.model_validate(options or {}))
+        return cls(spec.validate(dict(options or {})))
     except ValidationError as e:
-        raise ConfigError(f"dataset format '{name}' options:\n  " + "\n  ".join(error_lines(e, "", model))) from None
+        raise ConfigError(f"dataset format '{name}' options:\n  "
+                          + "\n  ".join(error_lines(e, "", cls.Config))) from None
+    except ValueError as e:
+        raise ConfigError(f"dataset format '{name}' options: {e}") from None

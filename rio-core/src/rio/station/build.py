@@ -37,7 +37,7 @@ class ClientFactory:
 
 def resolve_middleware(station: Station, name: str | None = None, options: dict[str, Any] | None = None,
                        registry: Registry | None = None) -> Any:
-    """The station's middleware instance (name/options overridable), options checked by its `Options`."""
+    """The station's middleware instance (name/options overridable), options checked by its `Config`."""
     reg = registry or get_registry()
     mw_name = name or station.middleware
     opts = station.middleware_options if options is None else options
@@ -51,11 +51,11 @@ def resolve_middleware(station: Station, name: str | None = None, options: dict[
         raise ConfigError(f"{station.source}: middleware '{mw_name}' cannot be imported ({e}); "
                           "run `rio doctor` to see what to install") from None
     try:
-        cls.Options.model_validate(opts)
+        config = cls.Config.model_validate(opts)
     except ValidationError as e:
         raise ConfigError(f"invalid station {station.source}:\n  "
-                          + "\n  ".join(error_lines(e, "middleware", cls.Options))) from None
-    return cls(station=station.name, **opts)
+                          + "\n  ".join(error_lines(e, "middleware", cls.Config))) from None
+    return cls(config, station=station.name)
 
 
 def resolve_embodiment(station: Station, registry: Registry | None = None) -> tuple[type | None, Any]:
@@ -73,11 +73,11 @@ def resolve_embodiment(station: Station, registry: Registry | None = None) -> tu
         return None, None
     cls = spec.load()
     try:
-        options = cls.Options.model_validate(station.embodiment_options)
+        config = cls.Config.model_validate(station.embodiment_options)
     except ValidationError as e:
         raise ConfigError(f"invalid station {station.source}:\n  "
-                          + "\n  ".join(error_lines(e, "embodiment", cls.Options))) from None
-    return cls, options
+                          + "\n  ".join(error_lines(e, "embodiment", cls.Config))) from None
+    return cls, config
 
 
 def load_node_class(station: Station, role: str) -> type:

@@ -2,8 +2,8 @@
 
 Validation happens in one pass that collects every problem, each reported with the full path of the
 field (`components.arm.port: required field missing`), so a user fixes a file in one go. Drivers are
-looked up in the plugin registry by name; only their config models are imported here (the node
-classes, and with them vendor SDKs, are imported when the station is built).
+looked up in the plugin registry by name; validating imports the driver's module for its `Config`
+(drivers import their vendor SDKs inside `open()`, so this never needs the SDK).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from ..config import error_lines, model_from_signature
+from ..config import error_lines
 from ..errors import ConfigError
 from ..plugins import Registry, get_registry
 from ..suggest import closest, unknown
@@ -37,7 +37,8 @@ def read_station_text(ref: str | os.PathLike, registry: Registry | None = None) 
     reg = registry or get_registry()
     stations = {s.name: s for s in reg.specs("rio_stations")}
     if ref not in stations:
-        raise ConfigError(unknown("station", str(ref), stations) + " (or give the path of a .toml file)")
+        raise ConfigError(unknown("station", str(ref), stations) + reg.plugin_hint("station", str(ref))
+                          + " (or give the path of a .toml file)")
     return read_station_resource(stations[ref].target)
 
 
@@ -113,19 +114,25 @@ def _component(role: str, table: dict[str, Any], reg: Registry, errors: list[str
             errors.append(f"{where}.driver: '{driver}' is a {other.kind} driver; role '{role}' needs a {kind} "
                           f"driver: {', '.join(sorted(of_kind)) or 'none installed'}")
         else:
-            errors.append(f"{where}.driver: " + unknown(f"{kind} driver", driver, of_kind))
+            errors.append(f"{where}.driver: " + unknown(f"{kind} driver", driver, of_kind)
+                          + reg.plugin_hint(kind, driver))
         return None
     spec = of_kind[driver]
     try:
-        model = spec.load_config() or model_from_signature(spec.load())
-    except Exception as e:  # a plugin's config module failed to import
-        errors.append(f"{where}.driver: cannot load the config of '{driver}' (plugin {spec.plugin}): "
-                      f"{type(e).__name__}: {e}")
+        model = spec.config_model()
+    except Exception as e:  # a plugin's driver module failed to import
+        errors.append(f"{where}.driver: cannot load '{driver}' (plugin {spec.plugin}): {type(e).__name__}: {e}")
+        return None
+    if model is None:
+        errors.append(f"{where}.driver: '{driver}' ({spec.target}) declares no Config (plugin {spec.plugin})")
         return None
     fields = {k: v for k, v in table.items() if k != "driver"}
     try:
-        config = model.model_validate(fields)
+        config = spec.validate(fields)
     except ValidationError as e:
         errors.extend(error_lines(e, where, model))
+        return None
+    except ValueError as e:  # a field contradicting the driver's preset
+        errors.append(f"{where}.{e}")
         return None
     return Component(role=role, driver=driver, kind=kind, spec=spec, config=config)

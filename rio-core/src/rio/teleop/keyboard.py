@@ -19,9 +19,10 @@ import numpy as np
 from pydantic import Field
 
 from .. import time as rtime
-from ..config import DriverConfig
 from ..control.teleop import BUTTON_DONE, BUTTON_MODE
 from ..interfaces import TeleopNode
+from ..interfaces.teleop import TeleopConfig
+from ..node import remote
 
 HELP = ("keys: w/s a/d r/f move x/y/z, i/k j/l u/o rotate, space gripper, m mode, q or Enter finish")
 
@@ -29,7 +30,7 @@ _LINEAR = {"w": (0, 1), "s": (0, -1), "a": (1, 1), "d": (1, -1), "r": (2, 1), "f
 _ANGULAR = {"u": (3, 1), "o": (3, -1), "i": (4, 1), "k": (4, -1), "j": (5, 1), "l": (5, -1)}
 
 
-class KeyboardTeleopConfig(DriverConfig):
+class KeyboardTeleopConfig(TeleopConfig):
     speed: float = Field(0.05, gt=0, description="tool speed while a move key is down (m/s)")
     rot_speed: float = Field(0.5, gt=0, description="rotation speed while a rotate key is down (rad/s)")
     hold_s: float = Field(0.15, gt=0, description="how long one key press keeps moving (s)")
@@ -70,12 +71,12 @@ class KeyTwist:
 
 
 class KeyboardTeleop(TeleopNode):
-    __api__ = ("get_state", "reset", "help")
+    Config = KeyboardTeleopConfig
 
-    def __init__(self, speed: float = 0.05, rot_speed: float = 0.5, hold_s: float = 0.15, tty: str = "/dev/tty",
-                 rate_hz: float = 100.0):
-        super().__init__(buttons=2, rate_hz=rate_hz)
-        self.tty, self.keys = tty, KeyTwist(speed, rot_speed, hold_s)
+    def setup(self) -> None:
+        super().setup()
+        c = self.config
+        self.tty, self.keys = c.tty, KeyTwist(c.speed, c.rot_speed, c.hold_s)
         self._fd: int | None = None
         self._saved = None
 
@@ -116,9 +117,11 @@ class KeyboardTeleop(TeleopNode):
             self.keys.press(ch, t)
         return self.keys.state(t)
 
+    @remote
     def reset(self) -> float:
         self.keys.done = False
         return 0.0
 
+    @remote
     def help(self) -> str:
         return HELP

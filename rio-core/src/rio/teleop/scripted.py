@@ -27,9 +27,10 @@ import numpy as np
 from pydantic import Field
 
 from .. import time as rtime
-from ..config import DriverConfig
 from ..control.teleop import BUTTON_DONE
 from ..interfaces import TeleopNode
+from ..interfaces.teleop import TeleopConfig
+from ..node import remote
 
 
 @dataclass(frozen=True)
@@ -39,7 +40,7 @@ class Move:
     gripper: float = 1.0
 
 
-class ScriptedTeleopConfig(DriverConfig):
+class ScriptedTeleopConfig(TeleopConfig):
     script: Literal["pick_place", "square", "moves"] = Field("pick_place", description="preset, or 'moves'")
     pick: list[float] = Field([0.0, 0.06, -0.085], min_length=3, max_length=3,
                               description="grasp point relative to the start tool position (m, base frame)")
@@ -102,27 +103,23 @@ def bump(tau: float, seconds: float) -> float:
 
 
 class ScriptedTeleop(TeleopNode):
-    __api__ = ("get_state", "reset", "script_length")
+    Config = ScriptedTeleopConfig
 
-    def __init__(self, script: str = "pick_place", pick: list[float] | None = None, place: list[float] | None = None,
-                 lift: float = 0.08, side: float = 0.05, moves: list[list[float]] | None = None, speed: float = 0.08,
-                 grasp_s: float = 0.8, rate_hz: float = 100.0):
-        super().__init__(buttons=2, rate_hz=rate_hz)
-        cfg = ScriptedTeleopConfig(script=script, lift=lift, side=side, moves=moves or [], speed=speed,
-                                   grasp_s=grasp_s, rate_hz=rate_hz,
-                                   **({"pick": pick} if pick is not None else {}),
-                                   **({"place": place} if place is not None else {}))
-        self.moves = build_script(cfg)
+    def setup(self) -> None:
+        super().setup()
+        self.moves = build_script(self.config)
         self.ends = np.cumsum([m.seconds for m in self.moves])
         self.offsets = np.cumsum([m.delta for m in self.moves], axis=0)
         self.example_data = {**self.example_data, "phase": 0, "offset": np.zeros(3)}
         self.t_start: float | None = None
 
+    @remote
     def reset(self) -> float:
         """(Re)start the script now; returns its length in seconds."""
         self.t_start = rtime.now()
         return float(self.ends[-1])
 
+    @remote
     def script_length(self) -> float:
         return float(self.ends[-1])
 

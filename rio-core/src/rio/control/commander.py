@@ -1,0 +1,140 @@
+"""What stands between a command and the hardware, every driver cycle: the one safety layer of RIO.
+
+A commander turns sparse timed targets (`t_cmd_target`) into one goal per driver cycle:
+
+- interpolation: a target to be reached at `t_cmd_target` is approached from the goal in force when it
+  arrived (a line in joint space; a line plus slerp for poses), so commands sent slower than the driver
+  rate still give smooth motion;
+- limits: every goal is clipped to the joint limits (or the workspace box for poses);
+- maximum step: a goal moves at most `max_step` per cycle (rad; m and rad for poses), so a wild target
+  (a policy glitch, a leader arm far from the follower) becomes a bounded-speed motion, never a jump;
+- stale-command watchdog: a stream of commands (each within `watchdog_s` of the previous one: a teleop
+  loop, a policy) must keep coming. When none has arrived for `watchdog_s` while a streamed move is still
+  under way (a target far ahead, then silence: a crashed or stalled controller), the goal stops where it
+  is and the robot holds it until the next command. A single deliberate move (`home(seconds=3)`, a
+  script's `move_joints(q, now + 2)`) runs to its end, and a move that already ended stays at its
+  target. `holding` says that no fresh command is being followed.
+
+Every standard driver kind (`rio.interfaces`) owns one and feeds the hardware only what it returns.
+Time is passed in explicitly, which keeps them testable.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .interpolators import LinearInterpolator, PoseInterpolator
+from .rotations import quat_angle, quat_slerp
+from .se3 import as_pose
+
+
+class _Commander:
+    """Interpolation and watchdog; subclasses say how a goal is limited and moved one step."""
+
+    def __init__(self, value, watchdog_s: float, interp_cls: type):
+        self.watchdog_s = float(watchdog_s)
+        self._interp_cls = interp_cls
+        self.goal = self._clip(value)
+        self._interp = interp_cls(self.goal, 0.0)
+        self._t_cmd = -np.inf
+        self._streamed = False
+        self.holding = True
+
+    def _clip(self, value) -> np.ndarray:
+        raise NotImplementedError
+
+    def _toward(self, goal: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def reset(self, value, t: float) -> np.ndarray:
+        """Hold `value` (the measured state at start-up, after enabling, after switching modes)."""
+        self.goal = self._clip(value)
+        self._interp = self._interp_cls(self.goal, t)
+        self._t_cmd = -np.inf
+        self._streamed = False
+        self.holding = True
+        return self.goal.copy()
+
+    def command(self, target, t_target: float, now: float) -> None:
+        """Head for `target` (clipped to the limits), arriving at `t_target`."""
+        self._interp = self._interp_cls(self.goal, now)
+        self._interp.set_target(self._clip(target), t_target, now)
+        self._streamed = now - self._t_cmd <= self.watchdog_s
+        self._t_cmd = now
+        self.holding = False
+
+    def hold(self, now: float) -> None:
+        """Stop where the goal is now (also what the watchdog does)."""
+        self._interp = self._interp_cls(self.goal, now)
+        self.holding = True
+
+    @property
+    def target(self) -> np.ndarray:
+        """Where the current move ends."""
+        return self._interp.goal
+
+    def step(self, now: float) -> np.ndarray:
+        """The goal for this cycle."""
+        quiet = not self.holding and now - self._t_cmd > self.watchdog_s
+        ended = now >= self._interp._t1
+        if quiet and self._streamed and not ended:
+            self.hold(now)  # a stream went silent mid-move: stop here
+        self.goal = self._clip(self._toward(self.goal, self._interp.sample(now)))
+        if quiet and ended:
+            self.holding = True  # the move is over and nothing fresh is being followed
+        return self.goal.copy()
+
+
+class JointCommander(_Commander):
+    """Joint targets (rad) -> one safe goal per cycle: clipped to `[lower, upper]`, at most `max_step`
+    rad per joint per cycle, held by the watchdog."""
+
+    def __init__(self, lower, upper, max_step: float, watchdog_s: float, start=None):
+        self.lower = np.asarray(lower, dtype=np.float64).reshape(-1)
+        self.upper = np.asarray(upper, dtype=np.float64).reshape(-1)
+        if self.lower.shape != self.upper.shape or np.any(self.lower > self.upper):
+            raise ValueError(f"joint limits must be two equal-length vectors with lower <= upper, got "
+                             f"{self.lower.tolist()} / {self.upper.tolist()}")
+        self.max_step = float(max_step)
+        start = np.zeros(self.lower.size) if start is None else start
+        super().__init__(start, watchdog_s, LinearInterpolator)
+
+    def _clip(self, q) -> np.ndarray:
+        q = np.asarray(q, dtype=np.float64).reshape(-1)
+        if q.shape != self.lower.shape:
+            raise ValueError(f"joint target has {q.size} values, the commander drives {self.lower.size}")
+        return np.clip(q, self.lower, self.upper)
+
+    def _toward(self, goal: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        return goal + np.clip(desired - goal, -self.max_step, self.max_step)
+
+
+class PoseCommander(_Commander):
+    """End-effector pose targets `[x, y, z, qw, qx, qy, qz]` -> one safe goal per cycle: position in
+    the workspace box, at most `max_step_m` of travel and `max_step_rad` of rotation per cycle (the
+    orientation moves along the slerp arc), held by the watchdog."""
+
+    def __init__(self, workspace_lower, workspace_upper, max_step_m: float, max_step_rad: float,
+                 watchdog_s: float, start=None):
+        self.lower = np.asarray(workspace_lower, dtype=np.float64).reshape(3)
+        self.upper = np.asarray(workspace_upper, dtype=np.float64).reshape(3)
+        self.max_step_m, self.max_step_rad = float(max_step_m), float(max_step_rad)
+        start = np.array([*np.clip(np.zeros(3), self.lower, self.upper), 1.0, 0.0, 0.0, 0.0]) if start is None \
+            else start
+        super().__init__(start, watchdog_s, PoseInterpolator)
+
+    def _clip(self, pose) -> np.ndarray:
+        p = as_pose(pose)
+        p[:3] = np.clip(p[:3], self.lower, self.upper)
+        return p
+
+    def _toward(self, goal: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        out = desired.copy()
+        d = desired[:3] - goal[:3]
+        dist = float(np.linalg.norm(d))
+        if dist > self.max_step_m:
+            out[:3] = goal[:3] + d * (self.max_step_m / dist)
+        angle = quat_angle(goal[3:], desired[3:])
+        if angle > self.max_step_rad:
+            out[3:] = quat_slerp(goal[3:], desired[3:], self.max_step_rad / angle)
+        return out

@@ -1,0 +1,37 @@
+"""Standard node kinds: the state keys, request keys, client methods and safety every driver of a kind
+shares, so an embodiment (and a user's main loop) can drive any arm, gripper, camera, hand or humanoid
+without knowing which vendor is behind it.
+
+A driver subclasses one of these, extends its `Config`, and writes only hardware logic: for the
+joint kinds `read_joints()` / `write_joints(q)` (plus `set_enabled`, `hardware_limits`,
+`robot_description` where the hardware has them); for a gripper `read_width()` / `write_width()`.
+The kind owns the rest: the `JointCommander` (interpolation to `t_cmd_target`, limit clipping,
+maximum step per cycle, stale-command watchdog), enable/disable, home, and forward kinematics from
+`robot_description()` when the hardware reports no end-effector pose. See docs/drivers.md.
+
+Units are SI everywhere: meters, radians, seconds. Poses are `[x, y, z, qw, qx, qy, qz]` (meters,
+unit quaternion, scalar first) in the robot's base frame. `t_cmd_target` is a `rio.time.now()` time
+at which the target should be reached; None means "as soon as possible" (sent as the current time).
+
+| kind     | state (`get_state()`; commandable kinds add `enabled`, `holding`)      | client call |
+|----------|----------------------------------------------------------------------|-------------|
+| arm      | joint_pos (n) rad, joint_vel (n) rad/s, eef_pose (7)                  | move_joints, move_eef |
+| gripper  | position m (finger opening), max_width m                              | move(position_m, t, force=None) |
+| hand     | joint_pos (n) rad                                                     | move_joints(q, t) |
+| humanoid | joint_pos (n), joint_vel (n), base_quat (4, wxyz), base_ang_vel (3) rad/s | move_joints(q, t) |
+| camera   | rgb (H,W,3) uint8, intrinsics (3,3); depth (H,W) uint16, depth_scale m | - |
+| teleop   | twist (6: m/s, rad/s), gripper (0 closed .. 1 open), buttons (n)     | - |
+
+Every sample also carries `timestamp` (added by the runtime). A value a driver cannot measure is
+published as NaN, never as a made-up number.
+"""
+
+from .arm import EEF, IDENTITY_POSE, JOINT, ArmNode
+from .camera import CameraNode
+from .gripper import GripperNode
+from .hand import HandNode, HumanoidNode
+from .joints import JointNode
+from .teleop import TeleopNode
+
+__all__ = ["ArmNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "JointNode",
+           "JOINT", "EEF", "IDENTITY_POSE"]

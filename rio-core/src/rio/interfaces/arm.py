@@ -1,0 +1,170 @@
+"""The arm contract: a joint-space device (`JointNode`) that also takes end-effector targets and reports
+the end-effector pose.
+
+End-effector targets reach the hardware one of two ways:
+- the driver streams poses itself (`write_pose(pose)` defined, e.g. a vendor's Cartesian servo mode):
+  a `PoseCommander` (workspace box, `max_step_m` / `max_step_rad` per cycle, slerp, watchdog) feeds it;
+- otherwise the kind solves IK on the driver's `robot_description()` (shared IK, `rio.kinematics`),
+  warm-started from the last joint target, and the joint commander takes it from there.
+
+`eef_pose` is what the driver measured when it reports one; else forward kinematics of the measured
+joints on `robot_description()`; else NaN. So an arm that ships a model can be teleoperated, recorded
+and deployed in end-effector space without any Cartesian code of its own (docs/drivers.md).
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from .. import time as rtime
+from ..control.commander import PoseCommander
+from ..errors import InvalidRequest
+from ..node import client_side, remote
+from .joints import JointConfig, JointNode, as_vector, t_target
+
+log = logging.getLogger("rio.interfaces")
+
+#: Request `mode` values of an arm.
+JOINT, EEF = 0, 1
+
+IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+_NAN_POSE = np.full(7, np.nan)
+
+
+class ArmConfig(JointConfig):
+    workspace: tuple[tuple[float, float, float], tuple[float, float, float]] | None = Field(
+        None, description="[[x, y, z] lower, [x, y, z] upper] (m, base frame) for end-effector targets; "
+                          "unbounded if omitted")
+    max_step_m: float = Field(0.005, gt=0, description="largest end-effector travel per cycle (m), for "
+                                                       "drivers streaming poses")
+    max_step_eef_rad: float = Field(0.05, gt=0, description="largest end-effector rotation per cycle (rad)")
+
+
+class ArmNode(JointNode):
+    Config = ArmConfig
+
+    # -- driver hooks (besides JointNode's) ---------------------------------------------------------
+    def write_pose(self, eef_pose: np.ndarray) -> None:
+        """Stream this cycle's end-effector goal. Define it only where the hardware has Cartesian control."""
+        raise NotImplementedError
+
+    @remote
+    def robot_description(self) -> dict[str, Any] | None:
+        """The arm's kinematic model, or None:
+        `{"format": "mjcf" | "urdf", "xml": <model text>, "frame": <tool frame>, "frame_type": "site" | "body"
+        (MJCF), "joints": [<names, in this node's joint order>], "home": [<rad>] (optional)}`."""
+        return None
+
+    # -- contract -----------------------------------------------------------------------------------
+    @property
+    def streams_poses(self) -> bool:
+        return type(self).write_pose is not ArmNode.write_pose
+
+    def setup(self) -> None:
+        super().setup()
+        self.example_data = {**self.example_data, "eef_pose": IDENTITY_POSE.copy()}
+        self.example_request = {"mode": JOINT, **self.example_request, "eef_pose": IDENTITY_POSE.copy()}
+        self.kinematics: Any = None
+        self.poses: PoseCommander | None = None
+        self.mode = JOINT
+        self._eef = _NAN_POSE
+
+    def opened(self) -> None:
+        self.kinematics = self._load_kinematics()
+        super().opened()
+        if self.streams_poses:
+            ws = self.config.workspace or ((-np.inf,) * 3, (np.inf,) * 3)
+            self.poses = PoseCommander(ws[0], ws[1], self.config.max_step_m, self.config.max_step_eef_rad,
+                                       self.config.watchdog_s, start=self._eef_of(self.read_joints()))
+
+    def _load_kinematics(self) -> Any:
+        desc = self.robot_description()
+        if not desc:
+            return None
+        joints = list(desc.get("joints") or [])
+        if joints != self.joint_list:
+            raise ValueError(f"node '{self.name}': robot_description() joints {joints} differ from the node's "
+                             f"joint_names {self.joint_list}")
+        try:
+            from ..kinematics import solver_from_description
+
+            return solver_from_description(desc, orientation_cost=1.0 if self.dof >= 6 else 0.1, damping=1e-4)
+        except ImportError as e:
+            log.warning("node '%s': no forward kinematics (eef_pose is NaN): %s", self.name, e)
+            return None
+
+    def _eef_of(self, sample: Any) -> np.ndarray:
+        pose = sample.get("eef_pose")
+        if pose is not None and np.isfinite(pose).all():  # measured by the hardware
+            return np.asarray(pose, dtype=np.float64)
+        if self.kinematics is not None:
+            return self.kinematics.fk(sample["joint_pos"])
+        return _NAN_POSE
+
+    def read_state(self) -> dict[str, Any]:
+        sample = dict(self.read_joints())
+        sample["eef_pose"] = self._eef = self._eef_of(sample)
+        now = rtime.now()
+        if self.enabled and self.mode == EEF:
+            self.write_pose(self.poses.step(now))
+        else:
+            self.drive(now)
+        return self.complete(sample)
+
+    def complete(self, sample: dict[str, Any]) -> dict[str, Any]:
+        sample = super().complete(sample)
+        if self.mode == EEF:
+            sample["holding"] = (not self.enabled) or self.poses.holding
+        return sample
+
+    def handle_request(self, request: dict[str, Any]) -> None:
+        if int(request["mode"]) == EEF:
+            self.command_eef(np.asarray(request["eef_pose"]), float(request["t_cmd_target"]))
+        else:
+            self.command_joints(np.asarray(request["joint_pos"]), float(request["t_cmd_target"]))
+
+    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
+        if self.mode == EEF and self.enabled:  # leave Cartesian streaming from where the arm is
+            self.commander.reset(self.read_joints()["joint_pos"], rtime.now())
+        super().command_joints(joint_pos, t_cmd_target)
+        self.mode = JOINT
+
+    def command_eef(self, eef_pose: np.ndarray, t_cmd_target: float) -> None:
+        if not self.enabled:
+            raise InvalidRequest(self.name, "eef_pose", "the arm is disabled (call enable() first)")
+        if np.linalg.norm(eef_pose[3:]) < 1e-9:
+            raise InvalidRequest(self.name, "eef_pose", "the quaternion is zero")
+        now = rtime.now()
+        if self.streams_poses:
+            if self.mode != EEF:
+                self.poses.reset(self._eef, now)
+            self.poses.command(eef_pose, t_cmd_target, now)
+            self.mode = EEF
+            return
+        if self.kinematics is None:
+            raise InvalidRequest(self.name, "eef_pose", f"{type(self).__name__} has no Cartesian control and no "
+                                                        "robot_description() for IK: send joint targets")
+        q = self.kinematics.solve(eef_pose, self.commander.target, max_iters=15).q
+        self.command_joints(q, t_cmd_target)
+
+    @remote
+    def enable(self) -> bool:
+        self.mode = JOINT
+        return super().enable()
+
+    # -- client side --------------------------------------------------------------------------------
+    @client_side
+    def move_joints(self, joint_pos: Any, t_cmd_target: float | None = None) -> None:
+        """Joint target (rad), to be reached at `t_cmd_target`."""
+        self.send_request(mode=JOINT, joint_pos=as_vector("joint_pos", joint_pos, self.dof),
+                          eef_pose=IDENTITY_POSE, t_cmd_target=t_target(t_cmd_target))
+
+    @client_side
+    def move_eef(self, eef_pose: Any, t_cmd_target: float | None = None) -> None:
+        """End-effector target `[x, y, z, qw, qx, qy, qz]` (m), to be reached at `t_cmd_target`."""
+        self.send_request(mode=EEF, joint_pos=np.zeros(self.dof),
+                          eef_pose=as_vector("eef_pose", eef_pose, 7), t_cmd_target=t_target(t_cmd_target))

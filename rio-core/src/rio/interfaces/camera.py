@@ -1,0 +1,31 @@
+"""The camera contract: RGB (and optionally depth) frames at the camera's own rate.
+
+A driver's `read_state()` returns `rgb` (H, W, 3) uint8 and `intrinsics` (3x3, pixels); with depth also
+`depth` (H, W) uint16 and `depth_scale` (m per unit). Frames it could not grab are not published.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydantic import Field
+
+from ..node import Node, NodeConfig
+
+
+class CameraConfig(NodeConfig):
+    rate_hz: float = Field(30.0, gt=0, description="frames per second")
+    width: int = Field(640, ge=1, le=8192, description="image width (pixels)")
+    height: int = Field(480, ge=1, le=8192, description="image height (pixels)")
+    depth: bool = Field(False, description="also publish metric depth")
+
+
+class CameraNode(Node):
+    Config = CameraConfig
+
+    def setup(self) -> None:
+        c = self.config
+        self.width, self.height, self.has_depth = int(c.width), int(c.height), bool(c.depth)
+        self.example_data = {"rgb": np.zeros((self.height, self.width, 3), np.uint8), "intrinsics": np.eye(3)}
+        if self.has_depth:
+            self.example_data["depth"] = np.zeros((self.height, self.width), np.uint16)
+            self.example_data["depth_scale"] = 0.001

@@ -1,0 +1,32 @@
+"""Hands and humanoids: joint-space devices (`JointNode`), the humanoid adding its base IMU.
+
+A humanoid driver returns `base_quat` (wxyz) and `base_ang_vel` (rad/s) from `read_joints()` with the
+joints; gains and low-level modes live in the driver's config.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydantic import Field
+
+from .joints import JointConfig, JointNode
+
+
+class HandNode(JointNode):
+    """A multi-fingered hand, commanded in joint space (rad)."""
+
+
+class HumanoidConfig(JointConfig):
+    rate_hz: float = Field(500.0, gt=0, description="loop rate (Hz)")
+    max_step_rad: float = Field(0.02, gt=0, description="largest joint goal change per cycle (rad)")
+
+
+class HumanoidNode(JointNode):
+    """A humanoid's whole body in joint space, plus its base IMU."""
+
+    Config = HumanoidConfig
+
+    def setup(self) -> None:
+        super().setup()
+        self.example_data = {**self.example_data, "base_quat": np.array([1.0, 0.0, 0.0, 0.0]),
+                             "base_ang_vel": np.zeros(3)}

@@ -1,0 +1,202 @@
+"""The contract shared by every joint-space device (arm, hand, humanoid): joint names and limits, a home
+pose, enable/disable, and the one `JointCommander` between commands and the hardware.
+
+A driver writes hardware logic only:
+
+- `default_joint_names()` (or the station sets `joint_names`), cheap, no hardware;
+- `open()` / `close()`;
+- `read_joints() -> {"joint_pos": ..., ["joint_vel": ...], [extra keys declared in setup()]}`;
+- `write_joints(q)`: send this cycle's goal (already interpolated, clipped and step-limited);
+- optionally `set_enabled(on)` (torque), `hardware_limits()` (read after `open()`, e.g. from a
+  calibration), `default_home()`.
+
+The kind runs one cycle per tick (read, then write the commander's goal), so a driver never sees a raw
+command: every target is clipped to the limits (the hardware's, narrowed by the station's
+`joint_limits`), moves at most `max_step_rad` per cycle, and is held by the watchdog when commands stop
+coming mid-move. A disabled device refuses commands (they would otherwise be replayed on enable).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from .. import time as rtime
+from ..control.commander import JointCommander
+from ..errors import InvalidRequest
+from ..node import Node, NodeConfig, client_side, remote
+
+log = logging.getLogger("rio.interfaces")
+
+
+def t_target(t_cmd_target: float | None) -> float:
+    """A command's target time: now when not given."""
+    return rtime.now() if t_cmd_target is None else float(t_cmd_target)
+
+
+def as_vector(name: str, value: Any, n: int) -> np.ndarray:
+    v = np.asarray(value, dtype=np.float64).reshape(-1)
+    if v.shape != (n,):
+        raise ValueError(f"{name} must have {n} values, got shape {np.shape(value)}")
+    return v
+
+
+class JointConfig(NodeConfig):
+    joint_names: list[str] | None = Field(None, min_length=1, description="joints this node drives, in command "
+                                                                          "order (default: the driver's)")
+    home: list[float] | None = Field(None, description="joint positions (rad) that home() moves to "
+                                                       "(default: the driver's, else zeros)")
+    joint_limits: list[tuple[float, float]] | None = Field(
+        None, description="[lower, upper] per joint (rad); narrows the hardware's own limits")
+    max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad)")
+    watchdog_s: float = Field(0.5, gt=0, description="hold when no command came for this long while a move "
+                                                     "is under way (s)")
+    enable_on_open: bool = Field(True, description="enable (torque on, holding the present pose) at start")
+    disable_on_close: bool = Field(True, description="disable (torque off) when the node stops; a robot "
+                                                     "without brakes sags")
+
+
+class JointNode(Node):
+    Config = JointConfig
+
+    # -- driver hooks -------------------------------------------------------------------------------
+    def default_joint_names(self) -> list[str]:
+        raise NotImplementedError(f"{type(self).__name__} defines no default_joint_names(): set joint_names")
+
+    def default_home(self) -> Any:
+        """Home joint positions (rad), or None for zeros."""
+        return None
+
+    def hardware_limits(self) -> Any:
+        """(lower, upper) in rad, read after `open()`; None when the hardware reports none."""
+        return None
+
+    def read_joints(self) -> Mapping[str, Any]:
+        raise NotImplementedError(f"{type(self).__name__} must define read_joints()")
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        raise NotImplementedError(f"{type(self).__name__} takes no joint targets")
+
+    def set_enabled(self, enabled: bool) -> None:
+        """Torque on (holding the present pose) or off. Default: nothing to switch."""
+
+    # -- contract -----------------------------------------------------------------------------------
+    def setup(self) -> None:
+        c = self.config
+        self.joint_list = list(c.joint_names or self.default_joint_names())
+        n = self.dof = len(self.joint_list)
+        for field in ("home", "joint_limits"):
+            value = getattr(c, field)
+            if value is not None and len(value) != n:
+                raise ValueError(f"{field} has {len(value)} entries; node '{self.name}' drives {n} joints "
+                                 f"{self.joint_list}")
+        self.example_data = {"joint_pos": np.zeros(n), "joint_vel": np.zeros(n), "enabled": False, "holding": True}
+        self.example_request = {"joint_pos": np.zeros(n), "t_cmd_target": 0.0}
+        self.enabled = False
+        self.commander: JointCommander | None = None
+
+    def limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """The hardware's limits narrowed by the station's `joint_limits`; unbounded where neither says."""
+        lower, upper = np.full(self.dof, -np.inf), np.full(self.dof, np.inf)
+        hw = self.hardware_limits()
+        if hw is not None:
+            lower, upper = (np.asarray(x, dtype=np.float64).reshape(self.dof) for x in hw)
+        if self.config.joint_limits is not None:
+            lim = np.asarray(self.config.joint_limits, dtype=np.float64)
+            lower, upper = np.maximum(lower, lim[:, 0]), np.minimum(upper, lim[:, 1])
+        if np.any(lower > upper):
+            raise ValueError(f"node '{self.name}': joint_limits do not overlap the hardware's limits "
+                             f"(lower {lower.tolist()}, upper {upper.tolist()})")
+        return lower, upper
+
+    def opened(self) -> None:
+        lower, upper = self.limits()
+        q = np.asarray(self.read_joints()["joint_pos"], dtype=np.float64)
+        self.commander = JointCommander(lower, upper, self.config.max_step_rad, self.config.watchdog_s, start=q)
+        if self.config.enable_on_open:
+            self.enable()
+
+    def closing(self) -> None:
+        if self.enabled and self.config.disable_on_close:
+            try:
+                self.set_enabled(False)
+            except Exception as e:  # closing must go on to release the device
+                log.warning("node '%s': disabling failed while closing: %s", self.name, e)
+            self.enabled = False
+
+    def read_state(self) -> dict[str, Any]:
+        sample = dict(self.read_joints())
+        self.drive(rtime.now())
+        return self.complete(sample)
+
+    def drive(self, now: float) -> None:
+        """Send this cycle's goal (when enabled)."""
+        if self.enabled:
+            self.write_joints(self.commander.step(now))
+
+    def complete(self, sample: dict[str, Any]) -> dict[str, Any]:
+        """The contract's keys on top of what the driver read: NaN for what it did not measure."""
+        if "joint_vel" not in sample:
+            sample["joint_vel"] = np.full(self.dof, np.nan)
+        sample["enabled"] = self.enabled
+        sample["holding"] = (not self.enabled) or self.commander.holding
+        return sample
+
+    def handle_request(self, request: dict[str, Any]) -> None:
+        self.command_joints(np.asarray(request["joint_pos"]), float(request["t_cmd_target"]))
+
+    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
+        if not self.enabled:
+            raise InvalidRequest(self.name, "joint_pos", "the device is disabled (call enable() first)")
+        self.commander.command(joint_pos, t_cmd_target, rtime.now())
+
+    # -- remote API ---------------------------------------------------------------------------------
+    @remote
+    def enable(self) -> bool:
+        """Torque on, holding the present pose: nothing moves until the next command."""
+        self.set_enabled(True)
+        self.commander.reset(self.read_joints()["joint_pos"], rtime.now())
+        self.enabled = True
+        return True
+
+    @remote
+    def disable(self) -> bool:
+        """Torque off (the robot goes limp: support it first)."""
+        self.commander.hold(rtime.now())
+        self.set_enabled(False)
+        self.enabled = False
+        return False
+
+    @remote
+    def hold(self) -> None:
+        """Stop where the robot is commanded to be now."""
+        self.commander.hold(rtime.now())
+
+    @remote
+    def home(self, seconds: float = 3.0) -> None:
+        """Move to the home pose, arriving in `seconds` (still limited to `max_step_rad` per cycle)."""
+        home = self.config.home if self.config.home is not None else self.default_home()
+        q = np.zeros(self.dof) if home is None else as_vector("home", home, self.dof)
+        self.command_joints(q, rtime.now() + float(seconds))
+
+    @remote
+    def joint_limits(self) -> list[list[float]]:
+        """[[lower...], [upper...]] in rad, as enforced (inf where unbounded)."""
+        return [self.commander.lower.tolist(), self.commander.upper.tolist()]
+
+    @client_side
+    def joint_names(self) -> list[str]:
+        return list(self.joint_list)
+
+    @client_side
+    def num_joints(self) -> int:
+        return self.dof
+
+    @client_side
+    def move_joints(self, joint_pos: Any, t_cmd_target: float | None = None) -> None:
+        """Joint target (rad), to be reached at `t_cmd_target`."""
+        self.send_request(joint_pos=as_vector("joint_pos", joint_pos, self.dof), t_cmd_target=t_target(t_cmd_target))

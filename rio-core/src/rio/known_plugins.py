@@ -1,0 +1,66 @@
+"""Which of this repository's plugins provides a name, so "unknown station 'sim-so100'" can say what to install.
+
+A name that is not registered is most often one whose plugin is simply not installed (rio-core alone,
+then `rio teleop sim-so100`). The registry cannot know about a plugin that is not there, so this small
+table records, by name pattern, what the plugins shipped with RIO provide. Third-party plugins are not
+listed: for them the usual "did you mean" suggestion is all `rio` can offer.
+"""
+
+from __future__ import annotations
+
+from fnmatch import fnmatchcase
+
+from .specs import DRIVER_KINDS
+
+#: distribution -> {kind group: shell-style name patterns}. Kind groups: "driver" (any driver kind),
+#: "policy", "dataset_format", "station". Keep in step with each plugin's plugin.py.
+KNOWN: dict[str, dict[str, tuple[str, ...]]] = {
+    "rio-sim": {"driver": ("sim.*",), "station": ("sim-*",)},
+    "rio-so100": {"driver": ("so100.*", "so101.*"), "station": ("so100", "so100-*", "so101", "so101-*")},
+    "rio-policies": {"policy": ("openpi.*", "gr00t.*", "onnx.*", "lerobot.*", "replay.*")},
+    "rio-datasets": {"dataset_format": ("lerobot", "zarr", "hdf5")},
+}
+
+
+def _group(kind: str) -> str:
+    return "driver" if kind in DRIVER_KINDS else kind
+
+
+def _norm(dist: str) -> str:
+    return dist.lower().replace("_", "-")
+
+
+def provider(kind: str, name: str) -> str | None:
+    """The known distribution that provides `name` of `kind` (a spec kind or a kind group), or None."""
+    group = _group(kind)
+    for dist, provides in KNOWN.items():
+        if any(fnmatchcase(name, pattern) for pattern in provides.get(group, ())):
+            return dist
+    return None
+
+
+def install_hint(kind: str, name: str, installed: set[str]) -> str | None:
+    """" (provided by rio-sim, which is not installed: pip install rio-sim)" when a known plugin that is
+    not in `installed` (distribution names) provides `name`; None otherwise."""
+    dist = provider(kind, name)
+    if dist is None or dist in {_norm(d) for d in installed}:
+        return None
+    return f" (provided by {dist}, which is not installed: pip install {dist})"
+
+
+def missing_plugin_hint(kind: str, name: str, loaded: set[str]) -> str | None:
+    """Like `install_hint` for the plugins `loaded` in this process, but honest when the distribution is
+    installed and was not loaded (left out by RIO_LOAD_PLUGINS, or its import failed): installing it
+    again would not help, so point at `rio doctor` instead."""
+    hint = install_hint(kind, name, loaded)
+    if hint is None:
+        return None
+    from importlib.metadata import PackageNotFoundError, distribution
+
+    dist = provider(kind, name)
+    try:
+        distribution(dist)
+    except PackageNotFoundError:
+        return hint
+    return (f" (provided by {dist}, which is installed but not loaded: see `rio doctor` for its problems, "
+            "or RIO_LOAD_PLUGINS)")

@@ -1,0 +1,96 @@
+"""What a plugin needs from the machine, declared through the `rio_requirements` hook and shown by `rio doctor`.
+
+A plugin knows which optional modules and system setup its components need; the core does not. So each
+plugin declares them as `Requirement`s and `rio doctor` only evaluates them. Evaluating is safe on a
+broken machine: a module is located with `importlib.util.find_spec` (never imported, so a slow or
+crashing vendor SDK is not run just to be listed), and a check that raises is reported, not propagated.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+_MODULE = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*$")
+_CHECK = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*$")
+
+
+@dataclass(frozen=True)
+class Requirement:
+    """One thing a plugin needs. `module` is an import name (None for a pure system check); `install`
+    is the exact command a user types to get it; `purpose` says in one line what needs it.
+
+    `check`, optional, is 'package.module:function' of a zero-argument function that returns None when
+    all is well or a one-line problem ("no permission on /dev/ttyACM0: ..."). It is imported and run by
+    `rio doctor` only, and only once `module` (if any) is present, so it may import that module."""
+
+    module: str | None
+    install: str = ""
+    purpose: str = ""
+    check: str | None = None
+
+
+def check_requirement(req: Any) -> str | None:
+    """Why `req` is unusable (one line), or None. Imports nothing."""
+    if not isinstance(req, Requirement):
+        return f"returned {type(req).__name__} {req!r:.60}, not a rio.requirements.Requirement"
+    if req.module is None and req.check is None:
+        return "a requirement needs a module, a check, or both"
+    if req.module is not None and not (isinstance(req.module, str) and _MODULE.match(req.module)):
+        return f"requirement module {req.module!r} is not an import name like 'package.module'"
+    if req.check is not None and not (isinstance(req.check, str) and _CHECK.match(req.check)):
+        return f"requirement check {req.check!r} is not an import path like 'package.module:function'"
+    if not isinstance(req.install, str) or not isinstance(req.purpose, str):
+        return f"requirement {req.module or req.check!r}: install and purpose must be strings"
+    return None
+
+
+def module_present(module: str) -> bool:
+    """Whether `module` can be imported, without importing it (only its parent packages are imported)."""
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec(module) is not None
+    except (ImportError, ValueError):  # a parent package is missing or broken
+        return False
+
+
+def run_check(target: str) -> str | None:
+    """Import and call a check; None when it passes, else its problem, or why the check itself failed."""
+    from .specs import import_path
+
+    try:
+        result = import_path(target)()
+    except (Exception, SystemExit) as e:  # a broken check is a finding, never a crash of `rio doctor`
+        return f"check {target} failed: {type(e).__name__}: {e}"
+    if result is None or isinstance(result, str):
+        return result
+    return f"check {target} returned {type(result).__name__}, not None or a problem string"
+
+
+@dataclass(frozen=True)
+class Status:
+    """A requirement as found on this machine. `present` is None when there is no module to look for;
+    `problem` is the check's finding (None when it passed, or did not run because the module is missing)."""
+
+    requirement: Requirement
+    present: bool | None
+    checked: bool
+    problem: str | None
+
+    @property
+    def ok(self) -> bool:
+        return self.present is not False and self.problem is None
+
+    def as_dict(self) -> dict[str, Any]:
+        r = self.requirement
+        return {"module": r.module, "purpose": r.purpose, "present": self.present, "install": r.install,
+                "check": r.check, "checked": self.checked, "problem": self.problem, "ok": self.ok}
+
+
+def evaluate(req: Requirement) -> Status:
+    """Look for the module, then run the check if there is one and the module is there."""
+    present = None if req.module is None else module_present(req.module)
+    run = req.check is not None and present is not False
+    return Status(req, present, run, run_check(req.check) if run else None)

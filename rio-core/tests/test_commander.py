@@ -1,0 +1,110 @@
+"""The commanders every driver kind feeds its hardware through: interpolation, joint limits or workspace,
+maximum step per cycle, stale-command watchdog."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from rio.control.commander import JointCommander, PoseCommander
+from rio.control.rotations import quat_angle, rotvec_to_quat
+
+
+def _cmd(max_step=0.1, watchdog=0.5):
+    c = JointCommander([-1.0, -1.0], [1.0, 1.0], max_step, watchdog)
+    c.reset([0.0, 0.0], t=0.0)
+    return c
+
+
+def test_interpolates_towards_a_timed_target():
+    c = _cmd(max_step=10.0)
+    c.command([0.4, -0.4], t_target=1.0, now=0.0)
+    assert np.allclose(c.step(0.25), [0.1, -0.1])
+    assert np.allclose(c.step(0.5), [0.2, -0.2])
+    assert np.allclose(c.step(1.1), [0.4, -0.4])
+
+
+def test_targets_are_clipped_to_the_joint_limits():
+    c = _cmd(max_step=10.0)
+    c.command([5.0, -5.0], t_target=0.0, now=0.0)
+    assert np.allclose(c.step(0.01), [1.0, -1.0])
+
+
+def test_a_jump_becomes_bounded_steps():
+    c = _cmd(max_step=0.1)
+    c.command([0.35, 0.0], t_target=0.0, now=0.0)
+    goals = [c.step(0.01 * (k + 1))[0] for k in range(5)]
+    assert np.allclose(goals, [0.1, 0.2, 0.3, 0.35, 0.35])
+
+
+def test_watchdog_holds_a_move_whose_commands_stopped():
+    c = _cmd(max_step=10.0, watchdog=0.2)
+    c.command([0.0, 0.0], t_target=0.0, now=-0.1)  # a controller streaming commands ...
+    c.command([1.0, 0.0], t_target=2.0, now=0.0)  # ... sends a target far ahead, then goes quiet
+    assert c.step(0.1)[0] == 0.05 and not c.holding
+    held = c.step(0.3)[0]  # 0.3 s without a command: stop where the goal is
+    assert c.holding and held == 0.05
+    assert c.step(1.0)[0] == held and c.step(3.0)[0] == held
+    c.command([0.0, 0.0], t_target=3.0, now=3.0)  # a fresh command takes over again
+    assert not c.holding and c.step(3.01)[0] == 0.0
+
+
+def test_a_single_deliberate_move_runs_to_its_end():
+    """One command with a far target (home over 2 s, a script's move) is not a stalled stream."""
+    c = _cmd(max_step=10.0, watchdog=0.2)
+    c.command([1.0, 0.0], t_target=2.0, now=0.0)
+    assert c.step(1.0)[0] == pytest.approx(0.5) and not c.holding
+    assert c.step(2.5)[0] == pytest.approx(1.0) and c.holding  # arrived; nothing fresh is followed
+
+
+def test_a_finished_move_is_not_cut_short_by_the_watchdog():
+    c = _cmd(max_step=10.0, watchdog=0.5)
+    c.command([0.5, 0.0], t_target=0.49, now=0.0)
+    for t in np.arange(0.01, 1.0, 0.01):
+        c.step(t)
+    assert c.holding and c.goal[0] == 0.5
+
+
+def test_limits_must_be_ordered():
+    with pytest.raises(ValueError, match="lower <= upper"):
+        JointCommander([1.0], [-1.0], 0.1, 0.5)
+
+
+def test_a_target_of_the_wrong_size_is_refused():
+    with pytest.raises(ValueError, match="3 values"):
+        _cmd().command([0.0, 0.0, 0.0], 1.0, 0.0)
+
+
+def _pose_cmd(max_m=0.01, max_rad=0.05, watchdog=0.5):
+    c = PoseCommander([-0.5, -0.5, 0.0], [0.5, 0.5, 0.5], max_m, max_rad, watchdog)
+    c.reset([0.1, 0.0, 0.2, 1.0, 0.0, 0.0, 0.0], t=0.0)
+    return c
+
+
+def test_pose_targets_are_clipped_to_the_workspace_and_step_limited():
+    c = _pose_cmd(max_m=0.01)
+    c.command([0.1, 0.0, -1.0, 1.0, 0.0, 0.0, 0.0], t_target=0.0, now=0.0)  # below the table
+    zs = [c.step(0.01 * (k + 1))[2] for k in range(30)]
+    assert np.allclose(np.diff(zs[:20]), -0.01)  # 1 cm per cycle, never a jump
+    assert zs[-1] == pytest.approx(0.0)          # stops at the workspace floor
+
+
+def test_pose_rotation_moves_along_the_slerp_arc_at_bounded_speed():
+    c = _pose_cmd(max_rad=0.05)
+    target = rotvec_to_quat([0.0, 0.0, 1.0])  # 1 rad about z
+    c.command([0.1, 0.0, 0.2, *target], t_target=0.0, now=0.0)
+    q0 = c.goal[3:].copy()
+    q1 = c.step(0.01)[3:]
+    assert quat_angle(q0, q1) == pytest.approx(0.05, abs=1e-6)
+    for k in range(30):
+        c.step(0.02 + 0.01 * k)
+    assert quat_angle(c.goal[3:], target) < 1e-6
+    assert np.allclose(c.goal[:3], [0.1, 0.0, 0.2])
+
+
+def test_pose_watchdog_holds_a_move_whose_commands_stopped():
+    c = _pose_cmd(max_m=1.0, watchdog=0.2)
+    c.command([0.1, 0.0, 0.2, 1.0, 0.0, 0.0, 0.0], t_target=0.0, now=-0.05)
+    c.command([0.3, 0.0, 0.2, 1.0, 0.0, 0.0, 0.0], t_target=2.0, now=0.0)
+    c.step(0.1)
+    held = c.step(0.3)[0]
+    assert c.holding and c.step(1.5)[0] == held and held < 0.12
