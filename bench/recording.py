@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from rio import time as rtime
+from rio import clock
 from rio.recording import Recorder, VideoOptions
 from rio.recording.synthetic import SyntheticCamera, synthetic_step
 
@@ -44,13 +44,13 @@ def make_frames(h: int, w: int, n: int) -> dict[str, list[np.ndarray]]:
 
 def loop(seconds: float, frames: dict[str, list[np.ndarray]], rec: Recorder | None, hz: float = 100.0,
          cam_hz: float = 30.0) -> dict:
-    rate = rtime.Rate(hz)
-    t0 = rtime.now()
+    rate = clock.Rate(hz)
+    t0 = clock.now()
     late, add_ms = [], []
     n_clip = len(next(iter(frames.values())))
     i = 0
     while True:
-        t = rtime.now()
+        t = clock.now()
         if t - t0 >= seconds:
             break
         k = int((t - t0) * cam_hz)
@@ -63,7 +63,7 @@ def loop(seconds: float, frames: dict[str, list[np.ndarray]], rec: Recorder | No
         i += 1
         target = rate._t_next
         rate.sleep()
-        late.append(max(rtime.now() - target, 0.0) * 1000)
+        late.append(max(clock.now() - target, 0.0) * 1000)
     return {"steps": i, "late_p99_ms": float(np.percentile(late, 99)), "late_max_ms": float(np.max(late)),
             "add_p50_ms": float(np.median(add_ms)) if add_ms else 0.0,
             "add_p99_ms": float(np.percentile(add_ms, 99)) if add_ms else 0.0, "overruns": rate.overruns}

@@ -1,42 +1,14 @@
-"""Shared fixtures for rio-core tests."""
+"""Shared fixtures for rio-core tests. The process helpers live in the shipped conformance kit
+(`rio.conformance.process`) and are re-exported here for the test modules that import them."""
 
 from __future__ import annotations
 
-import os
-
 import pytest
+from rio.conformance.process import _is_resource_tracker, child_pids, shm_entries
 
 MIDDLEWARES = ["thread", "shm", "zmq", "zenoh", "portal"]
 
-
-def _is_resource_tracker(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/cmdline", "rb") as f:
-            return b"multiprocessing.resource_tracker" in f.read()
-    except OSError:
-        return False
-
-
-def child_pids() -> set[int]:
-    """Live (non-zombie) direct children of this process, read from /proc. Python's own
-    multiprocessing resource tracker (one per program, started by the first spawn) is not a node."""
-    me, out = os.getpid(), set()
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry}/stat") as f:
-                stat = f.read()
-        except OSError:
-            continue
-        fields = stat.rsplit(")", 1)[1].split()
-        if int(fields[1]) == me and fields[0] != "Z" and not _is_resource_tracker(int(entry)):
-            out.add(int(entry))
-    return out
-
-
-def shm_entries() -> set[str]:
-    return set(os.listdir("/dev/shm")) if os.path.isdir("/dev/shm") else set()
+__all__ = ["MIDDLEWARES", "child_pids", "shm_entries", "_is_resource_tracker"]
 
 
 @pytest.fixture(params=MIDDLEWARES)

@@ -6,7 +6,7 @@ import sys
 import time
 
 import numpy as np
-from rio import time as rtime
+from rio import clock
 from rio.recording import Recorder
 from rio.recording.synthetic import SyntheticCamera, synthetic_step
 
@@ -16,9 +16,9 @@ def main(root: str, steps_per_episode: int) -> None:
     with Recorder(root, fps=60, video={"gop_s": 0.25}) as rec:
         ep = 0
         while True:
-            rate = rtime.Rate(60)
+            rate = clock.Rate(60)
             for i in range(steps_per_episode):
-                t = rtime.now()
+                t = clock.now()
                 step = synthetic_step(i, t, {"front": (cam.frame(t), t)})
                 step.observation.cameras["front"].depth = cam.depth(t) + np.float32(0.001 * (i % 7))
                 rec.add(step)

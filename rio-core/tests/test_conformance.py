@@ -1,232 +1,31 @@
-"""One conformance suite, run unchanged on every built-in middleware.
+"""The middleware conformance kit (`rio.conformance.middleware`), run unchanged on every built-in
+middleware: the in-tree user of the kit, written exactly as a third-party middleware's test is.
 
-Each test goes through the public API only (serve / connect / ServerManager) with the nodes from
-`rio.testing`, so a third-party middleware can run this same file against itself.
+Each case goes through the public API only (serve / connect / ServerManager) with the nodes from
+`rio.testing`; a third-party middleware subclasses the same class (or runs `pytest --rio-middleware NAME`).
 """
 
 from __future__ import annotations
 
-import os
-import signal
-import threading
-import time
-
-import numpy as np
-import pytest
-import rio
-from rio import ServerManager, connect, serve
-from rio.testing import EchoNode, FailingOpenNode, ImageNode, wait_until
-
-from .conftest import MIDDLEWARES, child_pids, shm_entries
+from rio.conformance.middleware import MiddlewareConformance
 
 
-@pytest.fixture(scope="module", params=MIDDLEWARES)
-def running(request: pytest.FixtureRequest):
-    """One echo server per middleware, shared by the non-destructive tests."""
-    mw = request.param
-    with ServerManager(mw, [serve(EchoNode, name="echo", rate_hz=200)]) as mgr:
-        with connect(EchoNode, mw, name="echo", rate_hz=200) as client:
-            yield mw, mgr, client
+class TestThread(MiddlewareConformance):
+    middleware = "thread"
 
 
-def assert_no_shm_left(mgr: ServerManager, before: set[str]) -> None:
-    """No new /dev/shm entry remains. Entries are attributed by the manager's run id, because other
-    programs on the machine may create and remove their own segments meanwhile."""
-    ours = {e for e in shm_entries() - before if mgr.run_id in e}
-    assert not ours, f"/dev/shm entries left behind: {ours}"
+class TestShm(MiddlewareConformance):
+    middleware = "shm"
 
 
-
-def test_latest_state_advances_and_last_k_is_ordered(running):
-    _, _, c = running
-    s1 = c.get_state()
-    assert wait_until(lambda: c.get_state()["tick"] > s1["tick"] + 3), "timed out waiting for new samples"
-    s2 = c.get_state()
-    assert s2["timestamp"] > s1["timestamp"]
-    np.testing.assert_array_equal(s2["q"], np.full(6, float(s2["tick"])))
-    last = c.get_state(k=5)
-    assert last["q"].shape == (5, 6) and last["tick"].shape == (5,)
-    assert np.all(np.diff(last["tick"]) == 1), last["tick"]
-    assert np.all(np.diff(last["timestamp"]) > 0)
-    assert last["tick"][-1] >= s2["tick"]
+class TestZmq(MiddlewareConformance):
+    middleware = "zmq"
 
 
-def test_get_state_into_preallocated_out(running):
-    _, _, c = running
-    out = {"q": np.empty(6), "last": np.empty(6)}
-    res = c.get_state(out=out)
-    assert res["q"] is out["q"] and res["last"] is out["last"]
-    np.testing.assert_array_equal(out["q"], np.full(6, float(res["tick"])))  # one consistent sample
+class TestZenoh(MiddlewareConformance):
+    middleware = "zenoh"
 
 
-def test_two_clients_concurrent_requests_none_lost(running):
-    mw, _, _ = running
-    n = 200
-    before = len(running[2].handled())
-    errors: list[BaseException] = []
+class TestPortal(MiddlewareConformance):
+    middleware = "portal"
 
-    def producer(cid: int) -> None:
-        try:
-            with connect(EchoNode, mw, name="echo", rate_hz=200) as c:
-                for seq in range(n):
-                    c.send_request(q=np.full(6, float(seq)), client=cid, seq=seq)
-        except BaseException as e:
-            errors.append(e)
-
-    threads = [threading.Thread(target=producer, args=(cid,)) for cid in (1, 2)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    assert not errors, errors
-    c = running[2]
-    assert wait_until(lambda: len(c.handled()) - before >= 2 * n), "timed out waiting for all requests handled"
-    got = [tuple(x) for x in c.handled()[before:]]
-    assert len(got) == 2 * n
-    for cid in (1, 2):
-        assert [s for k, s in got if k == cid] == list(range(n)), f"client {cid} lost or reordered requests"
-
-
-def test_request_reaches_node_state(running):
-    _, _, c = running
-    target = np.arange(6, dtype=np.float64) * 0.1
-    c.send_request(q=target, client=0, seq=0)
-    assert wait_until(lambda: np.allclose(c.get_state()["last"], target)), "timed out waiting for request applied"
-
-
-def test_api_call_returns_value(running):
-    _, _, c = running
-    payload = np.random.default_rng(0).integers(0, 255, 2048, dtype=np.uint8)
-    got = c.echo(payload)
-    assert isinstance(got, np.ndarray) and got.dtype == np.uint8
-    np.testing.assert_array_equal(got, payload)
-    nested = {"a": [1, 2.5, "x"], "b": np.eye(3, dtype=np.float32)}
-    back = c.echo(nested)
-    assert back["a"] == [1, 2.5, "x"]
-    np.testing.assert_array_equal(back["b"], nested["b"])
-
-
-def test_api_calls_with_large_and_many_arrays_from_two_threads(running):
-    """Arrays far larger than a 2 kB payload, several per call, from two threads of one client:
-    every reply belongs to its own call."""
-    _, _, c = running
-    rng = np.random.default_rng(1)
-    big = rng.random((240, 320, 3)).astype(np.float32)  # 900 kB
-    np.testing.assert_array_equal(c.echo(big), big)
-    errors: list[BaseException] = []
-
-    def worker(seed: int) -> None:
-        try:
-            for i in range(40):
-                x = np.full((seed, 7), float(i), np.float64)
-                got = c.echo([x, np.arange(seed, dtype=np.int16)])
-                np.testing.assert_array_equal(got[0], x)
-                np.testing.assert_array_equal(got[1], np.arange(seed, dtype=np.int16))
-                np.testing.assert_array_equal(c.echo(x), x)
-        except BaseException as e:  # noqa: BLE001 - reported by the main thread
-            errors.append(e)
-
-    threads = [threading.Thread(target=worker, args=(seed,)) for seed in (3, 5000)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join(60)
-    assert not errors, errors
-
-
-def test_exception_inside_node_surfaces_with_name(running):
-    _, _, c = running
-    with pytest.raises(rio.NodeError) as ei:
-        c.fail("gripper jammed")
-    assert ei.value.node == "echo" and ei.value.exc_type == "ValueError"
-    assert "echo" in str(ei.value) and "gripper jammed" in str(ei.value)
-    assert c.echo(7) == 7  # still serving
-
-
-@pytest.mark.parametrize("bad, field", [
-    ({"q": np.zeros(5), "client": 0, "seq": 0}, "q"),
-    ({"q": np.array([0, 0, np.nan, 0, 0, 0]), "client": 0, "seq": 0}, "q"),
-    ({"q": np.full(6, np.inf), "client": 0, "seq": 0}, "q"),
-    ({"q": np.zeros(6), "client": 0}, "seq"),
-    ({"q": np.zeros(6), "client": 0, "seq": 0, "speed": 1.0}, "speed"),
-    ({"q": np.zeros(6), "client": 0.5, "seq": 0}, "client"),
-])
-def test_bad_requests_rejected_node_keeps_serving(running, bad, field):
-    _, _, c = running
-    with pytest.raises(rio.InvalidRequest) as ei:
-        c.send_request(bad)
-    assert ei.value.node == "echo" and ei.value.field == field
-    assert f"'{field}'" in str(ei.value)
-    tick = c.get_state()["tick"]
-    assert wait_until(lambda: c.get_state()["tick"] > tick), "timed out waiting for node still publishing"
-    good = np.full(6, 0.25)
-    c.send_request(q=good, client=9, seq=1)
-    assert wait_until(lambda: np.allclose(c.get_state()["last"], good)), (
-        "timed out waiting for valid request after rejects")
-
-
-def test_unknown_api_method_is_clear(running):
-    _, _, c = running
-    with pytest.raises(AttributeError, match="no API method 'home'"):
-        c.home()
-
-
-def test_image_stream(mw):
-    with ServerManager(mw, [serve(ImageNode, name="cam", rate_hz=60)]):
-        with connect(ImageNode, mw, name="cam", rate_hz=60) as cam:
-            f1 = cam.get_state()
-            assert f1["rgb"].shape == (480, 640, 3) and f1["rgb"].dtype == np.uint8
-            assert wait_until(lambda: cam.get_state()["frame"] >= f1["frame"] + 5), "timed out waiting for new frames"
-            s = cam.get_state()
-            assert s["rgb"][0, 0, 0] == s["frame"] % 4
-
-
-def test_sigkill_reported_within_one_second_and_cleaned_up(mw):
-    if mw == "thread":
-        pytest.skip("the thread middleware has no server process to kill")
-    shm_before, children_before = shm_entries(), child_pids()
-    with ServerManager(mw, [serve(EchoNode, name="echo")]) as mgr:
-        with connect(EchoNode, mw, name="echo") as c:
-            assert c.echo(1) == 1
-            os.kill(mgr.pids()["echo"], signal.SIGKILL)
-            t0 = time.monotonic()
-            with pytest.raises(rio.NodeDiedError) as ei:
-                while time.monotonic() - t0 < 5:
-                    c.get_state()
-                    time.sleep(0.001)
-            assert time.monotonic() - t0 <= 1.0, "death noticed too late"
-            assert "echo" in str(ei.value)
-            t1 = time.monotonic()
-            with pytest.raises(rio.NodeDiedError):
-                c.echo(2)
-            assert time.monotonic() - t1 <= 1.0
-            with pytest.raises(rio.NodeDiedError):
-                c.send_request(q=np.zeros(6), client=0, seq=0)
-    assert child_pids() <= children_before, "child process left behind"
-    assert_no_shm_left(mgr, shm_before)
-
-
-def test_clean_exit_leaves_nothing(mw):
-    shm_before, children_before = shm_entries(), child_pids()
-    with ServerManager(mw, [serve(EchoNode, name="a"), serve(ImageNode, name="b")]) as mgr:
-        with connect(EchoNode, mw, name="a") as a, connect(ImageNode, mw, name="b") as b:
-            a.send_request(q=np.ones(6), client=0, seq=0)
-            assert b.get_state()["rgb"].shape == (480, 640, 3)
-    assert child_pids() <= children_before
-    assert_no_shm_left(mgr, shm_before)
-
-
-def test_startup_failure_names_node_and_cleans_up(mw):
-    shm_before, children_before = shm_entries(), child_pids()
-    mgr = ServerManager(mw, [serve(EchoNode, name="ok"), serve(FailingOpenNode, name="cam0")])
-    with pytest.raises(rio.RioError) as ei:
-        with mgr:
-            pass
-    assert "cam0" in str(ei.value) and "/dev/ttyFAKE" in str(ei.value)
-    assert child_pids() <= children_before
-    assert_no_shm_left(mgr, shm_before)
-
-
-def test_connect_without_server_is_clear(mw):
-    with pytest.raises(rio.NodeDiedError, match="ghost"):
-        connect(EchoNode, mw, name="ghost")

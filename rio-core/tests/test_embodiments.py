@@ -7,8 +7,7 @@ import types
 
 import numpy as np
 import pytest
-from rio import ServerManager
-from rio import time as rtime
+from rio import ServerManager, clock
 from rio.embodiments.infer import infer_embodiment
 from rio.errors import ConfigError, RioError
 from rio.hookspecs import hookimpl
@@ -119,7 +118,7 @@ def test_single_arm_station_steps(reg):
 
             env.instruction = "pick up the cube"
             target = np.r_[np.linspace(-0.5, 0.5, 6), 0.02]
-            step = env.step(target, t_cmd_target=rtime.now() + 0.1)
+            step = env.step(target, t_cmd_target=clock.now() + 0.1)
             assert step.timestep == 1 and np.array_equal(step.action, target)
             assert step.instruction == "pick up the cube"
             assert set(step.meta["timestamps"]) == {"arm", "gripper", "front_camera"}
@@ -141,7 +140,7 @@ def test_single_arm_eef_action_space(reg):
     with ServerManager(servers), env:
         assert env.action_dim == 7
         pose = np.array([0.3, 0.0, 0.2, 0.0, 1.0, 0.0, 0.0])
-        env.step(pose, t_cmd_target=rtime.now() + 0.05)
+        env.step(pose, t_cmd_target=clock.now() + 0.05)
         assert wait_until(lambda: np.allclose(env.get_state().observation.proprio_eef, pose))
         assert np.allclose(env.get_state().observation.proprio, pose)
 
@@ -158,7 +157,7 @@ def test_bimanual_station_steps(reg):
         left, right = np.full(6, 0.3), np.full(6, -0.3)
         action = env.robot.build_action(arm1_joint_pos=left, arm1_gripper=0.01, arm2_joint_pos=right,
                                         arm2_gripper=0.05)
-        env.step(action, t_cmd_target=rtime.now() + 0.05)
+        env.step(action, t_cmd_target=clock.now() + 0.05)
         assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, action))
         obs = env.get_state().observation
         assert isinstance(obs, BimanualObs)
@@ -173,7 +172,7 @@ def test_humanoid_station_steps(reg):
     with ServerManager(servers), env:
         assert env.robot.describe_action() == "joint_pos (12), hand (6)"
         action = np.r_[np.full(12, 0.1), np.full(6, 0.4)]
-        env.step(action, t_cmd_target=rtime.now() + 0.05)
+        env.step(action, t_cmd_target=clock.now() + 0.05)
         assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, action))
         obs = env.get_state().observation
         assert isinstance(obs, HumanoidObs)
@@ -197,6 +196,6 @@ def test_station_over_a_process_middleware(reg):
     servers, _, env = make_station(st, middleware="shm", registry=reg)
     with ServerManager(servers), env:
         target = np.array([0.1, -0.2, 0.3, -0.4])
-        env.step(target, t_cmd_target=rtime.now() + 0.05)
+        env.step(target, t_cmd_target=clock.now() + 0.05)
         assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, target), timeout=10)
         assert env.get_state().observation.cameras["top"].rgb.shape == (8, 16, 3)

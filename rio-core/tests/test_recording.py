@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from rio import time as rtime
+from rio import clock
 from rio.recording import Dataset, Recorder, RecordingError
 from rio.recording.synthetic import SyntheticCamera, record_synthetic, synthetic_step
 
@@ -16,9 +16,9 @@ def test_round_trip_exact_state_and_close_fast(tmp_path):
     cam = SyntheticCamera(48, 64, noise=1.0)
     sent = []
     with Recorder(tmp_path / "ds", fps=50, video={"crf": 18}) as rec:
-        rate = rtime.Rate(50)
+        rate = clock.Rate(50)
         for i in range(40):
-            t = rtime.now()
+            t = clock.now()
             step = synthetic_step(i, t, {"front": (cam.frame(t), t)})
             step.observation.cameras["front"].depth = cam.depth(t)
             sent.append(step)
@@ -31,7 +31,7 @@ def test_round_trip_exact_state_and_close_fast(tmp_path):
     np.testing.assert_array_equal(ep.column("action"), np.stack([s.action for s in sent]))
     np.testing.assert_array_equal(ep.column("obs.proprio_eef"), np.stack([s.observation.proprio_eef for s in sent]))
     assert ep.column("obs.gripper_position").dtype == np.float64
-    # timestamps: from rio.time.now(), increasing, at the declared rate
+    # timestamps: from rio.clock.now(), increasing, at the declared rate
     t = ep.column("t")
     assert np.all(np.diff(t) > 0)
     assert meta["fps"] == 50 and abs(meta["measured_fps"] - 39 / (t[-1] - t[0])) < 1e-3
@@ -54,7 +54,7 @@ def test_camera_slower_than_loop_is_not_duplicated(tmp_path):
     """A 25 fps camera in a 100 Hz loop: frames are encoded once, steps point at the frame they saw."""
     cam = SyntheticCamera(32, 32, noise=0)
     with Recorder(tmp_path / "ds", fps=100) as rec:
-        t0 = rtime.now()
+        t0 = clock.now()
         for i in range(100):
             t = t0 + i / 100
             tc = t0 + (i // 4) / 25
@@ -71,15 +71,15 @@ def test_keep_discard_rerecord_and_episode_budget(tmp_path):
     root = tmp_path / "ds"
     with Recorder(root, fps=30, episodes=2) as rec:
         for i in range(5):
-            rec.add(synthetic_step(i, rtime.now()))
+            rec.add(synthetic_step(i, clock.now()))
         rec.discard()
         for i in range(5):
-            rec.add(synthetic_step(i, rtime.now()))
+            rec.add(synthetic_step(i, clock.now()))
         rec.rerecord()
         assert not rec.recording and rec.remaining == 2
         for _ in range(2):
             for i in range(5):
-                rec.add(synthetic_step(i, rtime.now()))
+                rec.add(synthetic_step(i, clock.now()))
             rec.keep()
         assert rec.done and rec.remaining == 0
         with pytest.raises(RecordingError):
@@ -94,12 +94,12 @@ def test_keep_discard_rerecord_and_episode_budget(tmp_path):
 def test_exit_keeps_episode_in_progress_and_lock_is_exclusive(tmp_path):
     root = tmp_path / "ds"
     with Recorder(root, fps=30) as rec:
-        rec.add(synthetic_step(0, rtime.now()))
+        rec.add(synthetic_step(0, clock.now()))
         with pytest.raises(RecordingError, match="another recorder"):
             Recorder(root, fps=30).open()
     assert len(Dataset(root)) == 1
     with Recorder(root, fps=30) as rec:  # appends after what is there
-        rec.add(synthetic_step(0, rtime.now()))
+        rec.add(synthetic_step(0, clock.now()))
     assert [e["index"] for e in Dataset(root).episodes] == [0, 1]
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from rio import time as rtime
+from rio import clock
 from rio.errors import RioError
 from rio.recording import Recorder, replay_episode
 from rio.schema import SingleArmObs, Step
@@ -26,7 +26,7 @@ driver = "rio.fake_gripper"
 def _record(root, n=25, fps=50.0, dim=4):
     with Recorder(root, fps=fps) as rec:
         rec.info["embodiment"] = "single_arm"
-        t0 = rtime.now()
+        t0 = clock.now()
         for i in range(n):
             a = np.array([0.02 * i, -0.01 * i, 0.3, 0.04])[:dim]
             rec.add(Step(i, SingleArmObs(proprio=a.copy()), None, a, {"t_obs": t0 + i / fps}))
@@ -38,7 +38,7 @@ def test_replay_on_fake_station(tmp_path):
     _record(tmp_path / "ds")
     seen = []
     s = replay_episode(tmp_path / "ds", 0, str(tmp_path / "st.toml"), approach_s=0.2, log=None,
-                       on_step=lambda i, step: seen.append(rtime.now()))
+                       on_step=lambda i, step: seen.append(clock.now()))
     assert s.steps == 25
     assert abs(s.seconds - 24 / 50) < 0.1  # at the recorded rate
     assert np.median(np.diff(seen)) == pytest.approx(1 / 50, abs=4e-3)

@@ -47,14 +47,14 @@ def test_zarr_round_trip_and_layout(native, tmp_path):
     _compare(Dataset(native), Dataset(tmp_path / "back"))
 
 
-@pytest.mark.parametrize("layout", ["aloha", "robomimic"])
-def test_hdf5_round_trip(native, tmp_path, layout):
+@pytest.mark.parametrize("style", ["aloha", "robomimic"])
+def test_hdf5_round_trip(native, tmp_path, style):
     import h5py
 
-    out = tmp_path / ("aloha" if layout == "aloha" else "demo.hdf5")
-    f = get_format("hdf5", {"layout": layout})
+    out = tmp_path / ("aloha" if style == "aloha" else "demo.hdf5")
+    f = get_format("hdf5", {"style": style})
     f.export(Dataset(native), out)
-    if layout == "aloha":
+    if style == "aloha":
         with h5py.File(out / "episode_1.hdf5") as h:
             assert h["action"].shape == (20, 7) and h["observations/qpos"].shape == (20, 7)
             assert h["observations/images/wrist"].shape == (20, 48, 64, 3)
@@ -66,7 +66,7 @@ def test_hdf5_round_trip(native, tmp_path, layout):
     _compare(Dataset(native), Dataset(tmp_path / "back"))
 
 
-def test_lerobot_layout_and_round_trip(native, tmp_path):
+def test_lerobot_paths_and_round_trip(native, tmp_path):
     out = tmp_path / "lr"
     result = get_format("lerobot", {"codec": "h264"}).export(Dataset(native), out)
     assert result["skipped_streams"] == ["front.depth"]

@@ -10,7 +10,7 @@ import msgpack
 import numpy as np
 import pytest
 import zmq
-from rio.policy import ObsSpec
+from rio.policy import ObsLayout
 from rio.schema import Camera, SingleArmObs
 from rio_policies.gr00t import Gr00tPolicy
 
@@ -88,7 +88,7 @@ def test_adapter_speaks_gr00t_service(protocol):
     obs = observation()
     with Gr00tServer(protocol) as srv:
         pol = Gr00tPolicy(port=srv.port, protocol=protocol, **CONFIG)
-        pol.load(ObsSpec.of(obs))
+        pol.load(ObsLayout.of(obs))
         pol.reset()
         chunk = pol(obs, "pick the box", t_obs=2.0, seq=1)
         pol.close()
@@ -116,7 +116,7 @@ def test_server_error_and_timeout():
     obs = observation()
     with Gr00tServer("n1.5") as srv:
         pol = Gr00tPolicy(port=srv.port, **{**CONFIG, "action_keys": ["legs"]})
-        pol.load(ObsSpec.of(obs))
+        pol.load(ObsLayout.of(obs))
         with pytest.raises(RuntimeError, match="legs"):
             pol(obs, None, 0.0)
         pol.close()
@@ -125,7 +125,7 @@ def test_server_error_and_timeout():
     port = silent.bind_to_random_port("tcp://127.0.0.1")
     pol = Gr00tPolicy(port=port, timeout_ms=100, **CONFIG)
     with pytest.raises(TimeoutError, match="did not answer 'ping'"):
-        pol.load(ObsSpec.of(obs))
+        pol.load(ObsLayout.of(obs))
     pol.close()
     silent.close(linger=0)
     ctx.term()

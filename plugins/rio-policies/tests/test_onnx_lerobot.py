@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from rio.policy import ObsSpec
+from rio.policy import ObsLayout
 from rio.schema import Camera, HumanoidObs, SingleArmObs
 
 
@@ -36,7 +36,7 @@ def test_onnx_rl_policy(tmp_path):
     obs = HumanoidObs(proprio=rng.normal(size=n), joint_pos=rng.normal(size=n), joint_vel=rng.normal(size=n))
     pol = OnnxPolicy(path=str(tmp_path / "walk.onnx"), obs_fields=["joint_pos", "joint_vel"], last_action=True,
                      scale=0.5, relative=True, rate_hz=50)
-    pol.load(ObsSpec.of(obs))
+    pol.load(ObsLayout.of(obs))
     assert pol.metadata().horizon == 1 and pol.metadata().dt == pytest.approx(0.02)
     c1 = pol(obs, None, t_obs=1.0)
     x = np.concatenate([obs.joint_pos, obs.joint_vel, np.zeros(n)]).astype(np.float32)
@@ -67,6 +67,6 @@ def test_lerobot_policy_from_a_saved_directory(tmp_path, kind):
         processor.save_pretrained(tmp_path / "model")
     obs = SingleArmObs(proprio=np.zeros(4), cameras={"front": Camera(rgb=np.zeros((*size, 3), np.uint8))})
     pol = LeRobotPolicy(path=str(tmp_path / "model"), rate_hz=30)
-    pol.load(ObsSpec.of(obs))
+    pol.load(ObsLayout.of(obs))
     chunk = pol(obs, None, t_obs=0.0)
     assert chunk.actions.shape[1] == 4 and chunk.horizon >= 1 and np.isfinite(chunk.actions).all()

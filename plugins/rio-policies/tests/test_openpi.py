@@ -9,7 +9,7 @@ import threading
 import msgpack
 import numpy as np
 import pytest
-from rio.policy import ObsSpec
+from rio.policy import ObsLayout
 from rio.policy.deploy import run_deploy
 from rio.schema import Camera, SingleArmObs
 from rio.station import parse_station
@@ -68,7 +68,7 @@ def test_adapter_speaks_openpi_frames():
     with OpenPIServer() as srv:
         pol = OpenPIPolicy(port=srv.port, image_size=[24, 24], rate_hz=15,
                            images={"observation/exterior_image_1_left": "front"})
-        pol.load(ObsSpec.of(obs))
+        pol.load(ObsLayout.of(obs))
         assert pol.server_metadata == {"policy": "pi05_test", "action_horizon": 10}
         chunk = pol(obs, "pick up the cube", t_obs=5.0, seq=3)
         pol.close()
@@ -86,7 +86,7 @@ def test_server_error_text_frame_is_raised():
     obs = observation()
     with OpenPIServer(fail=True) as srv:
         pol = OpenPIPolicy(port=srv.port)
-        pol.load(ObsSpec.of(obs))
+        pol.load(ObsLayout.of(obs))
         with pytest.raises(RuntimeError, match="bad observation"):
             pol(obs, None, 0.0)
         pol.close()

@@ -37,6 +37,6 @@ def make_vbus():
 @pytest.fixture
 def calibrated():
     """Save the default calibration of an arm under a name, as `rio so100 calibrate` would."""
-    def save(name: str = "default", role: str = "follower", model: str = "so100"):
-        return save_calibration(default_calibration(model, role, name))
+    def save(name: str = "default", device: str = "follower", model: str = "so100"):
+        return save_calibration(default_calibration(model, device, name))
     return save

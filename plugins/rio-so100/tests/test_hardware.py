@@ -73,7 +73,7 @@ def test_node_reads_calibrated_joints_within_limits():
 def test_follower_small_wrist_roll_motion():
     if ROLE != "follower" or os.environ.get("RIO_SO100_ALLOW_MOTION") != "1" or not _have_calibration():
         pytest.skip("needs RIO_SO100_ALLOW_MOTION=1 and a calibrated follower")
-    from rio import time as rtime
+    from rio import clock
     from rio_so100.follower.driver import So100Follower
 
     with lifecycle(So100Follower(port=PORT, calibration=CALIBRATION, model=MODEL)) as node:
@@ -81,9 +81,9 @@ def test_follower_small_wrist_roll_motion():
         for delta in (0.15, 0.0):
             target = q0.copy()
             target[4] += delta
-            node.command_joints(target, rtime.now() + 1.0)
-            t_end = rtime.now() + 1.5
-            while rtime.now() < t_end:
+            node.command_joints(target, clock.now() + 1.0)
+            t_end = clock.now() + 1.5
+            while clock.now() < t_end:
                 s = node.read_state()
                 time.sleep(0.01)
             assert abs(s["joint_pos"][4] - target[4]) < 0.03, s["joint_pos"]

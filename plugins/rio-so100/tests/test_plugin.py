@@ -52,7 +52,7 @@ def test_virtual_bus_command_prints_a_port(capsys):
 
 
 def test_calibrate_command_on_a_virtual_arm(capsys, config_home):
-    assert main(["so100", "calibrate", "--port", "virtual", "--role", "leader", "--model", "so101"]) == 0
+    assert main(["so100", "calibrate", "--port", "virtual", "--device", "leader", "--model", "so101"]) == 0
     out = capsys.readouterr().out
     saved = config_home / "rio" / "calibration" / "so101-leader" / "virtual-demo.json"
     assert f"saved {saved}" in out and saved.is_file()

@@ -14,19 +14,19 @@ _EXPORTS = {
     "NodeClient": ".client",
     "RioError": ".errors", "InvalidRequest": ".errors", "NodeDiedError": ".errors", "NodeError": ".errors",
     "NodeTimeout": ".errors", "QueueFull": ".errors",
-    "ServerManager": ".manager", "ServerSpec": ".manager", "connect": ".manager", "serve": ".manager",
+    "ServerManager": ".manager", "ServedNode": ".manager", "connect": ".manager", "serve": ".manager",
     "Node": ".node", "client_side": ".node", "remote": ".node",
 }
 
 __all__ = [
-    "Node", "client_side", "remote", "serve", "connect", "ServerManager", "ServerSpec", "NodeClient",
+    "Node", "client_side", "remote", "serve", "connect", "ServerManager", "ServedNode", "NodeClient",
     "RioError", "InvalidRequest", "NodeError", "NodeDiedError", "NodeTimeout", "QueueFull",
 ]
 
 if TYPE_CHECKING:
     from .client import NodeClient
     from .errors import InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull, RioError
-    from .manager import ServerManager, ServerSpec, connect, serve
+    from .manager import ServedNode, ServerManager, connect, serve
     from .node import Node, client_side, remote
 
 

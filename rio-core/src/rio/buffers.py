@@ -18,7 +18,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from . import time as rtime
+from . import clock
 from .errors import QueueFull, RioError
 from .layout import TIMESTAMP, Layout
 
@@ -59,7 +59,7 @@ def _nbytes(layout: Layout, capacity: int) -> int:
 
 
 class RingBuffer:
-    """Latest-N samples of a node, each with a timestamp from `rio.time.now()`."""
+    """Latest-N samples of a node, each with a timestamp from `rio.clock.now()`."""
 
     def __init__(self, layout: Layout, capacity: int = 64, buf: Any = None,
                  on_put: Callable[[np.ndarray], None] | None = None):
@@ -82,7 +82,7 @@ class RingBuffer:
     # -- writer -------------------------------------------------------------------------------------
     def put(self, values: Mapping[str, Any]) -> None:
         """Validate and append one sample; the timestamp is filled with `now()` when absent."""
-        self.put_record(self.layout.encode(values, fill_timestamp=rtime.now(), check_finite=False))
+        self.put_record(self.layout.encode(values, fill_timestamp=clock.now(), check_finite=False))
 
     def put_record(self, rec: np.ndarray) -> None:
         c = int(self._count[0])
@@ -173,7 +173,7 @@ class RequestQueue:
     # -- producers ----------------------------------------------------------------------------------
     def put(self, values: Mapping[str, Any]) -> None:
         """Validate (keys, shapes, dtypes, finite) and enqueue; raises InvalidRequest naming the field."""
-        self.put_record(self.layout.encode(values, fill_timestamp=rtime.now()))
+        self.put_record(self.layout.encode(values, fill_timestamp=clock.now()))
 
     def put_record(self, rec: np.ndarray) -> None:
         deadline = None
@@ -184,8 +184,8 @@ class RequestQueue:
                     self._slots[tail % self.capacity] = rec
                     self._hdr[1] = tail + 1
                     break
-            deadline = deadline or rtime.now() + self.put_timeout
-            if rtime.now() > deadline:
+            deadline = deadline or clock.now() + self.put_timeout
+            if clock.now() > deadline:
                 raise QueueFull(self.layout.owner, self.capacity, self.put_timeout)
             os.sched_yield()
         self.notifier.notify()
@@ -223,11 +223,11 @@ class RequestQueue:
     def wait(self, timeout: float, spin_s: float = 20e-6) -> bool:
         """Block until a request is pending or `timeout` passes: spin briefly, then sleep on the
         notifier (spinning alone stalls the producer on a 2-core machine)."""
-        t_spin = rtime.now() + spin_s
+        t_spin = clock.now() + spin_s
         while True:
             if len(self):
                 return True
-            if rtime.now() > t_spin:
+            if clock.now() > t_spin:
                 break
             os.sched_yield()
         self.notifier.clear()
@@ -248,7 +248,7 @@ class RequestSender:
         self.layout, self._send = layout, send
 
     def put(self, values: Mapping[str, Any]) -> None:
-        self._send(self.layout.encode(values, fill_timestamp=rtime.now()).tobytes())
+        self._send(self.layout.encode(values, fill_timestamp=clock.now()).tobytes())
 
 
 __all__ = ["RingBuffer", "RequestQueue", "RequestSender", "ThreadNotifier", "TIMESTAMP"]

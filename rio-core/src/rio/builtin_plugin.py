@@ -44,6 +44,8 @@ def rio_drivers() -> list[Spec]:
     t = "rio.testing"
     return [
         Spec("rio.fake_arm", "arm", f"{t}:FakeArm", f"arm: {_FAKE}"),
+        Spec("rio.fake_model_arm", "arm", f"{t}:FakeModelArm",
+             "6-joint arm with a robot model and no Cartesian control (end-effector poses by FK/IK); tests"),
         Spec("rio.fake_gripper", "gripper", f"{t}:FakeGripper", f"gripper: {_FAKE}"),
         Spec("rio.fake_camera", "camera", f"{t}:FakeCamera", f"camera: {_FAKE}"),
         Spec("rio.fake_teleop", "teleop", f"{t}:FakeTeleop", f"teleop: {_FAKE}"),

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from . import time as rtime
+from . import clock
 from .embodiments.base import Embodiment, EmbodimentConfig
 from .errors import RioError
 from .schema import Camera, Step
@@ -74,7 +74,7 @@ class Env:
         (default: one control period from now); returns the latest state, tagged with the action."""
         robot = self._robot()
         parts = robot.split_action(action)
-        t = rtime.now() + 1.0 / self.rate_hz if t_cmd_target is None else float(t_cmd_target)
+        t = clock.now() + 1.0 / self.rate_hz if t_cmd_target is None else float(t_cmd_target)
         robot.apply(parts, t)
         self.timestep += 1
         return self._make_step(np.concatenate(list(parts.values())), t_cmd_target=t)
@@ -85,7 +85,7 @@ class Env:
     # -- internals ----------------------------------------------------------------------------------
     def _make_step(self, action: np.ndarray | None, **meta: Any) -> Step:
         robot = self._robot()
-        t_obs = rtime.now()
+        t_obs = clock.now()
         obs = robot.observe()
         obs.cameras = {name: self._camera(name, client) for name, client in self.cameras.items()}
         stamps = dict(robot.timestamps)

@@ -24,7 +24,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from . import time as rtime
+from . import clock
 from .client import NodeClient
 from .config import error_lines
 from .errors import ConfigError, NodeDiedError, RioError
@@ -59,7 +59,7 @@ def _build_node(cls: type[Node], name: str | None, config: dict[str, Any]) -> No
 
 
 @dataclass
-class ServerSpec:
+class ServedNode:
     """What to serve; started by `ServerManager`."""
 
     cls: type[Node]
@@ -68,9 +68,9 @@ class ServerSpec:
     mw: str | Middleware | None = None
 
 
-def serve(cls: type[Node], mw: str | Middleware | None = None, *, name: str | None = None, **config: Any) -> ServerSpec:
+def serve(cls: type[Node], mw: str | Middleware | None = None, *, name: str | None = None, **config: Any) -> ServedNode:
     node = _build_node(cls, name, config)  # fail early on a bad config, in the caller's process
-    return ServerSpec(cls, node.name, config, mw)
+    return ServedNode(cls, node.name, config, mw)
 
 
 def connect(cls: type[Node], mw: str | Middleware, *, name: str | None = None, station: str = "rio",
@@ -100,7 +100,7 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
                 mw_options: dict, resources: dict, conn: Any, parent_pid: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _set_parent_death_signal()
-    rtime.set_timer_slack()
+    clock.set_timer_slack()
     node = None
 
     def report(kind: str, **payload: Any) -> None:
@@ -145,7 +145,7 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
 
 # -- handles ----------------------------------------------------------------------------------------
 class _ThreadHandle:
-    def __init__(self, spec: ServerSpec, mw: Middleware):
+    def __init__(self, spec: ServedNode, mw: Middleware):
         self.name, self.mw = spec.name, mw
         self.node = _build_node(spec.cls, spec.name, spec.config)
         self.transport = mw.make_server(self.node, NodeLayouts.of(self.node), {})
@@ -181,7 +181,7 @@ class _ThreadHandle:
 
 
 class _ProcessHandle:
-    def __init__(self, spec: ServerSpec, mw: Middleware, run_dir: str):
+    def __init__(self, spec: ServedNode, mw: Middleware, run_dir: str):
         self.name, self.mw = spec.name, mw
         node = _build_node(spec.cls, spec.name, spec.config)
         self.resources = mw.prepare(NodeLayouts.of(node), run_dir)
@@ -243,7 +243,7 @@ class ServerManager:
             default_mw, servers = None, mw_or_servers
         else:
             default_mw = mw_or_servers
-        self.specs: list[ServerSpec] = list(servers.values() if isinstance(servers, dict) else servers)
+        self.specs: list[ServedNode] = list(servers.values() if isinstance(servers, dict) else servers)
         names = [s.name for s in self.specs]
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:
@@ -256,7 +256,7 @@ class ServerManager:
         self.run_dir: str | None = None
         self._mws: dict[str, Middleware] = {}
 
-    def _mw_for(self, spec: ServerSpec) -> Middleware:
+    def _mw_for(self, spec: ServedNode) -> Middleware:
         mw = spec.mw or self.default_mw
         if mw is None:
             raise ConfigError(f"no middleware given for node '{spec.name}'")
@@ -282,14 +282,14 @@ class ServerManager:
         return self
 
     def _wait_ready(self) -> None:
-        deadline = rtime.now() + self.ready_timeout
+        deadline = clock.now() + self.ready_timeout
         pending = list(self.handles)
         while pending:
             pending = [h for h in pending if not h.poll_ready()]
-            if pending and rtime.now() > deadline:
+            if pending and clock.now() > deadline:
                 raise RioError(f"nodes not ready after {self.ready_timeout:.0f} s: {[h.name for h in pending]}")
             if pending:
-                rtime.precise_wait(rtime.now() + 0.002)
+                clock.precise_wait(clock.now() + 0.002)
         for h in self.handles:
             _ADDRESSES[(h.mw.name, h.mw.station, h.name)] = h.address
 

@@ -12,7 +12,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from . import time as rtime
+from . import clock
 from .errors import InvalidRequest
 from .node import Node
 
@@ -68,7 +68,7 @@ class NodeRunner:
 
     # -- loops --------------------------------------------------------------------------------------
     def _pub_loop(self, with_requests: bool) -> None:
-        rate = rtime.Rate(self.node.rate_hz, spin_s=NODE_SPIN_S)
+        rate = clock.Rate(self.node.rate_hz, spin_s=NODE_SPIN_S)
         ev = self.node.exit_event
         while not ev.is_set():
             if with_requests:

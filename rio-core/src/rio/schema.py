@@ -3,7 +3,7 @@
 Consumers (policies, recorders, visualizers, dataset exporters) read these dataclasses instead of
 per-robot dicts, so one policy adapter or exporter works for every station of a morphology.
 
-Units and conventions: positions in meters, angles in radians, time in seconds (`rio.time.now()`);
+Units and conventions: positions in meters, angles in radians, time in seconds (`rio.clock.now()`);
 poses are 7-vectors `[x, y, z, qw, qx, qy, qz]` (quaternion scalar first); gripper positions are the
 finger opening in meters; RGB images are HxWx3 uint8; depth images are HxW float32 meters.
 """

@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
+from . import clock
 from . import interfaces as ifc
-from . import time as rtime
 from .node import Node, NodeConfig, remote
 
 
@@ -149,10 +149,10 @@ class FakeArm(ifc.ArmNode):
         home = self.config.home
         self.q = np.zeros(self.dof) if home is None else np.asarray(home, dtype=np.float64)
         self.pose = ifc.IDENTITY_POSE.copy()
-        self._q_prev, self._t_prev = self.q.copy(), rtime.now()
+        self._q_prev, self._t_prev = self.q.copy(), clock.now()
 
     def read_joints(self) -> dict[str, Any]:
-        t = rtime.now()
+        t = clock.now()
         vel = (self.q - self._q_prev) / max(t - self._t_prev, 1e-6)
         self._q_prev, self._t_prev = self.q.copy(), t
         return {"joint_pos": self.q.copy(), "joint_vel": vel, "eef_pose": self.pose.copy()}
@@ -162,6 +162,60 @@ class FakeArm(ifc.ArmNode):
 
     def write_pose(self, eef_pose: np.ndarray) -> None:
         self.pose = np.array(eef_pose, dtype=np.float64)
+
+
+#: A 6-joint arm for tests of the kinematic part of the arm contract (simple geoms, tool site "tool"):
+#: yaw, two pitches, then a spherical wrist (roll, pitch, roll). Arm straight up at zero.
+SIX_DOF_MJCF = """<mujoco model="rio-test-arm">
+  <compiler angle="radian" autolimits="true"/>
+  <worldbody>
+    <body name="base">
+      <geom type="cylinder" size="0.04 0.02"/>
+      <body name="l1" pos="0 0 0.05"><joint name="j1" axis="0 0 1" range="-3 3"/>
+        <geom type="capsule" fromto="0 0 0 0 0 0.1" size="0.02"/>
+        <body name="l2" pos="0 0 0.1"><joint name="j2" axis="0 1 0" range="-2 2"/>
+          <geom type="capsule" fromto="0 0 0 0 0 0.2" size="0.02"/>
+          <body name="l3" pos="0 0 0.2"><joint name="j3" axis="0 1 0" range="-2.5 2.5"/>
+            <geom type="capsule" fromto="0 0 0 0 0 0.2" size="0.02"/>
+            <body name="l4" pos="0 0 0.2"><joint name="j4" axis="0 0 1" range="-3 3"/>
+              <geom type="sphere" size="0.02"/>
+              <body name="l5" pos="0 0 0.04"><joint name="j5" axis="0 1 0" range="-2 2"/>
+                <geom type="sphere" size="0.02"/>
+                <body name="l6" pos="0 0 0.04"><joint name="j6" axis="0 0 1" range="-3 3"/>
+                  <geom type="box" size="0.02 0.02 0.01"/>
+                  <site name="tool" pos="0 0 0.05"/>
+                </body></body></body></body></body></body>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+
+class FakeModelArm(ifc.ArmNode):
+    """A joint-only arm that ships a robot model and measures no end-effector pose: the arm kind
+    computes `eef_pose` by forward kinematics and turns end-effector targets into joint targets by IK
+    (needs `rio-core[ik]`)."""
+
+    class Config(ifc.ArmNode.Config):
+        max_step_rad: float = Field(0.5, gt=0, description="largest joint goal change per cycle (rad)")
+
+    def default_joint_names(self) -> list[str]:
+        return [f"j{i + 1}" for i in range(6)]
+
+    def default_home(self) -> list[float]:
+        return [0.0, 0.5, 1.2, 0.0, 1.4, 0.0]  # tool in front of the base, pointing down
+
+    def open(self) -> None:
+        self.q = np.zeros(self.dof)
+
+    def read_joints(self) -> dict[str, Any]:
+        return {"joint_pos": self.q.copy()}
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.q = np.array(joint_pos, dtype=np.float64)
+
+    def robot_description(self) -> dict[str, Any]:
+        return {"format": "mjcf", "xml": SIX_DOF_MJCF, "frame": "tool", "frame_type": "site",
+                "joints": list(self.joint_list), "home": self.default_home()}
 
 
 class FakeGripper(ifc.GripperNode):

@@ -44,7 +44,7 @@ def image_streams(ep: Episode, depth: bool = True) -> list[tuple[str, str]]:
 
 def rio_attrs(ep: Episode) -> dict[str, Any]:
     """What a RIO import needs to rebuild the episode exactly (stored as an attribute / JSON)."""
-    keys = ("fps", "instruction", "station", "embodiment", "action_names", "action_layout", "observation_class")
+    keys = ("fps", "instruction", "station", "embodiment", "action_names", "action_parts", "observation_class")
     out = {k: ep.meta.get(k) for k in keys if ep.meta.get(k) is not None}
     out["index"] = ep.index
     out["streams"] = {k: {f: v.get(f) for f in ("camera", "kind", "height", "width", "rate", "depth_unit_m")}

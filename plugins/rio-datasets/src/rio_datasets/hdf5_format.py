@@ -32,7 +32,8 @@ from .native_writer import episode_steps, open_recorder
 
 
 class Hdf5Config(Config):
-    layout: Literal["aloha", "robomimic"] = "aloha"
+    style: Literal["aloha", "robomimic"] = Field("aloha", description="ALOHA (a file per episode) or robomimic "
+                                                      "(data/demo_N in one file)")
     depth: bool = Field(True, description="export depth streams")
     compression: int = Field(4, ge=0, le=9, description="gzip level for images (0: none)")
 
@@ -79,7 +80,7 @@ class Hdf5Format(DatasetFormat):
         fps = common_fps(eps)
         out = Path(out)
         total, done = sum(len(e) for e in eps), 0
-        if self.config.layout == "aloha":
+        if self.config.style == "aloha":
             out.mkdir(parents=True, exist_ok=True)
             if any(out.glob("episode_*.hdf5")):
                 raise ExportError(f"{out} already holds episode_*.hdf5 files")
@@ -90,7 +91,7 @@ class Hdf5Format(DatasetFormat):
                 done += len(ep)
                 if progress:
                     progress(done, total, f"episode {ep.index}")
-            return {"episodes": len(eps), "steps": total, "layout": "aloha", "path": str(out)}
+            return {"episodes": len(eps), "steps": total, "style": "aloha", "path": str(out)}
         if out.exists():
             raise ExportError(f"{out} already exists")
         with h5py.File(out, "w") as f:
@@ -112,7 +113,7 @@ class Hdf5Format(DatasetFormat):
                                                  "env_kwargs": {"control_freq": fps}})
             data.attrs["fps"] = fps
             f.create_dataset("mask/train", data=np.array([f"demo_{k}".encode() for k in range(len(eps))]))
-        return {"episodes": len(eps), "steps": total, "layout": "robomimic", "path": str(out)}
+        return {"episodes": len(eps), "steps": total, "style": "robomimic", "path": str(out)}
 
     def import_(self, src: Path, out: Path, *, progress: Progress | None = None) -> dict[str, Any]:
         import h5py

@@ -1,4 +1,4 @@
-"""LeRobotDataset v3 export and import (layout: see `lerobot_layout`).
+"""LeRobotDataset v3 export and import (layout: see `lerobot_paths`).
 
 Export re-encodes each camera at the dataset's rate with exactly one video frame per step (the
 frame that step saw), so video and parquet timestamps agree to the microsecond however the
@@ -21,7 +21,7 @@ from rio.config import Config
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
 
-from . import lerobot_layout as LL
+from . import lerobot_paths as LL
 from .common import ExportError, check_same_layout, common_fps, image_streams, lowdim, rio_attrs, select
 from .native_writer import episode_steps, open_recorder
 

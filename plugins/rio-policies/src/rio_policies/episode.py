@@ -23,7 +23,7 @@ def read_actions(path: str | Path, index: int = 0) -> tuple[np.ndarray, np.ndarr
         times = None if times is None else times - times[0] + (1.0 / fps if fps else 0.0)
     else:
         from rio.recording import Dataset, Episode
-        from rio.recording import layout as L
+        from rio.recording import paths as L
 
         ep = Episode(p) if (p / L.EPISODE_META).is_file() else Dataset(p).episode(index)
         actions = np.asarray(ep.column("action"), dtype=np.float64)

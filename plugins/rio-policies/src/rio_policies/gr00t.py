@@ -74,18 +74,18 @@ class Gr00tPolicy(Policy):
             raise RuntimeError(f"GR00T server error on '{endpoint}': {reply['error']}")
         return reply
 
-    def load(self, spec: Any) -> None:
+    def load(self, layout: Any) -> None:
         import zmq
 
-        super().load(spec)
+        super().load(layout)
         self.ctx = zmq.Context()
         self._connect()
         self.call("ping", with_data=False)
 
     def metadata(self) -> PolicyMetadata:
         c = self.config
-        cams = default_images(self.spec.cameras, c.video, "{camera}")
-        return PolicyMetadata(self.name, self.spec.action_dim, c.chunk, 1.0 / c.rate_hz,
+        cams = default_images(self.layout.cameras, c.video, "{camera}")
+        return PolicyMetadata(self.name, self.layout.action_dim, c.chunk, 1.0 / c.rate_hz,
                               cameras=sorted(set(cams.values())), extra={"protocol": c.protocol})
 
     def prepare(self, obs: Observation, instruction: str | None) -> Any:

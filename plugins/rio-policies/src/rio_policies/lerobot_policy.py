@@ -36,12 +36,12 @@ class LeRobotPolicy(Policy):
         self.model: Any = None
         self.pre = self.post = None
 
-    def load(self, spec: Any) -> None:
+    def load(self, layout: Any) -> None:
         import torch  # noqa: F401  (fail here, with a clear ImportError, when lerobot's torch is absent)
         from lerobot.configs.policies import PreTrainedConfig
         from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 
-        super().load(spec)
+        super().load(layout)
         cfg = PreTrainedConfig.from_pretrained(self.config.path)
         cfg.device = self.config.device
         self.kind = cfg.type
@@ -54,8 +54,8 @@ class LeRobotPolicy(Policy):
         self.horizon = int(getattr(cfg, "n_action_steps", None) or getattr(cfg, "chunk_size", 1))
 
     def metadata(self) -> PolicyMetadata:
-        cams = default_images(self.spec.cameras, self.config.images, "{camera}")
-        return PolicyMetadata(f"{self.name}:{self.kind}", self.spec.action_dim, self.horizon,
+        cams = default_images(self.layout.cameras, self.config.images, "{camera}")
+        return PolicyMetadata(f"{self.name}:{self.kind}", self.layout.action_dim, self.horizon,
                               1.0 / self.config.rate_hz, cameras=sorted(set(cams.values())))
 
     def reset(self) -> None:

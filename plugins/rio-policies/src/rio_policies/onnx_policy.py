@@ -42,10 +42,10 @@ class OnnxPolicy(Policy):
         self.prev: np.ndarray | None = None
         self.current: np.ndarray | None = None
 
-    def load(self, spec: Any) -> None:
+    def load(self, layout: Any) -> None:
         import onnxruntime as ort
 
-        super().load(spec)
+        super().load(layout)
         opts = ort.SessionOptions()
         opts.intra_op_num_threads = self.config.threads
         self.session = ort.InferenceSession(self.config.path, opts, providers=["CPUExecutionProvider"])
@@ -55,7 +55,7 @@ class OnnxPolicy(Policy):
         self.horizon = int(shape[1]) if shape and len(shape) == 3 and isinstance(shape[1], int) else 1
 
     def metadata(self) -> PolicyMetadata:
-        return PolicyMetadata(self.name, self.spec.action_dim, self.horizon, 1.0 / self.config.rate_hz,
+        return PolicyMetadata(self.name, self.layout.action_dim, self.horizon, 1.0 / self.config.rate_hz,
                               extra={"input": self.in_name, "output": self.out_name})
 
     def reset(self) -> None:
@@ -65,7 +65,7 @@ class OnnxPolicy(Policy):
         parts = [state_value(obs, f) for f in self.config.obs_fields]
         self.current = np.asarray(obs.proprio, dtype=np.float64)
         if self.config.last_action:
-            parts.append(self.prev if self.prev is not None else np.zeros(self.spec.action_dim))
+            parts.append(self.prev if self.prev is not None else np.zeros(self.layout.action_dim))
         return np.concatenate(parts).astype(np.float32)[None, :]
 
     def infer(self, x: np.ndarray) -> np.ndarray:

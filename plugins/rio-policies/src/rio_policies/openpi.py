@@ -53,10 +53,10 @@ class OpenPIPolicy(Policy):
         base = c.host if c.host.startswith("ws") else f"ws://{c.host}"
         return base if c.port is None else f"{base}:{c.port}"
 
-    def load(self, spec: Any) -> None:
+    def load(self, layout: Any) -> None:
         from websockets.sync.client import connect
 
-        super().load(spec)
+        super().load(layout)
         headers = {"Authorization": f"Api-Key {self.config.api_key}"} if self.config.api_key else None
         self._conn = connect(self.uri(), compression=None, max_size=None, additional_headers=headers,
                              open_timeout=self.config.connect_timeout_s)
@@ -66,8 +66,8 @@ class OpenPIPolicy(Policy):
 
     def metadata(self) -> PolicyMetadata:
         c = self.config
-        images = default_images(self.spec.cameras, c.images, "observation/{camera}_image")
-        return PolicyMetadata(self.name, self.spec.action_dim, c.chunk, 1.0 / c.rate_hz,
+        images = default_images(self.layout.cameras, c.images, "observation/{camera}_image")
+        return PolicyMetadata(self.name, self.layout.action_dim, c.chunk, 1.0 / c.rate_hz,
                               cameras=sorted(set(images.values())),
                               extra={"server": {str(k): str(v) for k, v in self.server_metadata.items()}})
 

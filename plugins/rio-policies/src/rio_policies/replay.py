@@ -36,8 +36,8 @@ class ReplayPolicy(Policy):
         self.t0: float | None = None
         self._t_obs = 0.0
 
-    def load(self, spec: Any) -> None:
-        super().load(spec)
+    def load(self, layout: Any) -> None:
+        super().load(layout)
         self.actions, times, fps = read_actions(self.config.episode, self.config.index)
         rate = self.config.rate_hz or fps
         if not rate:
@@ -47,7 +47,7 @@ class ReplayPolicy(Policy):
         self.targets = times if times is not None else (np.arange(len(self.actions)) + 1) * self.dt
 
     def metadata(self) -> PolicyMetadata:
-        return PolicyMetadata(self.name, self.spec.action_dim, min(self.config.chunk, self.config.max_horizon),
+        return PolicyMetadata(self.name, self.layout.action_dim, min(self.config.chunk, self.config.max_horizon),
                               self.dt, extra={"steps": int(len(self.actions))})
 
     def reset(self) -> None:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
-from rio import time as rtime
+from rio import clock
 from rio.interfaces import ArmNode
 
 from .attached import Attached
@@ -55,7 +55,7 @@ class SimArm(Attached, ArmNode):
         return {"joint_pos": s["qpos"][self.idx.qpos], "joint_vel": s["qvel"][self.idx.dof]}
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
-        self.bus.command(self.idx.act, joint_pos, rtime.now() + 1.0 / self.rate_hz)
+        self.bus.command(self.idx.act, joint_pos, clock.now() + 1.0 / self.rate_hz)
 
     def robot_description(self) -> dict[str, Any]:
         """The robot's MJCF, its tool site and arm joints (shared IK and forward kinematics)."""

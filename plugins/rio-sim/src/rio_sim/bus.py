@@ -7,7 +7,7 @@ them (threads of one process or a process each):
 - state, written by the world after every batch of physics steps: `qpos`, `qvel`, `ctrl`, simulated
   time, under a sequence lock (the counter is odd while a write is in progress; a reader retries
   until it sees the same even value before and after its copy);
-- commands, one slot per actuator: `target`, `t_target` (a `rio.time.now()` time) and a `stamp`
+- commands, one slot per actuator: `target`, `t_target` (a `rio.clock.now()` time) and a `stamp`
   bumped after both are written. Each actuator has exactly one writer (the node that owns it: an
   arm its joints, a gripper its fingers), so writers never contend; the world picks a slot up when
   its stamp changes and interpolates towards the target in physics time.
@@ -27,7 +27,7 @@ import os
 import uuid
 
 import numpy as np
-from rio import time as rtime
+from rio import clock
 from rio.errors import RioError
 
 SESSION_ENV = "RIO_SIM_SESSION"
@@ -170,7 +170,7 @@ class WorldBus:
     def attach(cls, world: str, timeout: float = 60.0) -> WorldBus:
         """Wait (up to `timeout` s) for the world to be created and ready, then map it."""
         name = block_name(world)
-        deadline = rtime.now() + timeout
+        deadline = clock.now() + timeout
         while True:
             try:
                 fd = _posixshmem.shm_open("/" + name, os.O_RDWR, mode=0o600)
@@ -186,10 +186,10 @@ class WorldBus:
                             and size >= _size(*(int(hdr[i]) for i in (_H_NQ, _H_NV, _H_NU)))):
                         return cls(name, fd, mmap.mmap(fd, size), owner=False)
                 os.close(fd)
-            if rtime.now() > deadline:
+            if clock.now() > deadline:
                 raise RioError(f"no sim world '{world}' came up within {timeout:.0f} s: does the station have a "
                                f"component with driver = \"sim.world\" and world = \"{world}\"?")
-            rtime.precise_wait(rtime.now() + 0.02)
+            clock.precise_wait(clock.now() + 0.02)
 
     # -- header ---------------------------------------------------------------------------------
     @property
@@ -210,7 +210,7 @@ class WorldBus:
         hdr = self.hdr
         hdr[_H_SEQ] += 1  # odd: write in progress
         self.qpos[:], self.qvel[:], self.ctrl[:] = qpos, qvel, ctrl
-        self._times[0], self._times[1] = sim_time, rtime.now()
+        self._times[0], self._times[1] = sim_time, clock.now()
         hdr[_H_SEQ] += 1
 
     def read_state(self, out: dict | None = None) -> dict:
@@ -223,7 +223,7 @@ class WorldBus:
             s1 = int(hdr[_H_SEQ])
             if s1 & 1:  # a write is in progress; its writer may be preempted on a busy machine
                 if attempt % 16 == 15:
-                    now = rtime.now()
+                    now = clock.now()
                     deadline = deadline or now + _LOCKED_S
                     if now > deadline:
                         break

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
-from rio import time as rtime
+from rio import clock
 from rio.interfaces import GripperNode
 
 from .attached import Attached
@@ -42,4 +42,4 @@ class SimGripper(Attached, GripperNode):
 
     def write_width(self, width: float, force: float) -> None:
         n = len(self.idx.finger_act)
-        self.bus.command(self.idx.finger_act, np.full(n, width / n), rtime.now() + 1.0 / self.rate_hz)
+        self.bus.command(self.idx.finger_act, np.full(n, width / n), clock.now() + 1.0 / self.rate_hz)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
-from rio import time as rtime
+from rio import clock
 from rio.node import Node, NodeConfig, client_side, remote
 
 from .bus import WorldBus
@@ -83,7 +83,7 @@ class SimWorld(Node):
             d.qpos[idx.finger_qpos] = half
             d.ctrl[idx.finger_act] = half
         mj.mj_forward(m, d)
-        t = rtime.now()
+        t = clock.now()
         self._t_origin = t - d.time          # wall time of sim time 0
         self._start = d.ctrl.copy()
         self._goal = d.ctrl.copy()
@@ -111,7 +111,7 @@ class SimWorld(Node):
 
     def read_state(self) -> dict[str, Any]:
         mj, m, d = self._mj, self.model, self.data
-        now = rtime.now()
+        now = clock.now()
         self._pick_up_commands(now)
         dt = m.opt.timestep
         n = int((now - (self._t_origin + d.time)) / dt)

@@ -67,7 +67,7 @@ class Calibrator:
             self.lo[name], self.hi[name] = min(self.lo[name], v), max(self.hi[name], v)
         return {name: (self.lo[name], now[name], self.hi[name]) for name in self.joints}
 
-    def finish(self, model: str, role: str, name: str) -> ArmCalibration:
+    def finish(self, model: str, device: str, name: str) -> ArmCalibration:
         if not self.zero:
             raise CalibrationError("record the middle position before finishing")
         still = [j for j in self.joints if self.hi[j] - self.lo[j] < MIN_RANGE_STEPS]
@@ -81,4 +81,4 @@ class Calibrator:
             self.bus.write(jc.id, T.MIN_POSITION_LIMIT, jc.range_min)
             self.bus.write(jc.id, T.MAX_POSITION_LIMIT, jc.range_max)
             self.bus.write(jc.id, T.LOCK, 1)
-        return ArmCalibration(model, role, name, joints)
+        return ArmCalibration(model, device, name, joints)

@@ -2,7 +2,7 @@
 
 A calibration file describes one physical arm (follower or leader, all six servos) as JSON:
 
-    {"model": "so100", "role": "follower", "name": "left",
+    {"model": "so100", "device": "follower", "name": "left",
      "joints": {"shoulder_pan": {"id": 1, "homing_offset": -312, "zero": 2048,
                                  "range_min": 910, "range_max": 3180, "sign": 1}, ...}}
 
@@ -13,7 +13,7 @@ middle pose), `range_min..range_max` the reachable readings (they become the ser
 limits and the drivers' joint limits), `sign` flips a joint's direction. Leader and follower
 calibrated in the same middle pose report the same radians for the same pose.
 
-Files live in `$XDG_CONFIG_HOME/rio/calibration/<model>-<role>/<name>.json` (default
+Files live in `$XDG_CONFIG_HOME/rio/calibration/<model>-<device>/<name>.json` (default
 `~/.config/...`). A virtual bus without a file gets `default_calibration()`.
 """
 
@@ -31,7 +31,7 @@ from .models import ARM_IDS, ARM_JOINTS, GRIPPER, GRIPPER_ID
 
 MID = T.STEPS_PER_TURN // 2
 RAD_PER_STEP = 2 * math.pi / T.STEPS_PER_TURN
-ROLES = ("follower", "leader")
+DEVICES = ("follower", "leader")
 
 
 @dataclass
@@ -67,13 +67,13 @@ class JointCalibration:
 @dataclass
 class ArmCalibration:
     model: str
-    role: str
+    device: str
     name: str
     joints: dict[str, JointCalibration] = field(default_factory=dict)
 
     def joint(self, name: str) -> JointCalibration:
         if name not in self.joints:
-            raise CalibrationError(f"calibration '{self.name}' ({self.model} {self.role}) has no joint '{name}'; "
+            raise CalibrationError(f"calibration '{self.name}' ({self.model} {self.device}) has no joint '{name}'; "
                                    f"it has {sorted(self.joints)}")
         return self.joints[name]
 
@@ -81,7 +81,7 @@ class ArmCalibration:
         return {j.id: j for j in self.joints.values()}
 
     def to_json(self) -> str:
-        return json.dumps({"model": self.model, "role": self.role, "name": self.name,
+        return json.dumps({"model": self.model, "device": self.device, "name": self.name,
                            "joints": {k: asdict(v) for k, v in self.joints.items()}}, indent=2)
 
     @classmethod
@@ -89,7 +89,7 @@ class ArmCalibration:
         try:
             data = json.loads(text)
             joints = {k: JointCalibration(**{f: int(v) for f, v in j.items()}) for k, j in data["joints"].items()}
-            return cls(str(data["model"]), str(data["role"]), str(data["name"]), joints)
+            return cls(str(data["model"]), str(data.get("device", data.get("role"))), str(data["name"]), joints)
         except (ValueError, KeyError, TypeError) as e:
             raise CalibrationError(f"calibration file {source} is not valid: {type(e).__name__}: {e}") from None
 
@@ -99,15 +99,15 @@ def config_home() -> Path:
     return Path(base) / "rio"
 
 
-def calibration_path(name: str, model: str, role: str) -> Path:
+def calibration_path(name: str, model: str, device: str) -> Path:
     """A name -> its file in the config directory; a path (has '/' or ends in .json) as given."""
     if name.endswith(".json") or "/" in name:
         return Path(name).expanduser()
-    return config_home() / "calibration" / f"{model}-{role}" / f"{name}.json"
+    return config_home() / "calibration" / f"{model}-{device}" / f"{name}.json"
 
 
 def save_calibration(cal: ArmCalibration, path: Path | None = None) -> Path:
-    path = path or calibration_path(cal.name, cal.model, cal.role)
+    path = path or calibration_path(cal.name, cal.model, cal.device)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".json.tmp")
     tmp.write_text(cal.to_json() + "\n", encoding="utf-8")
@@ -115,7 +115,7 @@ def save_calibration(cal: ArmCalibration, path: Path | None = None) -> Path:
     return path
 
 
-def default_calibration(model: str, role: str, name: str = "virtual") -> ArmCalibration:
+def default_calibration(model: str, device: str, name: str = "virtual") -> ArmCalibration:
     """What a fresh virtual arm uses: offsets 0, mid-turn is 0 rad, ranges like a real SO-arm's."""
     half = {"shoulder_pan": 110, "shoulder_lift": 100, "elbow_flex": 100, "wrist_flex": 100, "wrist_roll": 160}
     joints = {}
@@ -123,17 +123,17 @@ def default_calibration(model: str, role: str, name: str = "virtual") -> ArmCali
         h = round(half[name_] / 360 * T.STEPS_PER_TURN)
         joints[name_] = JointCalibration(sid, 0, MID, MID - h, MID + h, 1)
     joints[GRIPPER] = JointCalibration(GRIPPER_ID, 0, MID, MID, MID + round(100 / 360 * T.STEPS_PER_TURN), 1)
-    return ArmCalibration(model, role, name, joints)
+    return ArmCalibration(model, device, name, joints)
 
 
-def load_calibration(name: str, model: str, role: str, *, virtual: bool = False) -> ArmCalibration:
-    path = calibration_path(name, model, role)
+def load_calibration(name: str, model: str, device: str, *, virtual: bool = False) -> ArmCalibration:
+    path = calibration_path(name, model, device)
     if path.is_file():
         return ArmCalibration.from_json(path.read_text(encoding="utf-8"), str(path))
     if virtual:
-        return default_calibration(model, role, name)
-    raise CalibrationError(f"no calibration '{name}' for the {model} {role} ({path} does not exist); run "
-                           f"`rio so100 calibrate --port PORT --model {model} --role {role} --name {name}`")
+        return default_calibration(model, device, name)
+    raise CalibrationError(f"no calibration '{name}' for the {model} {device} ({path} does not exist); run "
+                           f"`rio so100 calibrate --port PORT --model {model} --device {device} --name {name}`")
 
 
 def apply_calibration(bus, joints: dict[str, JointCalibration]) -> bool:

@@ -33,7 +33,7 @@ def _enter_pressed(timeout: float) -> bool:
 @app.command()
 def calibrate(
     port: Port,
-    role: Annotated[str, typer.Option("--role", help="follower or leader")] = "follower",
+    device: Annotated[str, typer.Option("--device", help="follower or leader")] = "follower",
     model: Model = "so100",
     name: Annotated[str | None, typer.Option(
         "--name", help="calibration name (left, right, ...) used by station files as `calibration = NAME`, or a "
@@ -41,13 +41,13 @@ def calibrate(
 ) -> None:
     """Calibrate one arm: record its middle pose, then each joint's range of motion."""
     from .calibrate import Calibrator
-    from .calibration import ROLES, calibration_path, save_calibration
+    from .calibration import DEVICES, calibration_path, save_calibration
     from .connection import check_present, is_virtual
     from .feetech.bus import FeetechBus
     from .models import ARM_IDS, ARM_JOINTS, GRIPPER, GRIPPER_ID, MODELS
 
-    if role not in ROLES or model not in MODELS:
-        raise typer.BadParameter(f"--role is one of {ROLES}, --model one of {sorted(MODELS)}")
+    if device not in DEVICES or model not in MODELS:
+        raise typer.BadParameter(f"--device is one of {DEVICES}, --model one of {sorted(MODELS)}")
     joints = {**dict(zip(ARM_JOINTS, ARM_IDS, strict=True)), GRIPPER: GRIPPER_ID}
     virtual = hand = None
     path = port
@@ -65,7 +65,7 @@ def calibrate(
             check_present(bus, joints.values(), port)
             cal = Calibrator(bus, joints)
             cal.prepare()
-            typer.echo(f"Calibrating the {model} {role} '{name}' on {port}. Torque is off: move the arm by hand.")
+            typer.echo(f"Calibrating the {model} {device} '{name}' on {port}. Torque is off: move the arm by hand.")
             typer.echo("1. Put every joint in the middle of its range (gripper half open), then press Enter.")
             if hand is not None:
                 hand.hold_middle()
@@ -90,8 +90,8 @@ def calibrate(
                 elif _enter_pressed(0.05):
                     break
             typer.echo("")
-            result = cal.finish(model, role, name)
-        saved = save_calibration(result, calibration_path(name, model, role))
+            result = cal.finish(model, device, name)
+        saved = save_calibration(result, calibration_path(name, model, device))
         typer.echo(f"saved {saved}")
         for j, jc in result.joints.items():
             lo, hi = jc.limits_rad()

@@ -24,9 +24,9 @@ def is_virtual(port: str) -> bool:
 
 
 class ArmConnection:
-    def __init__(self, port: str, *, model: str, role: str, calibration: str, baudrate: int = 1_000_000,
+    def __init__(self, port: str, *, model: str, device: str, calibration: str, baudrate: int = 1_000_000,
                  retries: int = 2, virtual_motion: str = "none"):
-        self.port, self.model, self.role, self.calibration = port, model, role, calibration
+        self.port, self.model, self.device, self.calibration = port, model, device, calibration
         self.baudrate, self.retries, self.virtual_motion = baudrate, retries, virtual_motion
         self.virtual = None
         self.bus: FeetechBus | None = None
@@ -48,7 +48,7 @@ class ArmConnection:
             self.virtual, cal = open_sim_bus(self.port)
             path = self.virtual.port
         if cal is None:
-            cal = load_calibration(self.calibration, self.model, self.role, virtual=self.virtual is not None)
+            cal = load_calibration(self.calibration, self.model, self.device, virtual=self.virtual is not None)
         joints = {name: cal.joint(name) for name in joint_names}
         names = {j.id: n for n, j in joints.items()}
         self.bus = FeetechBus(path, baudrate=self.baudrate, retries=self.retries, names=names).open()

@@ -18,24 +18,24 @@ class ServoConfig(Config):
     port: str = Field(description='serial port of the arm\'s bus (e.g. /dev/ttyACM0), or "virtual" for an '
                                   'emulated arm, or "sim:ARM@WORLD" for servos backed by rio-sim')
     calibration: str = Field("default", description="calibration name (in $XDG_CONFIG_HOME/rio/calibration/"
-                                                    "<model>-<role>/) or a .json path")
+                                                    "<model>-<device>/) or a .json path")
     model: Literal["so100", "so101"] = Field("so100", description="which arm (selects the calibration folder)")
     baudrate: int = 1_000_000
     retries: int = Field(2, ge=0, le=10, description="retries of a failed exchange before it is an error")
 
 
 class ServoDriver:
-    """Mixed into a node whose config is a `ServoConfig` and whose `role` names its calibration role."""
+    """Mixed into a node whose config is a `ServoConfig` and whose `device` names its calibration device."""
 
     config: Any
-    role: str
+    device: str
     group: Any = None
     conn: ArmConnection | None = None
     enabled: bool = False
 
     def open_group(self, joints: list[str], virtual_motion: str = "none") -> None:
         c = self.config
-        self.conn = ArmConnection(c.port, model=c.model, role=self.role, calibration=c.calibration,
+        self.conn = ArmConnection(c.port, model=c.model, device=self.device, calibration=c.calibration,
                                   baudrate=c.baudrate, retries=c.retries, virtual_motion=virtual_motion)
         self.group = self.conn.open(joints)
 

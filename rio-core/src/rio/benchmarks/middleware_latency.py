@@ -19,7 +19,7 @@ One-way latency = RTT / 2. Reported, all one-way, in microseconds:
 The image section serves ImageNode (640x480x3 uint8 frames) at `--image-rate` Hz for
 `--image-seconds`; the client polls `get_state()` and counts distinct `frame` values per second
 (`fps`); a frame's latency is the time the client first sees it minus the frame's `timestamp`
-(both `rio.time.now()`, one monotonic clock system-wide), so it includes up to one poll interval.
+(both `rio.clock.now()`, one monotonic clock system-wide), so it includes up to one poll interval.
 
 A middleware whose plugin fails to import or whose node fails to start is skipped, with the reason
 on stderr. `--json` prints exactly one JSON object on stdout; progress always goes to stderr.
@@ -150,7 +150,7 @@ def interleaved_rtts(node: RoundTrip, raw: RoundTrip | None, payload: np.ndarray
 
 def image_stream(mw: str, station: str, seconds: float, rate_hz: float, poll_s: float,
                  settle_s: float = 0.3) -> dict[str, float]:
-    from .. import time as rtime
+    from .. import clock
     from ..errors import NodeDiedError, RioError
     from ..manager import ServerManager, connect, serve
     from ..testing import ImageNode
@@ -158,7 +158,7 @@ def image_stream(mw: str, station: str, seconds: float, rate_hz: float, poll_s: 
     cfg = {"rate_hz": float(rate_hz)}
     with ServerManager(mw, [serve(ImageNode, name="camera", **cfg)], station=station, ready_timeout=60.0):
         with connect(ImageNode, mw, name="camera", station=station, **cfg) as cam:
-            deadline = rtime.now() + 10.0
+            deadline = clock.now() + 10.0
             while True:  # a network mirror may not hold a frame yet right after start-up
                 try:
                     cam.get_state()
@@ -166,20 +166,20 @@ def image_stream(mw: str, station: str, seconds: float, rate_hz: float, poll_s: 
                 except NodeDiedError:
                     raise
                 except RioError:
-                    if rtime.now() > deadline:
+                    if clock.now() > deadline:
                         raise
                     time.sleep(0.01)
             last = -1
-            t_settle = rtime.now() + settle_s
-            while rtime.now() < t_settle:
+            t_settle = clock.now() + settle_s
+            while clock.now() < t_settle:
                 last = int(cam.get_state()["frame"])
                 time.sleep(poll_s)
             latencies: list[float] = []
-            t_start = rtime.now()
+            t_start = clock.now()
             t_end = t_start + seconds
             while True:
                 state = cam.get_state()
-                t_seen = rtime.now()
+                t_seen = clock.now()
                 frame = int(state["frame"])
                 if frame != last:
                     last = frame
@@ -187,7 +187,7 @@ def image_stream(mw: str, station: str, seconds: float, rate_hz: float, poll_s: 
                 if t_seen >= t_end:
                     break
                 time.sleep(poll_s)
-            elapsed = rtime.now() - t_start
+            elapsed = clock.now() - t_start
     lat_ms = np.asarray(latencies) * 1e3
     if lat_ms.size == 0:
         raise RuntimeError(f"no new frame in {seconds:.1f} s")

@@ -6,7 +6,7 @@ lag; the One Euro filter (Casiez, Roussel, Vogel, CHI 2012) adapts its cutoff to
 so a still hand is steady and a fast motion is not lagged. Both are linear with unit gain at rest,
 so an integrated twist still reaches the distance it was meant to once the input stops.
 
-Filters take the sample time (`rio.time.now()` seconds) with each value, so an irregular loop is
+Filters take the sample time (`rio.clock.now()` seconds) with each value, so an irregular loop is
 filtered correctly, and work on scalars or arrays of any fixed shape. `PoseFilter` smooths 7-vector
 poses (position component-wise, orientation by slerp with the same smoothing factor).
 """

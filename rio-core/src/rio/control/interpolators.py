@@ -9,7 +9,7 @@ and samples it every tick, so the hardware sees a smooth ramp instead of a stair
 - `PoseInterpolator`: the same for 7-vector poses (line in position, slerp in orientation).
 - `Waypoints`: piecewise-linear through several timed values (an action chunk), clamped at both ends.
 
-Time is passed in explicitly (`rio.time.now()` in drivers), which keeps them testable.
+Time is passed in explicitly (`rio.clock.now()` in drivers), which keeps them testable.
 """
 
 from __future__ import annotations

@@ -41,7 +41,7 @@ class Embodiment(Configurable):
         return cls.required_roles | cls.optional_roles
 
     # -- to implement -------------------------------------------------------------------------------
-    def action_layout(self) -> list[tuple[str, int]]:
+    def action_parts(self) -> list[tuple[str, int]]:
         """The flat action vector, in order: (label, size) per part."""
         raise NotImplementedError
 
@@ -49,7 +49,7 @@ class Embodiment(Configurable):
         raise NotImplementedError
 
     def apply(self, parts: dict[str, np.ndarray], t_cmd_target: float) -> None:
-        """Send each part of an action (keyed by its `action_layout` label)."""
+        """Send each part of an action (keyed by its `action_parts` label)."""
         raise NotImplementedError
 
     def reset(self) -> None:
@@ -58,10 +58,10 @@ class Embodiment(Configurable):
     # -- shared -------------------------------------------------------------------------------------
     @property
     def action_dim(self) -> int:
-        return sum(n for _, n in self.action_layout())
+        return sum(n for _, n in self.action_parts())
 
     def describe_action(self) -> str:
-        return ", ".join(f"{label} ({n})" for label, n in self.action_layout())
+        return ", ".join(f"{label} ({n})" for label, n in self.action_parts())
 
     def split_action(self, action: Any) -> dict[str, np.ndarray]:
         """Flat action -> {label: part}; a wrong size or a non-finite value is a ValueError."""
@@ -72,7 +72,7 @@ class Embodiment(Configurable):
         if not np.isfinite(a).all():
             raise ValueError(f"{self.name}: action contains NaN or inf")
         parts, i = {}, 0
-        for label, n in self.action_layout():
+        for label, n in self.action_parts():
             parts[label] = a[i:i + n]
             i += n
         return parts
@@ -80,7 +80,7 @@ class Embodiment(Configurable):
     def build_action(self, **parts: Any) -> np.ndarray:
         """The flat action from named parts (the paper's `build_action(arm_target, gripper_cmd=...)`)."""
         out = []
-        for label, n in self.action_layout():
+        for label, n in self.action_parts():
             if label not in parts:
                 raise ValueError(f"{self.name}: build_action needs '{label}' ({n}); parts: {self.describe_action()}")
             out.append(np.asarray(parts[label], dtype=np.float64).reshape(-1))

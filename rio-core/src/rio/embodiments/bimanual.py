@@ -25,7 +25,7 @@ class Bimanual(Embodiment):
         self.left = ArmGroup(self, "arm", "gripper", "hand", space, prefix="arm1_")
         self.right = ArmGroup(self, "arm2", "gripper2", "hand2", space, prefix="arm2_")
 
-    def action_layout(self) -> list[tuple[str, int]]:
+    def action_parts(self) -> list[tuple[str, int]]:
         return self.left.layout() + self.right.layout()
 
     def observe(self) -> BimanualObs:

@@ -20,7 +20,7 @@ class Humanoid(Embodiment):
         self.hands = [r for r in ("hand", "hand2") if r in self.clients]
         self.dofs = {r: int(self.clients[r].num_joints()) for r in ("humanoid", *self.hands)}
 
-    def action_layout(self) -> list[tuple[str, int]]:
+    def action_parts(self) -> list[tuple[str, int]]:
         return [("joint_pos", self.dofs["humanoid"])] + [(r, self.dofs[r]) for r in self.hands]
 
     def observe(self) -> HumanoidObs:

@@ -30,7 +30,7 @@ class SingleArm(Embodiment):
     def setup(self) -> None:
         self.group = ArmGroup(self, "arm", "gripper", "hand", self.config.action_space)
 
-    def action_layout(self) -> list[tuple[str, int]]:
+    def action_parts(self) -> list[tuple[str, int]]:
         return self.group.layout()
 
     def observe(self) -> SingleArmObs:

@@ -10,7 +10,7 @@ maximum step per cycle, stale-command watchdog), enable/disable, home, and forwa
 `robot_description()` when the hardware reports no end-effector pose. See docs/drivers.md.
 
 Units are SI everywhere: meters, radians, seconds. Poses are `[x, y, z, qw, qx, qy, qz]` (meters,
-unit quaternion, scalar first) in the robot's base frame. `t_cmd_target` is a `rio.time.now()` time
+unit quaternion, scalar first) in the robot's base frame. `t_cmd_target` is a `rio.clock.now()` time
 at which the target should be reached; None means "as soon as possible" (sent as the current time).
 
 | kind     | state (`get_state()`; commandable kinds add `enabled`, `holding`)      | client call |

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from .. import time as rtime
+from .. import clock
 from ..control.commander import PoseCommander
 from ..errors import InvalidRequest
 from ..node import client_side, remote
@@ -108,7 +108,7 @@ class ArmNode(JointNode):
     def read_state(self) -> dict[str, Any]:
         sample = dict(self.read_joints())
         sample["eef_pose"] = self._eef = self._eef_of(sample)
-        now = rtime.now()
+        now = clock.now()
         if self.enabled and self.mode == EEF:
             self.write_pose(self.poses.step(now))
         else:
@@ -129,7 +129,7 @@ class ArmNode(JointNode):
 
     def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
         if self.mode == EEF and self.enabled:  # leave Cartesian streaming from where the arm is
-            self.commander.reset(self.read_joints()["joint_pos"], rtime.now())
+            self.commander.reset(self.read_joints()["joint_pos"], clock.now())
         super().command_joints(joint_pos, t_cmd_target)
         self.mode = JOINT
 
@@ -138,7 +138,7 @@ class ArmNode(JointNode):
             raise InvalidRequest(self.name, "eef_pose", "the arm is disabled (call enable() first)")
         if np.linalg.norm(eef_pose[3:]) < 1e-9:
             raise InvalidRequest(self.name, "eef_pose", "the quaternion is zero")
-        now = rtime.now()
+        now = clock.now()
         if self.streams_poses:
             if self.mode != EEF:
                 self.poses.reset(self._eef, now)

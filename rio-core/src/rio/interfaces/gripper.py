@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from .. import time as rtime
+from .. import clock
 from ..control.commander import JointCommander
 from ..errors import InvalidRequest
 from ..node import Node, NodeConfig, client_side, remote
@@ -76,7 +76,7 @@ class GripperNode(Node):
     def read_state(self) -> dict[str, Any]:
         sample = dict(self.read_width())
         if self.enabled:
-            self.write_width(float(self.commander.step(rtime.now())[0]), self.force)
+            self.write_width(float(self.commander.step(clock.now())[0]), self.force)
         sample["max_width"] = self.width
         sample["enabled"] = self.enabled
         sample["holding"] = (not self.enabled) or self.commander.holding
@@ -88,20 +88,20 @@ class GripperNode(Node):
         force = float(request["force"])
         if force > 0:
             self.force = force
-        self.commander.command([float(request["position"])], float(request["t_cmd_target"]), rtime.now())
+        self.commander.command([float(request["position"])], float(request["t_cmd_target"]), clock.now())
 
     # -- remote API ---------------------------------------------------------------------------------
     @remote
     def enable(self) -> bool:
         """Switch on, holding the present opening."""
         self.set_enabled(True)
-        self.commander.reset([float(self.read_width()["position"])], rtime.now())
+        self.commander.reset([float(self.read_width()["position"])], clock.now())
         self.enabled = True
         return True
 
     @remote
     def disable(self) -> bool:
-        self.commander.hold(rtime.now())
+        self.commander.hold(clock.now())
         self.set_enabled(False)
         self.enabled = False
         return False

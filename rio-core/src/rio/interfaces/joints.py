@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from .. import time as rtime
+from .. import clock
 from ..control.commander import JointCommander
 from ..errors import InvalidRequest
 from ..node import Node, NodeConfig, client_side, remote
@@ -35,7 +35,7 @@ log = logging.getLogger("rio.interfaces")
 
 def t_target(t_cmd_target: float | None) -> float:
     """A command's target time: now when not given."""
-    return rtime.now() if t_cmd_target is None else float(t_cmd_target)
+    return clock.now() if t_cmd_target is None else float(t_cmd_target)
 
 
 def as_vector(name: str, value: Any, n: int) -> np.ndarray:
@@ -130,7 +130,7 @@ class JointNode(Node):
 
     def read_state(self) -> dict[str, Any]:
         sample = dict(self.read_joints())
-        self.drive(rtime.now())
+        self.drive(clock.now())
         return self.complete(sample)
 
     def drive(self, now: float) -> None:
@@ -152,21 +152,21 @@ class JointNode(Node):
     def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
         if not self.enabled:
             raise InvalidRequest(self.name, "joint_pos", "the device is disabled (call enable() first)")
-        self.commander.command(joint_pos, t_cmd_target, rtime.now())
+        self.commander.command(joint_pos, t_cmd_target, clock.now())
 
     # -- remote API ---------------------------------------------------------------------------------
     @remote
     def enable(self) -> bool:
         """Torque on, holding the present pose: nothing moves until the next command."""
         self.set_enabled(True)
-        self.commander.reset(self.read_joints()["joint_pos"], rtime.now())
+        self.commander.reset(self.read_joints()["joint_pos"], clock.now())
         self.enabled = True
         return True
 
     @remote
     def disable(self) -> bool:
         """Torque off (the robot goes limp: support it first)."""
-        self.commander.hold(rtime.now())
+        self.commander.hold(clock.now())
         self.set_enabled(False)
         self.enabled = False
         return False
@@ -174,14 +174,14 @@ class JointNode(Node):
     @remote
     def hold(self) -> None:
         """Stop where the robot is commanded to be now."""
-        self.commander.hold(rtime.now())
+        self.commander.hold(clock.now())
 
     @remote
     def home(self, seconds: float = 3.0) -> None:
         """Move to the home pose, arriving in `seconds` (still limited to `max_step_rad` per cycle)."""
         home = self.config.home if self.config.home is not None else self.default_home()
         q = np.zeros(self.dof) if home is None else as_vector("home", home, self.dof)
-        self.command_joints(q, rtime.now() + float(seconds))
+        self.command_joints(q, clock.now() + float(seconds))
 
     @remote
     def joint_limits(self) -> list[list[float]]:

@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 
 from pydantic import Field
 
-from .. import time as rtime
+from .. import clock
 from ..config import Config, Configurable
 from ..errors import NodeDiedError
 from ..layout import Layout
@@ -149,7 +149,7 @@ class ProcessWatch:
 
     def check(self) -> None:
         """Throttled: at most one syscall per `check_every_s` on the hot read path."""
-        t = rtime.now()
+        t = clock.now()
         if self._dead or t >= self._t_next:
             self._t_next = t + self.check_every_s
             if self.dead():

@@ -45,8 +45,7 @@ from typing import Any
 import msgpack
 from pydantic import Field
 
-from .. import time as rtime
-from .. import wire
+from .. import clock, wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
 from ..node import Node
@@ -282,7 +281,7 @@ class _Connection:
             self.sock.close()
             raise
         #: When bytes last arrived (the heartbeat: a large answer on a slow link is not silence).
-        self.last_rx = rtime.now()
+        self.last_rx = clock.now()
         self.max_reply_bytes = max_reply_bytes
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
@@ -326,7 +325,7 @@ class _Connection:
             if k == 0:
                 raise ConnectionError("connection closed by the server")
             pos += k
-            self.last_rx = rtime.now()
+            self.last_rx = clock.now()
         return buf
 
     def _result(self, body: bytearray) -> memoryview:
@@ -430,12 +429,12 @@ class PortalClient(ClientTransport):
 
     def _wait(self, reply: _Reply, timeout: float, what: str, *, background: bool = False) -> memoryview:
         """Wait for an answer, checking liveness every 50 ms: a dead server never hangs a caller."""
-        deadline = rtime.now() + timeout
+        deadline = clock.now() + timeout
         while not reply.event.wait(_SLICE_S):
             if background and self._closing:
                 raise _Closing()
             self.check_alive()
-            if rtime.now() > deadline:
+            if clock.now() > deadline:
                 raise NodeTimeout(self.name, what, timeout)
         if reply.lost:
             raise self._lost(reply.error or "connection lost", background)
@@ -485,7 +484,7 @@ class PortalClient(ClientTransport):
             except NodeDiedError as e:
                 self._dead = self._dead or e.detail
                 raise
-        elif conn is not None and rtime.now() - conn.last_rx > self.config.heartbeat_timeout:
+        elif conn is not None and clock.now() - conn.last_rx > self.config.heartbeat_timeout:
             raise self._lost(f"no heartbeat for {self.config.heartbeat_timeout:.3g} s")
         if conn is not None and conn.lost is not None and not self._closing:
             raise self._lost(conn.lost)

@@ -25,8 +25,7 @@ import uuid
 import weakref
 from typing import Any
 
-from .. import time as rtime
-from .. import wire
+from .. import clock, wire
 from ..buffers import RequestQueue, RingBuffer
 from ..errors import ConfigError, NodeDiedError, NodeError, NodeTimeout
 from ..node import Node
@@ -262,13 +261,13 @@ class ShmClient(ClientTransport):
         with self._lock:
             self._watch.check()
             channel = self._connect()
-            deadline = rtime.now() + self.call_timeout
+            deadline = clock.now() + self.call_timeout
 
             def on_idle() -> None:
                 if self._watch.dead():
                     self._drop_channel()
                     raise NodeDiedError(self.name, f"server process {self._watch.pid} exited during '{method}'")
-                if rtime.now() > deadline:
+                if clock.now() > deadline:
                     self._drop_channel()  # a late reply must not be read as the next call's
                     raise NodeTimeout(self.name, f"call '{method}'", self.call_timeout)
 

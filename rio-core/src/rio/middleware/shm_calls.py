@@ -34,7 +34,7 @@ import socket
 import tempfile
 from collections.abc import Callable
 
-from .. import time as rtime
+from .. import clock
 from ..wire import Message
 
 # Header: 8 bytes reserved, u32 message length at 8, u32 count of messages written so far at 12.
@@ -67,8 +67,8 @@ def _spin_until(ready: Callable[[], bool], spin_s: float) -> bool:
     starve the peer on a 2-core machine)."""
     if ready():
         return True
-    t_end = rtime.now() + spin_s
-    while rtime.now() < t_end:
+    t_end = clock.now() + spin_s
+    while clock.now() < t_end:
         os.sched_yield()
         if ready():
             return True

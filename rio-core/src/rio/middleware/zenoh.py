@@ -34,8 +34,7 @@ import threading
 from collections import OrderedDict
 from typing import Any, Literal
 
-from .. import time as rtime
-from .. import wire
+from .. import clock, wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
 from ..node import Node
@@ -266,13 +265,13 @@ class ZenohServer(ServerTransport):
         pub = self.session.declare_publisher(
             f"{self.prefix}/reply/{cid}", congestion_control=z.CongestionControl.BLOCK,
             priority=z.Priority.INTERACTIVE_HIGH)
-        deadline = rtime.now() + _REPLY_MATCH_WAIT_S
+        deadline = clock.now() + _REPLY_MATCH_WAIT_S
         while not pub.matching_status.matching:
-            if rtime.now() > deadline or self._closed.is_set():
+            if clock.now() > deadline or self._closed.is_set():
                 log.warning("node '%s': client %s does not listen for replies; reply dropped", self.layouts.name, cid)
                 _undeclare(pub)
                 return None
-            rtime.precise_wait(rtime.now() + 0.0005)
+            clock.precise_wait(clock.now() + 0.0005)
         self._reply_pubs[cid] = pub
         if len(self._reply_pubs) > _REPLY_PUBS_MAX:
             _undeclare(self._reply_pubs.popitem(last=False)[1])
@@ -341,7 +340,7 @@ class ZenohClient(ClientTransport):
             self._session_key, self.session = _SESSIONS.acquire(endpoints, o.connect_timeout)
         except Exception as e:
             raise NodeDiedError(self.name, f"cannot reach zenoh endpoints {endpoints}: {e}") from None
-        self._last_seen = rtime.now()
+        self._last_seen = clock.now()
         self._mirror_lock = threading.Lock()
         self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity) if layouts.data is not None else None
         declare = self._declare
@@ -368,7 +367,7 @@ class ZenohClient(ClientTransport):
         for pub in (self._call_pub, self._req_pub):
             if pub is not None:
                 self._wait_matching(pub, str(pub.key_expr))
-        self._last_seen = rtime.now()
+        self._last_seen = clock.now()
 
     def _declare(self, entity: Any) -> Any:
         self._entities.append(entity)
@@ -376,14 +375,14 @@ class ZenohClient(ClientTransport):
 
     def _wait_matching(self, entity: Any, what: str) -> None:
         """Block until the server's side of `entity` is known here (else the first messages vanish)."""
-        deadline = rtime.now() + self.config.connect_timeout
+        deadline = clock.now() + self.config.connect_timeout
         while not entity.matching_status.matching:
             if self._watch is not None:
                 self._watch.check()
-            if rtime.now() > deadline:
+            if clock.now() > deadline:
                 raise NodeDiedError(self.name, f"no zenoh server answers on '{what}' "
                                                f"after {self.config.connect_timeout:.3g} s")
-            rtime.precise_wait(rtime.now() + 0.001)
+            clock.precise_wait(clock.now() + 0.001)
 
     def _handshake(self, layouts: NodeLayouts) -> None:
         """Check the layouts match the server's and seed the mirror with its newest sample."""
@@ -411,14 +410,14 @@ class ZenohClient(ClientTransport):
     def _on_state(self, sample: Any) -> None:
         data = sample.payload.to_bytes()
         with self._mirror_lock:
-            self._last_seen = rtime.now()
+            self._last_seen = clock.now()
             try:
                 self.ring_buffer.put_bytes(data)
             except InvalidRequest as e:
                 log.warning("%s", e)
 
     def _on_heartbeat(self, sample: Any) -> None:
-        self._last_seen = rtime.now()
+        self._last_seen = clock.now()
 
     def _on_reply(self, sample: Any) -> None:
         self._replies.put(sample.payload.to_bytes())
@@ -428,7 +427,7 @@ class ZenohClient(ClientTransport):
         if self._watch is not None:
             self._watch.check()
             return
-        silent = rtime.now() - self._last_seen
+        silent = clock.now() - self._last_seen
         if silent > self.config.heartbeat_timeout:
             raise NodeDiedError(self.name, f"no heartbeat from its zenoh server for {silent:.2f} s")
 
@@ -439,13 +438,13 @@ class ZenohClient(ClientTransport):
             self._call_id += 1
             call_id = self._call_id
             self._call_pub.put(wire.pack_call(call_id, method, args, kwargs))
-            deadline = rtime.now() + timeout
+            deadline = clock.now() + timeout
             while True:
                 try:
                     data = self._replies.get(timeout=_LIVENESS_POLL_S)
                 except queue.Empty:
                     self.check_alive()
-                    if rtime.now() > deadline:
+                    if clock.now() > deadline:
                         raise NodeTimeout(self.name, f"API call {method}()", timeout) from None
                     continue
                 rid, ok, value = wire.unpack_reply(data)

@@ -37,8 +37,7 @@ from typing import Any
 import zmq
 from pydantic import Field
 
-from .. import time as rtime
-from .. import wire
+from .. import clock, wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, NodeDiedError, NodeError, NodeTimeout, RioError
 from ..node import Node
@@ -228,7 +227,7 @@ class ZmqClient(ClientTransport):
         self._data_fp = layouts.data.fingerprint if layouts.data else 0
         self._watch = local_process_watch(address, self.name)
         self._beat_timeout = max(config.heartbeat_timeout, 5 * float(address.get("heartbeat_s", 0.05)))
-        self._last_heard = rtime.now()
+        self._last_heard = clock.now()
         #: Why the server is known to be gone; sticky: a server that comes back is a new server
         #: (new sequence numbers, maybe a new layout), so the client must connect again.
         self._gone: str | None = None
@@ -275,13 +274,13 @@ class ZmqClient(ClientTransport):
             raise NodeDiedError(self.name, self._gone)
         if self._watch is not None:
             self._watch.check()
-        elif rtime.now() - self._last_heard > self._beat_timeout:
+        elif clock.now() - self._last_heard > self._beat_timeout:
             # Our own receive thread may just not have run (this process was paused or busy):
             # give it a moment to drain heartbeats already waiting before calling the server dead.
-            t_end = rtime.now() + 0.1
-            while rtime.now() < t_end and rtime.now() - self._last_heard > self._beat_timeout:
+            t_end = clock.now() + 0.1
+            while clock.now() < t_end and clock.now() - self._last_heard > self._beat_timeout:
                 time.sleep(0.005)
-            if rtime.now() - self._last_heard > self._beat_timeout:
+            if clock.now() - self._last_heard > self._beat_timeout:
                 self._gone = f"no heartbeat from the server for {self._beat_timeout:.2g} s"
                 raise NodeDiedError(self.name, self._gone)
 
@@ -297,7 +296,7 @@ class ZmqClient(ClientTransport):
             except zmq.Again:
                 pass
             self.check_alive()
-            t = rtime.now()
+            t = clock.now()
             deadline = deadline or t + timeout
             if t > deadline:
                 raise NodeTimeout(self.name, what, timeout)
@@ -310,14 +309,14 @@ class ZmqClient(ClientTransport):
     def _await(self, kind: bytes, accept: Any, what: str, timeout: float) -> Any:
         """Wait on the call socket for a reply of `kind` that `accept` recognizes (returns not None);
         stale replies (of calls that timed out earlier) are dropped."""
-        deadline = rtime.now() + timeout
+        deadline = clock.now() + timeout
         sock = self._call_sock
         while True:
             try:
                 msg = sock.recv()  # RCVTIMEO: at most _POLL_MS between liveness checks
             except zmq.Again:
                 self.check_alive()
-                if rtime.now() > deadline:
+                if clock.now() > deadline:
                     raise NodeTimeout(self.name, what, timeout) from None
                 continue
             if msg[:1] == kind:
@@ -335,7 +334,7 @@ class ZmqClient(ClientTransport):
                 f"node '{self.name}': layout mismatch with server node '{hello.get('node')}' "
                 f"(fingerprints {theirs} vs ours {ours}); client and server must build the node "
                 "with the same class and config")
-        self._last_heard = rtime.now()
+        self._last_heard = clock.now()
         self._epoch = hello.get("epoch")
         if self.ring_buffer is not None and hello.get("latest") is not None:
             self.ring_buffer.put_bytes(hello["latest"])
@@ -391,7 +390,7 @@ class ZmqClient(ClientTransport):
             if epoch != self._epoch:
                 self._gone = self._gone or "server restarted (connect again)"
                 continue
-            self._last_heard = rtime.now()
+            self._last_heard = clock.now()
             if kind == _BYE:
                 self._gone = "server closed"
                 continue

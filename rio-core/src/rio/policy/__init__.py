@@ -5,10 +5,10 @@ inference script behind `rio deploy` (`run_deploy`). See docs/policies.md."""
 from .async_inference import AsyncConfig, AsyncInference
 from .base import ActionChunk, Policy, PolicyConfig, PolicyMetadata
 from .node import PolicyNode
-from .obs_layout import ObsSpec
+from .obs_layout import ObsLayout
 from .schedule import ChunkSchedule, ScheduleConfig
 
-__all__ = ["Policy", "PolicyConfig", "PolicyMetadata", "ActionChunk", "PolicyNode", "ObsSpec", "ChunkSchedule",
+__all__ = ["Policy", "PolicyConfig", "PolicyMetadata", "ActionChunk", "PolicyNode", "ObsLayout", "ChunkSchedule",
            "ScheduleConfig", "AsyncConfig", "AsyncInference", "run_deploy"]
 
 

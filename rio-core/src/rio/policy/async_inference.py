@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import time as rtime
+from .. import clock
 from ..control.filters import LowPassFilter
 from .base import ActionChunk, PolicyMetadata
 from .schedule import ChunkSchedule, Sample, ScheduleConfig
@@ -50,7 +50,7 @@ class AsyncConfig:
 
 @dataclass
 class LatencyRecord:
-    """Times in seconds, `rio.time.now()` clock; one entry per chunk or per applied action."""
+    """Times in seconds, `rio.clock.now()` clock; one entry per chunk or per applied action."""
 
     first_action: list[float] = field(default_factory=list)
     #: First action minus that chunk's own forward pass: what the framework added.
@@ -119,7 +119,7 @@ class AsyncInference:
         """Send `obs` (taken at `t_obs`) for inference; the first request of a run resets the policy."""
         self.seq += 1
         self.policy.request(obs, instruction, t_obs, self.seq, reset=self._reset_next)
-        self.record.sent.append(rtime.now() - t_obs)
+        self.record.sent.append(clock.now() - t_obs)
         self._reset_next = False
         self.in_flight = (self.seq, t_now)
         self.requests += 1

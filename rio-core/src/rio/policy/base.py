@@ -24,7 +24,7 @@ from typing import Any, ClassVar
 import numpy as np
 from pydantic import Field
 
-from .. import time as rtime
+from .. import clock
 from ..config import Config, Configurable
 from ..schema import Observation
 
@@ -68,7 +68,7 @@ class PolicyMetadata:
 
 @dataclass
 class ActionChunk:
-    """`actions[i]` is the target for `t_obs + (i + offset) * dt` (all `rio.time.now()` seconds)."""
+    """`actions[i]` is the target for `t_obs + (i + offset) * dt` (all `rio.clock.now()` seconds)."""
 
     actions: np.ndarray
     t_obs: float
@@ -102,13 +102,13 @@ class Policy(Configurable):
 
     def __init__(self, config: Any = None, /, **fields: Any):
         super().__init__(config, **fields)
-        self.spec: Any = None  # rio.policy.obs_layout.ObsSpec, set by load()
+        self.layout: Any = None  # rio.policy.obs_layout.ObsLayout, set by load()
 
     # -- to implement -------------------------------------------------------------------------------
-    def load(self, spec: Any) -> None:
-        """Load weights / connect. `spec` (an `ObsSpec`) describes the station's observation: its
+    def load(self, layout: Any) -> None:
+        """Load weights / connect. `layout` (an `ObsLayout`) describes the station's observation: its
         cameras and their shapes, the state fields and the action size."""
-        self.spec = spec
+        self.layout = layout
 
     def metadata(self) -> PolicyMetadata:
         raise NotImplementedError(f"{type(self).__name__} must define metadata()")
@@ -139,7 +139,7 @@ class Policy(Configurable):
         if self.config.action_indices is not None:
             a = a[:, self.config.action_indices]
         a = a[: min(self.config.horizon or a.shape[0], self.config.max_horizon)]
-        want = self.spec.action_dim if self.spec is not None else a.shape[1]
+        want = self.layout.action_dim if self.layout is not None else a.shape[1]
         if a.shape[1] != want:
             raise ValueError(f"policy '{self.name}' returned {a.shape[1]} action values per step, the station "
                              f"takes {want} (set action_indices to pick them)")
@@ -151,9 +151,9 @@ class Policy(Configurable):
                  t_recv: float | None = None) -> ActionChunk:
         """Prepare, infer and postprocess one observation into a timestamped chunk."""
         meta = self._meta()
-        t_start = rtime.now()
+        t_start = clock.now()
         actions = self.postprocess(self.infer(self.prepare(obs, instruction)))
-        t_end = rtime.now()
+        t_end = clock.now()
         return ActionChunk(actions, float(t_obs), meta.dt, meta.offset, int(seq),
                            t_start if t_recv is None else t_recv, t_start, t_end)
 

@@ -2,7 +2,7 @@
 against `Env` and node clients. `rio deploy STATION --policy SPEC` runs exactly this.
 
 Start-up: the station is started without its policy component; its first observation fixes the
-`ObsSpec`, with which the policy node is started in its own node (over the station's middleware) and
+`ObsLayout`, with which the policy node is started in its own node (over the station's middleware) and
 loads its model. Then, every `1 / rate_hz` seconds, the control loop:
 
 1. takes in a chunk if one arrived (a local ring-buffer read, `AsyncInference.poll`);
@@ -32,12 +32,12 @@ from typing import Any
 
 import numpy as np
 
-from .. import time as rtime
+from .. import clock
 from ..errors import NodeDiedError, RioError
 from ..schema import Step
 from .async_inference import AsyncConfig, AsyncInference
 from .base import ActionChunk, PolicyMetadata
-from .obs_layout import ObsSpec
+from .obs_layout import ObsLayout
 from .schedule import Sample
 
 POLICY_ROLE = "policy"
@@ -127,9 +127,9 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
         stack.enter_context(env)
         env.instruction = instruction
         first = env.reset()
-        spec = ObsSpec.of(first.observation).to_dict()
+        layout = ObsLayout.of(first.observation).to_dict()
         say(f"loading policy '{name}' ...")
-        policy_kwargs = {**policy_kwargs, "observation": spec}
+        policy_kwargs = {**policy_kwargs, "observation": layout}
         pserver = serve(node_cls, mw, name=POLICY_ROLE, **policy_kwargs)
         stack.enter_context(ServerManager([pserver], station=st.name, ready_timeout=ready_timeout))
         client = stack.enter_context(connect(node_cls, mw, name=POLICY_ROLE, **policy_kwargs))
@@ -169,11 +169,11 @@ class _Loop:
         while inf.in_flight is not None:
             if inf.arrived():
                 return True
-            left = deadline - rtime.now()
+            left = deadline - clock.now()
             if left <= _POLL_S:
                 break
             time.sleep(_POLL_S)
-        rtime.precise_wait(deadline)
+        clock.precise_wait(deadline)
         return False
 
     def _tick(self, t: float, periodic: bool) -> None:
@@ -183,13 +183,13 @@ class _Loop:
         t_target = t + self.dt
         s = inf.command(t_target)
         action = s.action if s is not None else self.hold
-        t_applied = rtime.now()
+        t_applied = clock.now()
         step = self.env.step(action, t_cmd_target=t_target)
         if s is not None:
             inf.applied(s, t_applied)
         self.last = action
         if inf.wants_request(t):
-            inf.request(step.observation, self.instruction, float(step.meta["t_obs"]), rtime.now())
+            inf.request(step.observation, self.instruction, float(step.meta["t_obs"]), clock.now())
         if self.recorder is not None:
             self.recorder.add(step)
         if self.on_tick is not None:
@@ -199,25 +199,25 @@ class _Loop:
         dt = self.dt
         starts: list[float] = []
         overruns = 0
-        rtime.set_timer_slack()  # this thread's sleeps wake on time (see rio.time)
-        t_start = rtime.now()
+        clock.set_timer_slack()  # this thread's sleeps wake on time (see rio.clock)
+        t_start = clock.now()
         self.env.set_start_time(t_start)
         summary.reason = "duration reached"
         try:
             while True:
                 t_tick = t_start + self.it * dt
                 if self._wait(t_tick):
-                    self._tick(rtime.now(), periodic=False)
+                    self._tick(clock.now(), periodic=False)
                     continue
-                t = rtime.now()
+                t = clock.now()
                 starts.append(t)
                 self._tick(t, periodic=True)
                 self.it += 1
                 summary.ticks += 1
-                if rtime.now() - t_tick > dt:  # fell a whole period behind: re-anchor, no burst
+                if clock.now() - t_tick > dt:  # fell a whole period behind: re-anchor, no burst
                     overruns += 1
-                    self.it = int((rtime.now() - t_start) / dt) + 1
-                if duration is not None and rtime.now() - t_start >= duration:
+                    self.it = int((clock.now() - t_start) / dt) + 1
+                if duration is not None and clock.now() - t_start >= duration:
                     break
         except KeyboardInterrupt:
             summary.reason = "interrupted (Ctrl+C)"
@@ -225,9 +225,9 @@ class _Loop:
             if e.node != POLICY_ROLE:
                 raise
             summary.reason = f"policy node '{e.node}' stopped ({e}); the robot holds its last command"
-            self.env.step(self.last, t_cmd_target=rtime.now() + dt)
+            self.env.step(self.last, t_cmd_target=clock.now() + dt)
             summary.held = [float(x) for x in self.last]
-        summary.seconds = rtime.now() - t_start
+        summary.seconds = clock.now() - t_start
         summary.stats = self.inf.stats()
         periods = np.diff(starts)
         summary.stats["loop_jitter_us_p99"] = (round(float(np.percentile(np.abs(periods - dt), 99)) * 1e6, 1)

@@ -3,7 +3,7 @@ model is served through the middleware itself and no separate policy server is n
 
 The hot path uses the two channels every node already has, never a remote call:
 
-- observations in: the request queue. One request is one observation (`ObsSpec` record), camera
+- observations in: the request queue. One request is one observation (`ObsLayout` record), camera
   frames included; under `shm` it is one copy into shared memory, no serializer.
 - chunks out: the ring buffer. Each inference publishes one fixed-size record (`actions` padded to
   `max_horizon` rows, `horizon`, the observation's `t_obs` and `seq`, and the times the request was
@@ -14,9 +14,9 @@ nothing between inferences. An exception inside the policy ends the node, which 
 reports as `NodeDiedError` naming it.
 
 A policy registered by a plugin is a `PolicyNode` subclass naming its `policy_class`. Without an
-`observation` spec (a station file's policy component started by `make_station`, e.g. under
+`observation` layout (a station file's policy component started by `make_station`, e.g. under
 `rio teleop`), the node is inert: it loads nothing and refuses requests; `rio deploy` supplies the
-spec from the station's first observation.
+layout from the station's first observation.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from ..errors import InvalidRequest
 from ..node import Node, NodeConfig, client_side, remote
 from ..schema import Observation
 from .base import ActionChunk, Policy, PolicyMetadata
-from .obs_layout import ObsSpec
+from .obs_layout import ObsLayout
 
 
 class PolicyNodeConfig(NodeConfig):
@@ -61,28 +61,28 @@ class PolicyNode(Node):
         fields = self.config.model_dump(exclude=set(PolicyNodeConfig.model_fields))
         self.policy = self.policy_class(fields)
         observation = self.config.observation
-        self.spec = ObsSpec.from_dict(observation) if observation else None
+        self.layout = ObsLayout.from_dict(observation) if observation else None
         cfg = self.policy.config
-        dim = self.spec.action_dim if self.spec is not None else 1
+        dim = self.layout.action_dim if self.layout is not None else 1
         self.example_data = {"actions": np.zeros((cfg.max_horizon, dim)), "horizon": 0, "seq": np.int64(-1),
                              "t_obs": 0.0, "dt": 0.0, "offset": 0.0, "t_recv": 0.0, "t_start": 0.0, "t_end": 0.0}
-        self.example_request = self.spec.example_request() if self.spec is not None else {"seq": np.int64(0)}
+        self.example_request = self.layout.example_request() if self.layout is not None else {"seq": np.int64(0)}
         self._meta: PolicyMetadata | None = None
         self._request_rec: np.ndarray | None = None
 
     # -- server side --------------------------------------------------------------------------------
     def open(self) -> None:
-        if self.spec is None:
+        if self.layout is None:
             return
-        self.policy.load(self.spec)
+        self.policy.load(self.layout)
         meta = self.policy._meta()
-        if meta.action_dim != self.spec.action_dim:
+        if meta.action_dim != self.layout.action_dim:
             raise ValueError(f"policy '{self.policy.name}' acts in {meta.action_dim} dimensions, the station "
-                             f"in {self.spec.action_dim} (set action_indices)")
+                             f"in {self.layout.action_dim} (set action_indices)")
         self._meta = meta
 
     def close(self) -> None:
-        if self.spec is not None:
+        if self.layout is not None:
             self.policy.close()
 
     def read_state(self) -> dict[str, Any]:
@@ -90,13 +90,13 @@ class PolicyNode(Node):
         return dict(self.example_data)
 
     def handle_request(self, request: dict[str, Any]) -> None:
-        from .. import time as rtime
+        from .. import clock
 
-        t_recv = rtime.now()
-        if self.spec is None:
+        t_recv = clock.now()
+        if self.layout is None:
             raise InvalidRequest(self.name, None, "this policy node has no observation layout (start it with "
-                                                  "`rio deploy`, or pass observation=ObsSpec.of(obs).to_dict())")
-        obs, instruction, t_obs, seq, reset = self.spec.decode(request)
+                                                  "`rio deploy`, or pass observation=ObsLayout.of(obs).to_dict())")
+        obs, instruction, t_obs, seq, reset = self.layout.decode(request)
         if reset:
             self.policy.reset()
         chunk = self.policy(obs, instruction, t_obs, seq, t_recv=t_recv)
@@ -121,17 +121,17 @@ class PolicyNode(Node):
     def request(self, obs: Observation, instruction: str | None, t_obs: float, seq: int, reset: bool = False) -> None:
         """Enqueue one observation for inference; its chunk appears in `latest_chunk()` with this `seq`.
         Where the queue takes whole records (thread, shm) one reused record is filled in place."""
-        from .. import time as rtime
+        from .. import clock
 
-        values = self.spec.encode(obs, instruction, t_obs, seq, reset)
+        values = self.layout.encode(obs, instruction, t_obs, seq, reset)
         put_record = getattr(self.request_queue, "put_record", None)
         if put_record is None:  # a network sender: it encodes the dict itself
             self.send_request(values)
             return
         if self._request_rec is None:
             self._request_rec = np.zeros((), dtype=self.request_queue.layout.dtype)
-        rec = self.spec.pack(self._request_rec, values, owner=self.name)
-        rec["timestamp"] = rtime.now()
+        rec = self.layout.pack(self._request_rec, values, owner=self.name)
+        rec["timestamp"] = clock.now()
         put_record(rec)
 
     @client_side

@@ -3,9 +3,9 @@ way every RIO request travels: packed once into a slot of the node's request que
 under `shm`; raw bytes on network middlewares). Camera frames are copied in as uint8 arrays; nothing
 is pickled or re-serialized, and the policy process rebuilds the very same `Observation` subclass.
 
-`ObsSpec.of(observation)` reads the layout off a first observation (its class, every array or scalar
-field it fills, each camera's shapes), so one spec works for any embodiment. It is plain JSON, which
-is how it travels to the policy node's constructor (`observation=spec.to_dict()`).
+`ObsLayout.of(observation)` reads the layout off a first observation (its class, every array or scalar
+field it fills, each camera's shapes), so one layout works for any embodiment. It is plain JSON, which
+is how it travels to the policy node's constructor (`observation=layout.to_dict()`).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ _F, _RGB, _DEPTH, _CAM_T = "o.", "rgb.", "depth.", "tcam."
 
 
 @dataclass
-class ObsSpec:
+class ObsLayout:
     obs_type: str
     #: Observation fields (proprio first) -> shape; a scalar field has shape [].
     fields: dict[str, list[int]]
@@ -35,7 +35,7 @@ class ObsSpec:
 
     # -- building -----------------------------------------------------------------------------------
     @classmethod
-    def of(cls, obs: Observation, instruction_bytes: int = 256) -> ObsSpec:
+    def of(cls, obs: Observation, instruction_bytes: int = 256) -> ObsLayout:
         fields: dict[str, list[int]] = {}
         for f in dataclasses.fields(obs):
             if f.name == "cameras":
@@ -59,7 +59,7 @@ class ObsSpec:
         return dataclasses.asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> ObsSpec:
+    def from_dict(cls, d: dict[str, Any]) -> ObsLayout:
         return cls(**d)
 
     @property

@@ -29,7 +29,7 @@ class _StandIn(Policy):
 
     def metadata(self) -> PolicyMetadata:
         c = self.config
-        return PolicyMetadata(self.name, self.spec.action_dim, min(c.chunk, c.max_horizon), 1.0 / c.rate_hz)
+        return PolicyMetadata(self.name, self.layout.action_dim, min(c.chunk, c.max_horizon), 1.0 / c.rate_hz)
 
     def prepare(self, obs: Observation, instruction: str | None) -> Any:
         return obs

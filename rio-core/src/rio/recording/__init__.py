@@ -1,6 +1,6 @@
 """Recording and datasets (DESIGN.md section 7).
 
-- `Recorder`: Steps of a control loop into the native, crash-safe layout (`layout` documents it);
+- `Recorder`: Steps of a control loop into the native, crash-safe layout (`paths` documents it);
   camera streams are video-encoded by a separate process while recording.
 - `Dataset` / `Episode`: read it back (columns, decoded frames, rebuilt `Step`s).
 - `repair_dataset`: turn what a crash left into finished episodes, rebuild the index.

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import RioError
 from ..schema import Camera, Step
 from . import index as I
-from . import layout as L
+from . import paths as L
 from .durable import sha256_file
 from .episode_writer import FRAME_RECORD
 from .flatten import StepSchema

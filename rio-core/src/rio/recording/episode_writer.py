@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from .. import time as rtime
-from . import layout as L
+from .. import clock
+from . import paths as L
 from .durable import AppendFile, describe_files, fsync_dir, write_json_atomic
 from .encoder import EncoderProcess
 from .flatten import StepSchema, flat_meta
@@ -90,7 +90,7 @@ class EpisodeWriter:
 
     # -- recording ----------------------------------------------------------------------------------
     def add(self, step: Any) -> None:
-        t_recv = rtime.now()
+        t_recv = clock.now()
         meta = step.meta or {}
         t = float(meta.get("t_obs", t_recv))
         if self.schema is None:

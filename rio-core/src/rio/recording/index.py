@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from . import layout as L
+from . import paths as L
 from .durable import write_json_atomic
 
 

@@ -1,4 +1,4 @@
-"""Recorder: every `Step` of a control loop into a crash-safe native dataset (see `layout`).
+"""Recorder: every `Step` of a control loop into a crash-safe native dataset (see `paths`).
 
     with Recorder("datasets/pick", env=env, episodes=10) as rec:
         while not rec.done:
@@ -22,7 +22,7 @@ from typing import Any
 
 from ..errors import RioError
 from . import index as I
-from . import layout as L
+from . import paths as L
 from .encoder import EncoderProcess
 from .episode_writer import EpisodeWriter
 from .video import VideoOptions
@@ -79,8 +79,8 @@ class Recorder:
         robot = getattr(env, "robot", None)
         if robot is not None:
             self.info["embodiment"] = robot.name
-            layout = robot.action_layout()
-            self.info["action_layout"] = [[label, n] for label, n in layout]
+            layout = robot.action_parts()
+            self.info["action_parts"] = [[label, n] for label, n in layout]
             self.info["action_names"] = [f"{label}.{i}" if n > 1 else label for label, n in layout for i in range(n)]
             self.action_dim = sum(n for _, n in layout)
         elif getattr(env, "embodiment_cls", None) is not None:

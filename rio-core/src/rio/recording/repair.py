@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from . import index as I
-from . import layout as L
+from . import paths as L
 from .dataset import Episode
 from .durable import fsync_file
 from .episode_writer import FRAME_RECORD, estimate_rate, seal

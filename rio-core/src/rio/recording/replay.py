@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import time as rtime
+from .. import clock
 from ..errors import RioError
 from .dataset import Dataset
 
@@ -42,9 +42,9 @@ def check_compatible(meta: dict[str, Any], env: Any, action_dim: int) -> None:
     if action_dim != env.action_dim:
         raise RioError(f"the episode's actions have {action_dim} values; station '{env.station}' takes "
                        f"{env.action_dim}: {robot.describe_action()}")
-    layout = meta.get("action_layout")
-    if layout is not None and [list(x) for x in robot.action_layout()] != [list(x) for x in layout]:
-        raise RioError(f"action layout differs: recorded {layout}, station has {robot.action_layout()}")
+    layout = meta.get("action_parts")
+    if layout is not None and [list(x) for x in robot.action_parts()] != [list(x) for x in layout]:
+        raise RioError(f"action layout differs: recorded {layout}, station has {robot.action_parts()}")
 
 
 def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str | None = None, speed: float = 1.0,
@@ -77,16 +77,16 @@ def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str 
         env.reset()
         if approach_s > 0:
             say(f"moving to the episode's first action over {approach_s:g} s ...")
-            t_arrive = rtime.now() + approach_s
+            t_arrive = clock.now() + approach_s
             env.step(actions[0], t_cmd_target=t_arrive)
-            rtime.precise_wait(t_arrive + 0.1)
+            clock.precise_wait(t_arrive + 0.1)
         say(f"replaying episode {episode}: {len(actions)} actions over {summary.recorded_seconds / speed:.1f} s")
         rel = (t - t[0]) / speed
         period = 1.0 / (ep.fps * speed)
-        t0 = rtime.now()
+        t0 = clock.now()
         for i, a in enumerate(actions):
-            rtime.precise_wait(t0 + rel[i])
-            late = rtime.now() - (t0 + rel[i])
+            clock.precise_wait(t0 + rel[i])
+            late = clock.now() - (t0 + rel[i])
             if late > period / 2:
                 summary.late_ticks += 1
             summary.max_late_ms = max(summary.max_late_ms, late * 1000)
@@ -95,8 +95,8 @@ def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str 
             summary.steps += 1
             if on_step is not None:
                 on_step(i, step)
-        summary.seconds = rtime.now() - t0
-        rtime.precise_wait(rtime.now() + max(3 * period, 0.1))
+        summary.seconds = clock.now() - t0
+        clock.precise_wait(clock.now() + max(3 * period, 0.1))
         final = env.get_state().observation.proprio
         if final.shape == actions[-1].shape:
             summary.final_error = float(np.max(np.abs(final - actions[-1])))

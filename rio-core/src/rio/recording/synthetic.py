@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import time as rtime
+from .. import clock
 from ..schema import Camera, SingleArmObs, Step
 
 
@@ -57,24 +57,24 @@ def synthetic_step(i: int, t: float, cameras: dict[str, tuple[np.ndarray, float]
                        gripper_position=grip, cameras=cams)
     action = np.concatenate([q + 0.01, [grip]])
     return Step(i, obs, instruction, action, {"t_obs": t, "timestamps": {"arm": t, "gripper": t},
-                                              "station": "synthetic", "t_recv_wall": rtime.now()})
+                                              "station": "synthetic", "t_recv_wall": clock.now()})
 
 
 def record_synthetic(root: str, episodes: int = 2, steps: int = 30, fps: float = 30.0, size: tuple[int, int] = (48, 64),
                      cameras: tuple[str, ...] = ("front", "wrist"), depth: bool = True, realtime: bool = False,
                      **recorder_kw) -> list[dict]:
     """Record a small synthetic dataset (tests, examples); returns the kept episodes' metadata.
-    Times are `rio.time.now()`-based; with `realtime=False` steps are simulated at `fps` without waiting."""
+    Times are `rio.clock.now()`-based; with `realtime=False` steps are simulated at `fps` without waiting."""
     from .recorder import Recorder
 
     cams = {name: SyntheticCamera(*size, seed=k, noise=1.0, depth=depth and k == 0) for k, name in enumerate(cameras)}
     metas = []
     with Recorder(root, fps=fps, **recorder_kw) as rec:
         for _e in range(episodes):
-            t0 = rtime.now()
-            rate = rtime.Rate(fps) if realtime else None
+            t0 = clock.now()
+            rate = clock.Rate(fps) if realtime else None
             for i in range(steps):
-                t = rtime.now() if realtime else t0 + i / fps
+                t = clock.now() if realtime else t0 + i / fps
                 step = synthetic_step(i, t, {n: (c.frame(t), t) for n, c in cams.items()})
                 for n, c in cams.items():
                     if c.has_depth:

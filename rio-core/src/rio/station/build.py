@@ -93,7 +93,7 @@ def make_station(station: str | os.PathLike | Station, *, middleware: str | None
                  middleware_options: dict[str, Any] | None = None, registry: Registry | None = None):
     """Build a station (path, registered name or `Station`) into `(servers, clients, env)`.
 
-    - servers: {role: ServerSpec}, to pass to `ServerManager(servers)`;
+    - servers: {role: ServedNode}, to pass to `ServerManager(servers)`;
     - clients: {role: ClientFactory}, each call connects a NodeClient (use as a context manager);
     - env: an `Env` over the inferred embodiment and every camera (`with env: ...`), or None when the
       roles make no embodiment (a teleop- or camera-only station).

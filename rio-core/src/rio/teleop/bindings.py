@@ -47,7 +47,7 @@ class ArmBinding:
         self.target = np.asarray(s["eef_pose"], dtype=np.float64).copy()
         if not np.isfinite(self.target).all():
             raise RioError(f"arm '{self.role}' publishes no end-effector pose (NaN): end-effector teleop needs "
-                           "forward kinematics from the driver")
+                           "a driver that measures it or offers robot_description() (docs/drivers.md)")
         self.start_pose = self.target.copy()
         self.q_target = np.asarray(s["joint_pos"], dtype=np.float64).copy()
         if self.gripper is not None:
@@ -68,11 +68,10 @@ class ArmBinding:
 def _ik_for(role: str, client: Any) -> Any:
     from ..kinematics import solver_from_description
 
-    try:
-        desc = client.robot_description()
-    except AttributeError:
+    desc = client.robot_description()
+    if not desc:
         raise RioError(f"arm '{role}' takes joint targets and its driver offers no robot_description() for IK; "
-                       "if it has Cartesian control, set [embodiment] action_space = \"eef_pose\"") from None
+                       "if it has Cartesian control, set [embodiment] action_space = \"eef_pose\"")
     dof = len(desc.get("joints") or [])
     # fewer than 6 joints cannot follow every orientation: keep position first
     return solver_from_description(desc, orientation_cost=1.0 if dof >= 6 else 0.1, damping=1e-4)
@@ -80,7 +79,7 @@ def _ik_for(role: str, client: Any) -> Any:
 
 def bind_arms(robot: Any) -> list[ArmBinding]:
     """ArmBindings for an embodiment (`env.robot`), or a RioError saying why it cannot be teleoperated."""
-    layout = robot.action_layout()
+    layout = robot.action_parts()
     arm_parts = [(label, label[: -len(s)], s) for label, _ in layout for s in _SPACES if label.endswith(s)]
     roles = [r for r in ARM_ROLES if r in robot.clients]
     if not arm_parts or len(arm_parts) != len(roles):

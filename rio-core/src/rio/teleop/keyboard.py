@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from .. import time as rtime
+from .. import clock
 from ..control.teleop import BUTTON_DONE, BUTTON_MODE
 from ..interfaces import TeleopNode
 from ..interfaces.teleop import TeleopConfig
@@ -108,7 +108,7 @@ class KeyboardTeleop(TeleopNode):
             self._fd = None
 
     def read_state(self) -> dict[str, Any]:
-        t = rtime.now()
+        t = clock.now()
         try:
             data = os.read(self._fd, 64)
         except BlockingIOError:

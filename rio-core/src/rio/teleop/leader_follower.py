@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import time as rtime
+from .. import clock
 from ..errors import RioError
 
 PAIRS = (("teleop", "arm", "gripper"), ("teleop2", "arm2", "gripper2"))
@@ -86,7 +86,7 @@ def find_pairs(station: Any) -> list[tuple[str, str, str | None]]:
 
 
 def _labels(robot: Any, arm_roles: list[str]) -> dict[str, tuple[str, str | None]]:
-    layout = dict(robot.action_layout())
+    layout = dict(robot.action_parts())
     joint_parts = [label for label in layout if label.endswith("joint_pos")]
     if len(joint_parts) != len([r for r in ("arm", "arm2") if r in robot.clients]):
         raise RioError(f"leader-follower needs joint-position actions; embodiment '{robot.name}' takes "
@@ -150,7 +150,7 @@ def run(station: Any, *, duration: float | None = None, rate_hz: float | None = 
             pairs.append(p)
         say(f"aligning {len(pairs)} follower(s) to their leader(s) at {align_speed:g} rad/s, then mirroring "
             + (f"for {duration:g} s" if duration else "until Ctrl+C"))
-        t_start = rtime.now()
+        t_start = clock.now()
         env.set_start_time(t_start)
         it = 0
         summary.reason = "duration reached"
@@ -158,7 +158,7 @@ def run(station: Any, *, duration: float | None = None, rate_hz: float | None = 
             while True:
                 t_cycle_end = t_start + (it + 1) * dt
                 t_sample = t_cycle_end - dt / 2
-                rtime.precise_wait(t_sample)
+                clock.precise_wait(t_sample)
                 leaders = {p.leader_role: p.leader.get_state() for p in pairs}
                 parts: dict[str, Any] = {}
                 for p in pairs:
@@ -182,21 +182,21 @@ def run(station: Any, *, duration: float | None = None, rate_hz: float | None = 
                     on_step(LeaderFollowerTick(t_sample, it, step, pairs, leaders, env))
                 it += 1
                 summary.ticks += 1
-                late = rtime.now() - t_cycle_end
+                late = clock.now() - t_cycle_end
                 if late > 0:
                     summary.late_ticks += 1
                     if late > dt:  # fell a whole cycle behind: re-anchor instead of bursting
-                        it = int((rtime.now() - t_start) / dt)
-                rtime.precise_wait(t_cycle_end)
-                if duration is not None and rtime.now() - t_start >= duration:
+                        it = int((clock.now() - t_start) / dt)
+                clock.precise_wait(t_cycle_end)
+                if duration is not None and clock.now() - t_start >= duration:
                     break
                 if should_stop is not None and should_stop():
                     summary.reason = "stopped"
                     break
         except KeyboardInterrupt:
             summary.reason = "interrupted (Ctrl+C)"
-        summary.seconds = rtime.now() - t_start
-        rtime.precise_wait(rtime.now() + 3 * dt)  # let the last commands land before measuring
+        summary.seconds = clock.now() - t_start
+        clock.precise_wait(clock.now() + 3 * dt)  # let the last commands land before measuring
         for p in pairs:
             q_f = np.asarray(robot.clients[p.arm_role].get_state()["joint_pos"])
             q_l = np.asarray(p.leader.get_state()["joint_pos"])

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import time as rtime
+from .. import clock
 from ..control.filters import LowPassFilter
 from ..control.teleop import BUTTON_DONE, BUTTON_MODE, ButtonEdges, ModeSwitch, TeleopMode, make_teleop_eef_cmd
 from ..errors import RioError
@@ -188,7 +188,7 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
         say(f"teleop running: {summary.device}, mode {switch.mode.name.lower()}, {freq:g} Hz"
             + (f", up to {limit:.0f} s" if limit else ", until the device finishes or Ctrl+C"))
 
-        t_start = rtime.now()
+        t_start = clock.now()
         env.set_start_time(t_start)
         it, t_prev = 0, t_start
         summary.reason = "duration reached"
@@ -196,7 +196,7 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
             while True:
                 t_cycle_end = t_start + (it + 1) * dt
                 t_sample = t_cycle_end - dt / 2
-                rtime.precise_wait(t_sample)
+                clock.precise_wait(t_sample)
                 h = max(t_sample - t_prev, 0.0)
                 t_prev = t_sample
                 polled = {r: poll(h) for r, poll in polls.items()}
@@ -226,22 +226,22 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
                 if visual is not None:
                     visual.log(t_sample - t_start, it, step, arms)
                 it += 1
-                late = rtime.now() - t_cycle_end
+                late = clock.now() - t_cycle_end
                 if late > 0:
                     summary.late_ticks += 1
                     summary.max_late_ms = max(summary.max_late_ms, late * 1000)
                     if late > dt:  # fell behind by a whole cycle: re-anchor instead of bursting
-                        it = int((rtime.now() - t_start) / dt)
-                rtime.precise_wait(t_cycle_end)
+                        it = int((clock.now() - t_start) / dt)
+                clock.precise_wait(t_cycle_end)
                 summary.ticks += 1
                 if done:
                     summary.reason = "the device finished"
                     break
-                if limit is not None and rtime.now() - t_start >= limit:
+                if limit is not None and clock.now() - t_start >= limit:
                     break
         except KeyboardInterrupt:
             summary.reason = "interrupted (Ctrl+C)"
-        summary.seconds = rtime.now() - t_start
+        summary.seconds = clock.now() - t_start
         _settle(arms, dt)
         for b in arms:
             s = b.client.get_state()
@@ -256,7 +256,7 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
 
 def _settle(arms: list[ArmBinding], dt: float) -> None:
     """Let the arms arrive at their last targets (their commands end a cycle ahead) before reporting."""
-    rtime.precise_wait(rtime.now() + 3 * dt)
+    clock.precise_wait(clock.now() + 3 * dt)
 
 
 class _ObjectWatch:

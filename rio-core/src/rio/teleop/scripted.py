@@ -26,7 +26,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from .. import time as rtime
+from .. import clock
 from ..control.teleop import BUTTON_DONE
 from ..interfaces import TeleopNode
 from ..interfaces.teleop import TeleopConfig
@@ -116,7 +116,7 @@ class ScriptedTeleop(TeleopNode):
     @remote
     def reset(self) -> float:
         """(Re)start the script now; returns its length in seconds."""
-        self.t_start = rtime.now()
+        self.t_start = clock.now()
         return float(self.ends[-1])
 
     @remote
@@ -127,7 +127,7 @@ class ScriptedTeleop(TeleopNode):
         twist, buttons = np.zeros(6), np.zeros(2, bool)
         if self.t_start is None:
             return {"twist": twist, "gripper": 1.0, "buttons": buttons, "phase": -1, "offset": np.zeros(3)}
-        t = rtime.now() - self.t_start
+        t = clock.now() - self.t_start
         i = int(np.searchsorted(self.ends, t, side="right"))
         if i >= len(self.moves):
             buttons[BUTTON_DONE] = True

@@ -27,7 +27,7 @@ class So100Follower(ServoDriver, ArmNode):
         max_torque: float = Field(1.0, gt=0, le=1.0, description="output torque limit, fraction of the maximum")
         rate_hz: float = Field(100.0, gt=0, le=500, description="bus cycles per second (one sync read + one write)")
 
-    role = "follower"
+    device = "follower"
 
     def default_joint_names(self) -> list[str]:
         return list(ARM_JOINTS)

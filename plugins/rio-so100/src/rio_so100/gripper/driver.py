@@ -26,7 +26,7 @@ class So100Gripper(ServoDriver, GripperNode):
         max_torque: float = Field(0.5, gt=0, le=1.0, description="torque limit: a firm grasp stays under the "
                                                                "overload threshold instead of tripping it")
 
-    role = "follower"
+    device = "follower"
 
     def setup(self) -> None:
         super().setup()

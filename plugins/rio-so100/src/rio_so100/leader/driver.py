@@ -31,7 +31,7 @@ class So100Leader(ServoDriver, TeleopNode):
         virtual_motion: Literal["none", "wave"] = Field("none", description='with port = "virtual": a scripted '
                                                                            'hand moving the arm ("wave")')
 
-    role = "leader"
+    device = "leader"
     leader_arm = True  # `rio teleop` mirrors it joint by joint
 
     def setup(self) -> None:

@@ -1,4 +1,4 @@
-"""The native RIO dataset layout: names and paths in one place, so the writer, the reader and
+"""Where everything of a native RIO dataset lives: names and paths in one place, so the writer, the reader and
 `rio datasets repair` can never disagree about where something lives.
 
     DATASET/
