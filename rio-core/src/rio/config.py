@@ -20,7 +20,7 @@ as a spec carrying preset field values (`Spec(..., preset={"model": "so101"})`),
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, ClassVar
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 
@@ -48,7 +48,7 @@ class Configurable:
     then calls `setup()`, where a component derives what it needs from its config (cheaply: clients and
     tools build components too). Components override `setup()`, never `__init__`."""
 
-    Config: ClassVar[type[Config]] = Config
+    Config = Config
     config: Any
 
     def __init__(self, config: Any = None, /, **fields: Any):

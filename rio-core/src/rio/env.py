@@ -98,10 +98,10 @@ class Env:
     @staticmethod
     def _camera(name: str, client: Any) -> Camera:
         s = client.get_state()
-        depth = None
+        depth: np.ndarray | None = None
         if "depth" in s:
             depth = s["depth"].astype(np.float32) * np.float32(s["depth_scale"])
-        meta = {"timestamp": float(s["timestamp"])}
+        meta: dict[str, Any] = {"timestamp": float(s["timestamp"])}
         if "intrinsics" in s:
             meta["intrinsics"] = np.asarray(s["intrinsics"])
         return Camera(rgb=s["rgb"], depth=depth, meta=meta)

@@ -41,6 +41,7 @@ class Layout:
         if add_timestamp and TIMESTAMP not in example:
             fields.append((TIMESTAMP, np.dtype(np.float64), ()))
         self.dtype = np.dtype(fields, align=True)
+        assert self.dtype.names is not None  # a structured dtype always has field names
         self.names: tuple[str, ...] = self.dtype.names
         self.itemsize = self.dtype.itemsize
         self.fingerprint = zlib.crc32(repr(self.dtype.descr).encode())

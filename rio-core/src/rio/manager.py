@@ -20,7 +20,7 @@ import tempfile
 import threading
 import uuid
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar, cast
 
 from pydantic import ValidationError
 
@@ -33,6 +33,8 @@ from .node import Node
 from .runtime import Dispatcher, NodeRunner
 
 log = logging.getLogger("rio.manager")
+
+N = TypeVar("N", bound=Node)
 
 # Addresses of nodes served from this process: (middleware, station, node) -> address dict.
 _ADDRESSES: dict[tuple[str, str, str], dict[str, Any]] = {}
@@ -73,17 +75,26 @@ def serve(cls: type[Node], mw: str | Middleware | None = None, *, name: str | No
     return ServedNode(cls, node.name, config, mw)
 
 
-def connect(cls: type[Node], mw: str | Middleware, *, name: str | None = None, station: str = "rio",
-            address: dict[str, Any] | None = None, **config: Any) -> NodeClient:
-    """Client proxy for a running node. The address is found automatically for nodes served by a
-    ServerManager in this process; pass `address` for a server elsewhere."""
+def connect(cls: type[N], mw: str | Middleware, *, name: str | None = None, station: str = "rio",
+            address: dict[str, Any] | None = None, **config: Any) -> N:
+    """Client for a running node of class `cls`. The address is found automatically for nodes served by
+    a ServerManager in this process; pass `address` for a server elsewhere.
+
+    The object returned is a `NodeClient` proxy, typed as `cls` so that type checkers and editors know
+    the node's methods and their signatures (`arm.move_joints(q)`). It exposes only the node's API
+    (`cls.__api__`: the methods marked `@remote` or `@client_side`, inherited ones included), so any
+    other attribute of the class, even one a type checker accepts, raises AttributeError at run time.
+    It is a context manager (`with connect(Arm, "shm") as arm:`) and has `close()`, `check_alive()`
+    and `name`.
+    """
     node = _build_node(cls, name, config)
     mwo = _middleware(mw, station)
     addr = address or _ADDRESSES.get((mwo.name, mwo.station, node.name))
     if addr is None:
         raise NodeDiedError(node.name, f"no '{mwo.name}' server for it is running in station '{mwo.station}' "
                                        "(start it with ServerManager, or pass address=)")
-    return NodeClient(node, mwo.make_client(node, NodeLayouts.of(node), addr))
+    # the proxy stands in for the node: typed as its class (see the docstring), not as NodeClient
+    return cast(N, NodeClient(node, mwo.make_client(node, NodeLayouts.of(node), addr)))
 
 
 # -- child process ----------------------------------------------------------------------------------
@@ -291,16 +302,23 @@ class ServerManager:
             if pending:
                 clock.precise_wait(clock.now() + 0.002)
         for h in self.handles:
+            assert h.address is not None  # every handle is ready
             _ADDRESSES[(h.mw.name, h.mw.station, h.name)] = h.address
 
     def address(self, name: str) -> dict[str, Any]:
         for h in self.handles:
             if h.name == name:
+                assert h.address is not None  # handles are kept only once all are ready
                 return h.address
         raise KeyError(name)
 
     def pids(self) -> dict[str, int]:
-        return {h.name: h.proc.pid for h in self.handles if isinstance(h, _ProcessHandle)}
+        pids = {}
+        for h in self.handles:
+            if isinstance(h, _ProcessHandle):
+                assert h.proc.pid is not None  # started in _ProcessHandle.__init__
+                pids[h.name] = h.proc.pid
+        return pids
 
     def _stop_all(self) -> None:
         for h in self.handles:

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Mapping
-from typing import Any, ClassVar, Literal, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypeVar
 
 from pydantic import Field
 
@@ -32,6 +32,7 @@ from .layout import Layout
 
 LoopShape = Literal["pub", "req", "pubreq"]
 F = TypeVar("F", bound=Callable[..., Any])
+_N = TypeVar("_N", bound="Node")
 
 _MARK = "__rio_api__"
 
@@ -62,14 +63,11 @@ def is_client_side(cls: type, method: str) -> bool:
     return api_kind(cls, method) == "client"
 
 
-class NodeConfig(Config):
-    """Fields every node accepts."""
-
-    rate_hz: float = Field(100.0, gt=0, description="loop rate (Hz): state published / commands applied")
-
-
 class Node(Configurable):
-    Config: ClassVar[type[NodeConfig]] = NodeConfig
+    class Config(Config):
+        """Fields every node accepts."""
+
+        rate_hz: float = Field(100.0, gt=0, description="loop rate (Hz): state published / commands applied")
     #: The marked methods, derived for each class (never written by hand).
     __api__: ClassVar[tuple[str, ...]] = ()
     #: Loop shape. None infers it: publishes and accepts requests -> "pubreq"; only one -> that one.
@@ -165,6 +163,16 @@ class Node(Configurable):
     @classmethod
     def remote_methods(cls) -> frozenset[str]:
         return frozenset(m for m in cls.__api__ if api_kind(cls, m) == "remote")
+
+    if TYPE_CHECKING:
+        # For type checkers only: `rio.connect(cls, ...)` returns a `NodeClient` proxy typed as `cls`,
+        # and these are what the proxy adds to the node's API (a Node itself has none of them).
+        def __enter__(self: _N) -> _N: ...
+        def __exit__(self, *exc: Any) -> None: ...
+        def check_alive(self) -> None: ...
+
+
+NodeConfig = Node.Config
 
 
 Node.__api__ = ("get_state", "send_request")

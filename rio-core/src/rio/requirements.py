@@ -92,5 +92,5 @@ class Status:
 def evaluate(req: Requirement) -> Status:
     """Look for the module, then run the check if there is one and the module is there."""
     present = None if req.module is None else module_present(req.module)
-    run = req.check is not None and present is not False
-    return Status(req, present, run, run_check(req.check) if run else None)
+    check = req.check if present is not False else None
+    return Status(req, present, check is not None, None if check is None else run_check(check))

@@ -20,7 +20,7 @@ _SEND_KINDS = frozenset("biufcSU")
 # Headers of recently seen (dtype, shape) pairs, both ways: robot traffic repeats a few layouts
 # forever, and building/parsing a header cost more than copying a 2 KB payload.
 _HEADS: dict[tuple, bytes] = {}
-_PARSED: dict[bytes, tuple[np.dtype, tuple[int, ...], bool]] = {}
+_PARSED: dict[bytes, tuple[np.dtype, tuple[int, ...], bool, int]] = {}
 _CACHE_MAX = 512
 
 

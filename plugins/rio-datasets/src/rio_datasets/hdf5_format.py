@@ -31,13 +31,6 @@ from .common import ExportError, check_same_layout, common_fps, image_streams, l
 from .native_writer import episode_steps, open_recorder
 
 
-class Hdf5Config(Config):
-    style: Literal["aloha", "robomimic"] = Field("aloha", description="ALOHA (a file per episode) or robomimic "
-                                                      "(data/demo_N in one file)")
-    depth: bool = Field(True, description="export depth streams")
-    compression: int = Field(4, ge=0, le=9, description="gzip level for images (0: none)")
-
-
 def _frames(ep: Any, cam: str, kind: str) -> np.ndarray:
     return np.stack(list(ep.step_frames(cam, kind)))
 
@@ -46,7 +39,11 @@ class Hdf5Format(DatasetFormat):
     name = "hdf5"
     can_import = True
 
-    Config = Hdf5Config
+    class Config(Config):
+        style: Literal["aloha", "robomimic"] = Field("aloha", description="ALOHA (a file per episode) or robomimic "
+                                                          "(data/demo_N in one file)")
+        depth: bool = Field(True, description="export depth streams")
+        compression: int = Field(4, ge=0, le=9, description="gzip level for images (0: none)")
 
     def _image(self, group: Any, name: str, x: np.ndarray) -> None:
         kw = {"compression": "gzip", "compression_opts": self.config.compression} if self.config.compression else {}
@@ -167,3 +164,6 @@ class Hdf5Format(DatasetFormat):
             for h, _ in handles:
                 h.close()
         return {"episodes": len(episodes), "steps": total, "path": str(out)}
+
+
+Hdf5Config = Hdf5Format.Config

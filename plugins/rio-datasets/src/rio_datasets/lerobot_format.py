@@ -28,18 +28,6 @@ from .native_writer import episode_steps, open_recorder
 EEF_NAMES = ["x", "y", "z", "qw", "qx", "qy", "qz"]
 
 
-class LeRobotConfig(Config):
-    codec: Literal["av1", "h264"] = Field("av1", description="video codec of the exported mp4 files")
-    crf: int = Field(30, ge=0, le=63)
-    gop: int = Field(2, ge=1, description="keyframe interval in frames (lerobot uses 2: fast random access)")
-    preset: str | None = Field(None, description="encoder preset (default: 10 for av1, veryfast for h264)")
-    robot_type: str | None = None
-    extra_observations: bool = Field(True, description="also export observation.<field> beside observation.state")
-    data_files_size_in_mb: int = Field(100, gt=0)
-    video_files_size_in_mb: int = Field(200, gt=0)
-    chunks_size: int = Field(1000, gt=0)
-
-
 class _VideoFile:
     """One mp4 that episodes of one camera are appended to (pts = frame number at the dataset rate)."""
 
@@ -108,7 +96,16 @@ class LeRobotFormat(DatasetFormat):
     name = "lerobot"
     can_import = True
 
-    Config = LeRobotConfig
+    class Config(Config):
+        codec: Literal["av1", "h264"] = Field("av1", description="video codec of the exported mp4 files")
+        crf: int = Field(30, ge=0, le=63)
+        gop: int = Field(2, ge=1, description="keyframe interval in frames (lerobot uses 2: fast random access)")
+        preset: str | None = Field(None, description="encoder preset (default: 10 for av1, veryfast for h264)")
+        robot_type: str | None = None
+        extra_observations: bool = Field(True, description="also export observation.<field> beside observation.state")
+        data_files_size_in_mb: int = Field(100, gt=0)
+        video_files_size_in_mb: int = Field(200, gt=0)
+        chunks_size: int = Field(1000, gt=0)
 
     # -- export -------------------------------------------------------------------------------------
     def _features(self, ep: Any) -> tuple[dict, dict[str, str]]:
@@ -302,6 +299,9 @@ class LeRobotFormat(DatasetFormat):
                 if progress:
                     progress(done, total, f"episode {e_i}")
         return {"episodes": len(rows), "frames": total, "path": str(out)}
+
+
+LeRobotConfig = LeRobotFormat.Config
 
 
 def _segment(path: Path, from_ts: float, n: int, fps: float):

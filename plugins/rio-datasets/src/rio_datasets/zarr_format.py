@@ -28,11 +28,6 @@ from .common import ExportError, check_same_layout, common_fps, image_streams, l
 from .native_writer import episode_steps, open_recorder
 
 
-class ZarrConfig(Config):
-    depth: bool = Field(True, description="export depth streams")
-    compression_level: int = Field(5, ge=0, le=9, description="Blosc zstd level")
-
-
 def _zarr():
     try:
         import zarr
@@ -49,7 +44,9 @@ class ZarrFormat(DatasetFormat):
     name = "zarr"
     can_import = True
 
-    Config = ZarrConfig
+    class Config(Config):
+        depth: bool = Field(True, description="export depth streams")
+        compression_level: int = Field(5, ge=0, le=9, description="Blosc zstd level")
 
     def export(self, dataset: Dataset, out: Path, *, episodes: list[int] | None = None,
                progress: Progress | None = None) -> dict[str, Any]:
@@ -136,6 +133,9 @@ class ZarrFormat(DatasetFormat):
                 if progress:
                     progress(end, total, f"episode {k}")
         return {"episodes": len(ends), "steps": total, "path": str(out)}
+
+
+ZarrConfig = ZarrFormat.Config
 
 
 def _rows(array: Any, start: int, end: int, batch: int = 64):

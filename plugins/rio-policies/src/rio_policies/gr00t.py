@@ -26,26 +26,23 @@ from .inputs import camera_image, default_images, state_value
 LANGUAGE_KEY = "annotation.human.task_description"
 
 
-class Gr00tConfig(PolicyConfig):
-    host: str = "127.0.0.1"
-    port: int = 5555
-    api_token: str | None = None
-    timeout_ms: int = Field(15000, ge=1, description="a reply slower than this is an error")
-    protocol: Literal["n1.5", "n1.6"] = "n1.5"
-    video: dict[str, str] | None = Field(None, description="GR00T video key -> camera (default: camera names)")
-    image_size: list[int] | None = Field(None, min_length=2, max_length=2)
-    state: dict[str, str] = Field(default_factory=lambda: {"state": "proprio"},
-                                  description="GR00T state key -> observation field or 'proprio[a:b]'")
-    action_keys: list[str] | None = Field(None, description="action keys concatenated into the station's "
-                                                            "action (default: every key, sorted)")
-    language_key: str = LANGUAGE_KEY
-    rate_hz: float = Field(30.0, gt=0)
-    chunk: int = Field(16, ge=1)
-
-
 class Gr00tPolicy(Policy):
     name = "gr00t.remote"
-    Config = Gr00tConfig
+    class Config(PolicyConfig):
+        host: str = "127.0.0.1"
+        port: int = 5555
+        api_token: str | None = None
+        timeout_ms: int = Field(15000, ge=1, description="a reply slower than this is an error")
+        protocol: Literal["n1.5", "n1.6"] = "n1.5"
+        video: dict[str, str] | None = Field(None, description="GR00T video key -> camera (default: camera names)")
+        image_size: list[int] | None = Field(None, min_length=2, max_length=2)
+        state: dict[str, str] = Field(default_factory=lambda: {"state": "proprio"},
+                                      description="GR00T state key -> observation field or 'proprio[a:b]'")
+        action_keys: list[str] | None = Field(None, description="action keys concatenated into the station's "
+                                                                "action (default: every key, sorted)")
+        language_key: str = LANGUAGE_KEY
+        rate_hz: float = Field(30.0, gt=0)
+        chunk: int = Field(16, ge=1)
 
     def setup(self) -> None:
         self.ctx = self.sock = None
@@ -129,6 +126,9 @@ class Gr00tPolicy(Policy):
             self.sock.close(linger=0)
             self.ctx.term()
             self.sock = self.ctx = None
+
+
+Gr00tConfig = Gr00tPolicy.Config
 
 
 class Gr00tNode(PolicyNode):

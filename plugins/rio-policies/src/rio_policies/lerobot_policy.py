@@ -20,17 +20,14 @@ from rio.schema import Observation
 from .inputs import camera_image, default_images, state_value
 
 
-class LeRobotConfig(PolicyConfig):
-    path: str = Field(description="directory with config.json and model.safetensors")
-    device: str = Field("cpu", description="torch device: cpu, cuda, cuda:1, mps")
-    state: str = Field("proprio", description="observation field (or 'proprio[a:b]') fed as observation.state")
-    images: dict[str, str] | None = Field(None, description="LeRobot image key -> camera (default: camera names)")
-    rate_hz: float = Field(30.0, gt=0, description="fps of the training data")
-
-
 class LeRobotPolicy(Policy):
     name = "lerobot.local"
-    Config = LeRobotConfig
+    class Config(PolicyConfig):
+        path: str = Field(description="directory with config.json and model.safetensors")
+        device: str = Field("cpu", description="torch device: cpu, cuda, cuda:1, mps")
+        state: str = Field("proprio", description="observation field (or 'proprio[a:b]') fed as observation.state")
+        images: dict[str, str] | None = Field(None, description="LeRobot image key -> camera (default: camera names)")
+        rate_hz: float = Field(30.0, gt=0, description="fps of the training data")
 
     def setup(self) -> None:
         self.model: Any = None
@@ -101,6 +98,9 @@ class LeRobotPolicy(Policy):
             batch = {**batch, "observation.images": torch.stack([batch[k] for k in features], dim=-4)}
         self.model._queues = populate_queues(queues, batch)
         return batch
+
+
+LeRobotConfig = LeRobotPolicy.Config
 
 
 class LeRobotNode(PolicyNode):

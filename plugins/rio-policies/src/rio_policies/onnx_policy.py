@@ -20,22 +20,19 @@ from rio.schema import Observation
 from .inputs import state_value
 
 
-class OnnxConfig(PolicyConfig):
-    path: str = Field(description="the .onnx file")
-    obs_fields: list[str] = Field(default_factory=lambda: ["proprio"])
-    last_action: bool = Field(False, description="append the previous action to the model's input")
-    input: str | None = Field(None, description="input name (default: the model's first)")
-    output: str | None = Field(None, description="output name (default: the model's first)")
-    scale: float | list[float] = 1.0
-    offset: float | list[float] = 0.0
-    relative: bool = False
-    rate_hz: float = Field(50.0, gt=0, description="control rate the model was trained at")
-    threads: int = Field(1, ge=1, description="onnxruntime intra-op threads")
-
-
 class OnnxPolicy(Policy):
     name = "onnx.local"
-    Config = OnnxConfig
+    class Config(PolicyConfig):
+        path: str = Field(description="the .onnx file")
+        obs_fields: list[str] = Field(default_factory=lambda: ["proprio"])
+        last_action: bool = Field(False, description="append the previous action to the model's input")
+        input: str | None = Field(None, description="input name (default: the model's first)")
+        output: str | None = Field(None, description="output name (default: the model's first)")
+        scale: float | list[float] = 1.0
+        offset: float | list[float] = 0.0
+        relative: bool = False
+        rate_hz: float = Field(50.0, gt=0, description="control rate the model was trained at")
+        threads: int = Field(1, ge=1, description="onnxruntime intra-op threads")
 
     def setup(self) -> None:
         self.session: Any = None
@@ -76,6 +73,9 @@ class OnnxPolicy(Policy):
             a = a + self.current
         self.prev = a[0].copy()
         return a
+
+
+OnnxConfig = OnnxPolicy.Config
 
 
 class OnnxNode(PolicyNode):

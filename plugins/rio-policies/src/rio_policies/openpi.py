@@ -23,26 +23,23 @@ from . import openpi_wire
 from .inputs import camera_image, default_images, state_value
 
 
-class OpenPIConfig(PolicyConfig):
-    host: str = Field("127.0.0.1", description="policy server host, or a ws:// URI")
-    port: int | None = Field(8000, description="policy server port (None when host is a full URI)")
-    api_key: str | None = Field(None, description="sent as 'Authorization: Api-Key ...' when set")
-    images: dict[str, str] | None = Field(None, description="openpi image key -> camera name "
-                                                            "(default: observation/<camera>_image)")
-    image_size: list[int] | None = Field(None, min_length=2, max_length=2,
-                                         description="[H, W]: resize with padding before sending")
-    state: dict[str, str] = Field(default_factory=lambda: {"observation/state": "proprio"},
-                                  description="openpi state key -> observation field or 'proprio[a:b]'")
-    prompt_key: str = "prompt"
-    actions_key: str = "actions"
-    rate_hz: float = Field(50.0, gt=0, description="actions per second of the model's chunks")
-    chunk: int = Field(50, ge=1, description="expected chunk length (informational; replies decide)")
-    connect_timeout_s: float = Field(30.0, gt=0)
-
-
 class OpenPIPolicy(Policy):
     name = "openpi.remote"
-    Config = OpenPIConfig
+    class Config(PolicyConfig):
+        host: str = Field("127.0.0.1", description="policy server host, or a ws:// URI")
+        port: int | None = Field(8000, description="policy server port (None when host is a full URI)")
+        api_key: str | None = Field(None, description="sent as 'Authorization: Api-Key ...' when set")
+        images: dict[str, str] | None = Field(None, description="openpi image key -> camera name "
+                                                                "(default: observation/<camera>_image)")
+        image_size: list[int] | None = Field(None, min_length=2, max_length=2,
+                                             description="[H, W]: resize with padding before sending")
+        state: dict[str, str] = Field(default_factory=lambda: {"observation/state": "proprio"},
+                                      description="openpi state key -> observation field or 'proprio[a:b]'")
+        prompt_key: str = "prompt"
+        actions_key: str = "actions"
+        rate_hz: float = Field(50.0, gt=0, description="actions per second of the model's chunks")
+        chunk: int = Field(50, ge=1, description="expected chunk length (informational; replies decide)")
+        connect_timeout_s: float = Field(30.0, gt=0)
 
     def setup(self) -> None:
         self.ws: Any = None
@@ -96,6 +93,9 @@ class OpenPIPolicy(Policy):
         if self.ws is not None:
             self._conn.__exit__(None, None, None)
             self.ws = None
+
+
+OpenPIConfig = OpenPIPolicy.Config
 
 
 class OpenPINode(PolicyNode):

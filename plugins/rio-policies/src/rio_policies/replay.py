@@ -19,16 +19,13 @@ from rio.schema import Observation
 from .episode import read_actions
 
 
-class ReplayConfig(PolicyConfig):
-    episode: str = Field(description="an episode directory, a dataset directory (with index), or an .npz")
-    index: int = Field(0, ge=0, description="episode index within a dataset directory")
-    rate_hz: float | None = Field(None, gt=0, description="action rate (default: from the recorded times)")
-    chunk: int = Field(50, ge=1, description="actions per chunk")
-
-
 class ReplayPolicy(Policy):
     name = "replay.episode"
-    Config = ReplayConfig
+    class Config(PolicyConfig):
+        episode: str = Field(description="an episode directory, a dataset directory (with index), or an .npz")
+        index: int = Field(0, ge=0, description="episode index within a dataset directory")
+        rate_hz: float | None = Field(None, gt=0, description="action rate (default: from the recorded times)")
+        chunk: int = Field(50, ge=1, description="actions per chunk")
 
     def setup(self) -> None:
         self.actions = np.zeros((0, 0))
@@ -67,6 +64,9 @@ class ReplayPolicy(Policy):
         meta = self._meta()
         s = t_obs - self.t0 + (np.arange(meta.horizon) + meta.offset) * meta.dt
         return np.stack([np.interp(s, self.targets, col) for col in self.actions.T], axis=1)
+
+
+ReplayConfig = ReplayPolicy.Config
 
 
 class ReplayNode(PolicyNode):

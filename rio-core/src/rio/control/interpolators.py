@@ -21,9 +21,7 @@ from .se3 import as_pose, pose_interp
 
 class LinearInterpolator:
     def __init__(self, value, t: float = 0.0):
-        self._x0 = np.array(value, dtype=np.float64)
-        self._x1 = self._x0.copy()
-        self._t0 = self._t1 = float(t)
+        self.reset(value, t)
 
     @property
     def goal(self) -> np.ndarray:
@@ -43,7 +41,10 @@ class LinearInterpolator:
         self._t0, self._t1 = float(t_now), max(float(t_target), float(t_now))
 
     def reset(self, value, t: float) -> None:
-        self.__init__(value, t)
+        """Hold `value` from time `t`."""
+        self._x0 = np.array(value, dtype=np.float64)
+        self._x1 = self._x0.copy()
+        self._t0 = self._t1 = float(t)
 
     def sample(self, t: float) -> np.ndarray:
         span = self._t1 - self._t0

@@ -12,12 +12,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..config import Config, Configurable
+from .. import config as _config
+from ..config import Configurable
 from ..schema import Observation
-
-
-class EmbodimentConfig(Config):
-    """Fields of the station's `[embodiment]` table."""
 
 
 class Embodiment(Configurable):
@@ -26,7 +23,8 @@ class Embodiment(Configurable):
     required_roles: ClassVar[frozenset[str]] = frozenset()
     #: Roles it uses when present.
     optional_roles: ClassVar[frozenset[str]] = frozenset()
-    Config: ClassVar[type[EmbodimentConfig]] = EmbodimentConfig
+    class Config(_config.Config):
+        """Fields of the station's `[embodiment]` table."""
 
     def __init__(self, clients: dict[str, Any], config: Any = None, /, **fields: Any):
         self.clients = dict(clients)
@@ -90,3 +88,6 @@ class Embodiment(Configurable):
         state = self.clients[role].get_state()
         self.timestamps[role] = float(state.get("timestamp", np.nan))
         return state
+
+
+EmbodimentConfig = Embodiment.Config

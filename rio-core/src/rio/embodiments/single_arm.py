@@ -16,16 +16,13 @@ from .arm_group import ArmGroup
 from .base import Embodiment, EmbodimentConfig
 
 
-class ArmEmbodimentConfig(EmbodimentConfig):
-    action_space: Literal["joint_pos", "eef_pose"] = Field("joint_pos", description="what an action commands "
-                                                                                  "for each arm")
-
-
 class SingleArm(Embodiment):
     name = "single_arm"
     required_roles = frozenset({"arm"})
     optional_roles = frozenset({"gripper", "hand"})
-    Config = ArmEmbodimentConfig
+    class Config(EmbodimentConfig):
+        action_space: Literal["joint_pos", "eef_pose"] = Field(default="joint_pos",
+                                                               description="what an action commands for each arm")
 
     def setup(self) -> None:
         self.group = ArmGroup(self, "arm", "gripper", "hand", self.config.action_space)
@@ -40,3 +37,6 @@ class SingleArm(Embodiment):
 
     def apply(self, parts: dict[str, np.ndarray], t_cmd_target: float) -> None:
         self.group.apply(parts, t_cmd_target)
+
+
+ArmEmbodimentConfig = SingleArm.Config

@@ -35,17 +35,14 @@ IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
 _NAN_POSE = np.full(7, np.nan)
 
 
-class ArmConfig(JointConfig):
-    workspace: tuple[tuple[float, float, float], tuple[float, float, float]] | None = Field(
-        None, description="[[x, y, z] lower, [x, y, z] upper] (m, base frame) for end-effector targets; "
-                          "unbounded if omitted")
-    max_step_m: float = Field(0.005, gt=0, description="largest end-effector travel per cycle (m), for "
-                                                       "drivers streaming poses")
-    max_step_eef_rad: float = Field(0.05, gt=0, description="largest end-effector rotation per cycle (rad)")
-
-
 class ArmNode(JointNode):
-    Config = ArmConfig
+    class Config(JointConfig):
+        workspace: tuple[tuple[float, float, float], tuple[float, float, float]] | None = Field(
+            None, description="[[x, y, z] lower, [x, y, z] upper] (m, base frame) for end-effector targets; "
+                              "unbounded if omitted")
+        max_step_m: float = Field(0.005, gt=0, description="largest end-effector travel per cycle (m), for "
+                                                           "drivers streaming poses")
+        max_step_eef_rad: float = Field(0.05, gt=0, description="largest end-effector rotation per cycle (rad)")
 
     # -- driver hooks (besides JointNode's) ---------------------------------------------------------
     def write_pose(self, eef_pose: np.ndarray) -> None:
@@ -168,3 +165,6 @@ class ArmNode(JointNode):
         """End-effector target `[x, y, z, qw, qx, qy, qz]` (m), to be reached at `t_cmd_target`."""
         self.send_request(mode=EEF, joint_pos=np.zeros(self.dof),
                           eef_pose=as_vector("eef_pose", eef_pose, 7), t_cmd_target=t_target(t_cmd_target))
+
+
+ArmConfig = ArmNode.Config

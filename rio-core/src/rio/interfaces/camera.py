@@ -12,15 +12,12 @@ from pydantic import Field
 from ..node import Node, NodeConfig
 
 
-class CameraConfig(NodeConfig):
-    rate_hz: float = Field(30.0, gt=0, description="frames per second")
-    width: int = Field(640, ge=1, le=8192, description="image width (pixels)")
-    height: int = Field(480, ge=1, le=8192, description="image height (pixels)")
-    depth: bool = Field(False, description="also publish metric depth")
-
-
 class CameraNode(Node):
-    Config = CameraConfig
+    class Config(NodeConfig):
+        rate_hz: float = Field(30.0, gt=0, description="frames per second")
+        width: int = Field(640, ge=1, le=8192, description="image width (pixels)")
+        height: int = Field(480, ge=1, le=8192, description="image height (pixels)")
+        depth: bool = Field(False, description="also publish metric depth")
 
     def setup(self) -> None:
         c = self.config
@@ -29,3 +26,6 @@ class CameraNode(Node):
         if self.has_depth:
             self.example_data["depth"] = np.zeros((self.height, self.width), np.uint16)
             self.example_data["depth_scale"] = 0.001
+
+
+CameraConfig = CameraNode.Config

@@ -25,19 +25,16 @@ from .joints import t_target
 log = logging.getLogger("rio.interfaces")
 
 
-class GripperConfig(NodeConfig):
-    rate_hz: float = Field(50.0, gt=0, description="loop rate (Hz)")
-    max_width: float = Field(0.08, gt=0, description="full opening (m)")
-    max_step_m: float = Field(0.01, gt=0, description="largest opening change per cycle (m)")
-    watchdog_s: float = Field(0.5, gt=0, description="hold when no command came for this long mid-move (s)")
-    force: float | None = Field(None, ge=0, description="grip force (N) where the hardware takes one; "
-                                                        "default: the hardware's")
-    enable_on_open: bool = Field(True, description="enable when the node starts")
-    disable_on_close: bool = Field(True, description="disable when the node stops (a held object may drop)")
-
-
 class GripperNode(Node):
-    Config = GripperConfig
+    class Config(NodeConfig):
+        rate_hz: float = Field(50.0, gt=0, description="loop rate (Hz)")
+        max_width: float = Field(0.08, gt=0, description="full opening (m)")
+        max_step_m: float = Field(0.01, gt=0, description="largest opening change per cycle (m)")
+        watchdog_s: float = Field(0.5, gt=0, description="hold when no command came for this long mid-move (s)")
+        force: float | None = Field(None, ge=0, description="grip force (N) where the hardware takes one; "
+                                                            "default: the hardware's")
+        enable_on_open: bool = Field(True, description="enable when the node starts")
+        disable_on_close: bool = Field(True, description="disable when the node stops (a held object may drop)")
 
     # -- driver hooks -------------------------------------------------------------------------------
     def read_width(self) -> Mapping[str, Any]:
@@ -116,3 +113,6 @@ class GripperNode(Node):
         """Opening target in meters (clipped to [0, max_width]); `force` in N where the hardware takes one."""
         self.send_request(position=float(position), t_cmd_target=t_target(t_cmd_target),
                           force=0.0 if force is None else float(force))
+
+
+GripperConfig = GripperNode.Config

@@ -16,17 +16,17 @@ class HandNode(JointNode):
     """A multi-fingered hand, commanded in joint space (rad)."""
 
 
-class HumanoidConfig(JointConfig):
-    rate_hz: float = Field(500.0, gt=0, description="loop rate (Hz)")
-    max_step_rad: float = Field(0.02, gt=0, description="largest joint goal change per cycle (rad)")
-
-
 class HumanoidNode(JointNode):
     """A humanoid's whole body in joint space, plus its base IMU."""
 
-    Config = HumanoidConfig
+    class Config(JointConfig):
+        rate_hz: float = Field(500.0, gt=0, description="loop rate (Hz)")
+        max_step_rad: float = Field(0.02, gt=0, description="largest joint goal change per cycle (rad)")
 
     def setup(self) -> None:
         super().setup()
         self.example_data = {**self.example_data, "base_quat": np.array([1.0, 0.0, 0.0, 0.0]),
                              "base_ang_vel": np.zeros(3)}
+
+
+HumanoidConfig = HumanoidNode.Config

@@ -45,23 +45,20 @@ def as_vector(name: str, value: Any, n: int) -> np.ndarray:
     return v
 
 
-class JointConfig(NodeConfig):
-    joint_names: list[str] | None = Field(None, min_length=1, description="joints this node drives, in command "
-                                                                          "order (default: the driver's)")
-    home: list[float] | None = Field(None, description="joint positions (rad) that home() moves to "
-                                                       "(default: the driver's, else zeros)")
-    joint_limits: list[tuple[float, float]] | None = Field(
-        None, description="[lower, upper] per joint (rad); narrows the hardware's own limits")
-    max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad)")
-    watchdog_s: float = Field(0.5, gt=0, description="hold when no command came for this long while a move "
-                                                     "is under way (s)")
-    enable_on_open: bool = Field(True, description="enable (torque on, holding the present pose) at start")
-    disable_on_close: bool = Field(True, description="disable (torque off) when the node stops; a robot "
-                                                     "without brakes sags")
-
-
 class JointNode(Node):
-    Config = JointConfig
+    class Config(NodeConfig):
+        joint_names: list[str] | None = Field(None, min_length=1, description="joints this node drives, in command "
+                                                                              "order (default: the driver's)")
+        home: list[float] | None = Field(None, description="joint positions (rad) that home() moves to "
+                                                           "(default: the driver's, else zeros)")
+        joint_limits: list[tuple[float, float]] | None = Field(
+            None, description="[lower, upper] per joint (rad); narrows the hardware's own limits")
+        max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad)")
+        watchdog_s: float = Field(0.5, gt=0, description="hold when no command came for this long while a move "
+                                                         "is under way (s)")
+        enable_on_open: bool = Field(True, description="enable (torque on, holding the present pose) at start")
+        disable_on_close: bool = Field(True, description="disable (torque off) when the node stops; a robot "
+                                                         "without brakes sags")
 
     # -- driver hooks -------------------------------------------------------------------------------
     def default_joint_names(self) -> list[str]:
@@ -200,3 +197,6 @@ class JointNode(Node):
     def move_joints(self, joint_pos: Any, t_cmd_target: float | None = None) -> None:
         """Joint target (rad), to be reached at `t_cmd_target`."""
         self.send_request(joint_pos=as_vector("joint_pos", joint_pos, self.dof), t_cmd_target=t_target(t_cmd_target))
+
+
+JointConfig = JointNode.Config

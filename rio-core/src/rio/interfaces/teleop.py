@@ -16,13 +16,13 @@ from pydantic import Field
 from ..node import Node, NodeConfig
 
 
-class TeleopConfig(NodeConfig):
-    buttons: int = Field(2, ge=0, le=64, description="number of buttons published")
-
-
 class TeleopNode(Node):
-    Config = TeleopConfig
+    class Config(NodeConfig):
+        buttons: int = Field(2, ge=0, le=64, description="number of buttons published")
     leader_arm: ClassVar[bool] = False
 
     def setup(self) -> None:
         self.example_data = {"twist": np.zeros(6), "gripper": 1.0, "buttons": np.zeros(self.config.buttons, bool)}
+
+
+TeleopConfig = TeleopNode.Config

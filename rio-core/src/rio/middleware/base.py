@@ -27,12 +27,6 @@ from ..layout import Layout
 from ..node import Node
 
 
-class MiddlewareConfig(Config):
-    """Fields every middleware accepts (the station file's `[middleware]` table); subclasses add their own."""
-
-    call_timeout: float = Field(10.0, gt=0, description="seconds a remote API call may take before NodeTimeout")
-
-
 @dataclass
 class NodeLayouts:
     name: str
@@ -53,6 +47,9 @@ class NodeLayouts:
 class ServerTransport(ABC):
     ring_buffer: Any = None
     request_queue: Any = None
+    #: For a node run as a thread of the manager's process (`process_per_node` False): set by the
+    #: manager when that thread has ended (with the error, if any).
+    ended: str | None = None
 
     @abstractmethod
     def start(self, dispatch: Any) -> dict[str, Any]:
@@ -82,7 +79,10 @@ class Middleware(Configurable, ABC):
     name: ClassVar[str]
     #: False: nodes run as threads of the calling process (the thread middleware).
     process_per_node: ClassVar[bool] = True
-    Config: ClassVar[type[MiddlewareConfig]] = MiddlewareConfig
+    class Config(Config):
+        """Fields every middleware accepts (the station file's `[middleware]` table); subclasses add their own."""
+
+        call_timeout: float = Field(10.0, gt=0, description="seconds a remote API call may take before NodeTimeout")
 
     def __init__(self, config: Any = None, /, *, station: str = "rio", **fields: Any):
         super().__init__(config, **fields)
@@ -100,6 +100,9 @@ class Middleware(Configurable, ABC):
 
     @abstractmethod
     def make_client(self, node: Node, layouts: NodeLayouts, address: dict[str, Any]) -> ClientTransport: ...
+
+
+MiddlewareConfig = Middleware.Config
 
 
 def machine_id() -> str:

@@ -89,23 +89,6 @@ def _one_bytes_argument(frame: Any) -> bool:
         return False
 
 
-class PortalConfig(MiddlewareConfig):
-    #: Interface the server binds; "0.0.0.0" (or a machine's address) to serve other machines.
-    host: str = "127.0.0.1"
-    #: TCP port; None picks a free one (reported in the address). One port serves one node.
-    port: int | None = Field(default=None, ge=0, le=65535)
-    #: Seconds a client waits for the TCP connection and handshake.
-    connect_timeout: float = 5.0
-    #: A server on another machine whose long poll stays silent this long is reported dead.
-    heartbeat_timeout: float = 0.5
-    #: Server threads for long polls: how many clients are mirrored without waiting for a turn.
-    poll_workers: int = Field(default=16, ge=1)
-    #: Upper bound on one poll answer (the newest samples that fit; at least one).
-    max_batch_bytes: int = Field(default=8 * 1024 * 1024, ge=1)
-    #: Requests a client may have unacknowledged before `send_request` waits (back-pressure).
-    max_inflight_requests: int = Field(default=64, ge=1)
-
-
 # -- server -------------------------------------------------------------------------------------------
 class PortalServer(ServerTransport):
     def __init__(self, node: Node, layouts: NodeLayouts, config: PortalConfig):
@@ -154,7 +137,8 @@ class PortalServer(ServerTransport):
                 self._cond.wait(_POLL_WAIT_S)
             count = self._count
             new = min(max(count - since, 0), len(self._recent))
-            picked, size = [], 0
+            picked: list[bytes] = []
+            size = 0
             for data in reversed(self._recent):
                 if len(picked) == new or (picked and size + len(data) > self.config.max_batch_bytes):
                     break
@@ -531,10 +515,27 @@ class PortalClient(ClientTransport):
 
 class PortalMiddleware(Middleware):
     name = "portal"
-    Config = PortalConfig
+    class Config(MiddlewareConfig):
+        #: Interface the server binds; "0.0.0.0" (or a machine's address) to serve other machines.
+        host: str = "127.0.0.1"
+        #: TCP port; None picks a free one (reported in the address). One port serves one node.
+        port: int | None = Field(default=None, ge=0, le=65535)
+        #: Seconds a client waits for the TCP connection and handshake.
+        connect_timeout: float = 5.0
+        #: A server on another machine whose long poll stays silent this long is reported dead.
+        heartbeat_timeout: float = 0.5
+        #: Server threads for long polls: how many clients are mirrored without waiting for a turn.
+        poll_workers: int = Field(default=16, ge=1)
+        #: Upper bound on one poll answer (the newest samples that fit; at least one).
+        max_batch_bytes: int = Field(default=8 * 1024 * 1024, ge=1)
+        #: Requests a client may have unacknowledged before `send_request` waits (back-pressure).
+        max_inflight_requests: int = Field(default=64, ge=1)
 
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> PortalServer:
         return PortalServer(node, layouts, self.config)
 
     def make_client(self, node: Node, layouts: NodeLayouts, address: dict[str, Any]) -> PortalClient:
         return PortalClient(node, layouts, address, self.config)
+
+
+PortalConfig = PortalMiddleware.Config

@@ -163,9 +163,11 @@ class ShmServer(ServerTransport):
         return dict(self.res)
 
     def _accept_loop(self) -> None:
+        listener = self._listener
+        assert listener is not None  # made by start() before it starts this thread
         while not self._closing:
             try:
-                conn, _ = self._listener.accept()
+                conn, _ = listener.accept()
             except OSError:
                 return
             threading.Thread(target=self._serve, args=(conn,), name=f"rio-{self.name}-calls", daemon=True).start()

@@ -38,7 +38,15 @@ from .. import clock, wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
 from ..node import Node
-from .base import ClientTransport, Middleware, MiddlewareConfig, NodeLayouts, ServerTransport, local_process_watch
+from .base import (
+    ClientTransport,
+    Middleware,
+    MiddlewareConfig,
+    NodeLayouts,
+    ProcessWatch,
+    ServerTransport,
+    local_process_watch,
+)
 
 log = logging.getLogger("rio.zenoh")
 
@@ -92,23 +100,6 @@ def _free_port(host: str) -> int:
 
 def _endpoint(host: str, port: int) -> str:
     return f"tcp/[{host.strip('[]')}]:{port}" if ":" in host.strip("[]") else f"tcp/{host}:{port}"
-
-
-class ZenohConfig(MiddlewareConfig):
-    #: Interface the server listens on (peer mode). "0.0.0.0" for other machines to connect.
-    host: str = "127.0.0.1"
-    #: TCP port to listen on; None picks a free one (each node needs its own, so only fix it for
-    #: a station that serves a single node with these options).
-    port: int | None = None
-    #: Extra endpoints the server connects to, e.g. a zenoh router `tcp/10.0.0.2:7447`.
-    connect: list[str] = []
-    #: "peer": listen on host:port, clients connect directly. "client": no listening socket; the
-    #: server is reached only through the routers in `connect` (clients then connect there too).
-    mode: Literal["peer", "client"] = "peer"
-    #: Seconds to wait for a link, and for the server's subscriptions to become known, at connect.
-    connect_timeout: float = 5.0
-    #: A remote server (another machine) is declared dead after this long without a heartbeat.
-    heartbeat_timeout: float = 0.5
 
 
 # -- shared client sessions --------------------------------------------------------------------------
@@ -320,7 +311,7 @@ class ZenohClient(ClientTransport):
         self._closed = False
         self._session_key: tuple[str, ...] | None = None
         self._entities: list[Any] = []
-        self._watch = None
+        self._watch: ProcessWatch | None = None
         try:
             self.prefix = str(address["prefix"])
             endpoints = list(address["endpoints"])
@@ -469,7 +460,21 @@ class ZenohClient(ClientTransport):
 
 class ZenohMiddleware(Middleware):
     name = "zenoh"
-    Config = ZenohConfig
+    class Config(MiddlewareConfig):
+        #: Interface the server listens on (peer mode). "0.0.0.0" for other machines to connect.
+        host: str = "127.0.0.1"
+        #: TCP port to listen on; None picks a free one (each node needs its own, so only fix it for
+        #: a station that serves a single node with these options).
+        port: int | None = None
+        #: Extra endpoints the server connects to, e.g. a zenoh router `tcp/10.0.0.2:7447`.
+        connect: list[str] = []
+        #: "peer": listen on host:port, clients connect directly. "client": no listening socket; the
+        #: server is reached only through the routers in `connect` (clients then connect there too).
+        mode: Literal["peer", "client"] = "peer"
+        #: Seconds to wait for a link, and for the server's subscriptions to become known, at connect.
+        connect_timeout: float = 5.0
+        #: A remote server (another machine) is declared dead after this long without a heartbeat.
+        heartbeat_timeout: float = 0.5
 
     def _prefix(self, node: Node) -> str:
         for part in (self.station, node.name):
@@ -483,3 +488,6 @@ class ZenohMiddleware(Middleware):
 
     def make_client(self, node: Node, layouts: NodeLayouts, address: dict[str, Any]) -> ZenohClient:
         return ZenohClient(node, layouts, address, self.config)
+
+
+ZenohConfig = ZenohMiddleware.Config

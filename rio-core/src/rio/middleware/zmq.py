@@ -64,18 +64,6 @@ def _hwm(msg_bytes: int) -> int:
     return max(2, min(1000, _HWM_BYTES // max(msg_bytes, 1)))
 
 
-class ZmqConfig(MiddlewareConfig):
-    #: Interface to bind. "0.0.0.0" serves other machines (they pass the address with a real host).
-    host: str = "127.0.0.1"
-    #: Ports of the PUB (state) and ROUTER (requests, calls) sockets; None picks a free port.
-    state_port: int | None = Field(None, ge=1, le=65535)
-    rpc_port: int | None = Field(None, ge=1, le=65535)
-    #: Server heartbeat period, and how long a client on another machine waits without hearing
-    #: anything (heartbeat or sample) before it reports the node dead.
-    heartbeat_s: float = Field(0.05, gt=0, le=1.0)
-    heartbeat_timeout: float = Field(0.5, gt=0)
-
-
 # -- server ------------------------------------------------------------------------------------------
 class ZmqServer(ServerTransport):
     def __init__(self, node: Node, layouts: NodeLayouts, config: ZmqConfig):
@@ -106,7 +94,7 @@ class ZmqServer(ServerTransport):
             sock.bind(f"tcp://{host}:{'*' if port is None else port}")
         except zmq.ZMQError as e:
             raise ConfigError(f"node '{self.name}': zmq cannot bind {what} to {host}:{port}: {e}") from e
-        return int(sock.getsockopt(zmq.LAST_ENDPOINT).decode().rsplit(":", 1)[1])
+        return int(sock.getsockopt_string(zmq.LAST_ENDPOINT).rsplit(":", 1)[1])
 
     def start(self, dispatch: Any) -> dict[str, Any]:
         self._dispatch = dispatch
@@ -428,10 +416,22 @@ class ZmqMiddleware(Middleware):
     """pyzmq over TCP: PUB/SUB for state (mirrored client-side), ROUTER/DEALER for the rest."""
 
     name = "zmq"
-    Config = ZmqConfig
+    class Config(MiddlewareConfig):
+        #: Interface to bind. "0.0.0.0" serves other machines (they pass the address with a real host).
+        host: str = "127.0.0.1"
+        #: Ports of the PUB (state) and ROUTER (requests, calls) sockets; None picks a free port.
+        state_port: int | None = Field(None, ge=1, le=65535)
+        rpc_port: int | None = Field(None, ge=1, le=65535)
+        #: Server heartbeat period, and how long a client on another machine waits without hearing
+        #: anything (heartbeat or sample) before it reports the node dead.
+        heartbeat_s: float = Field(0.05, gt=0, le=1.0)
+        heartbeat_timeout: float = Field(0.5, gt=0)
 
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> ZmqServer:
         return ZmqServer(node, layouts, self.config)
 
     def make_client(self, node: Node, layouts: NodeLayouts, address: dict[str, Any]) -> ZmqClient:
         return ZmqClient(node, layouts, address, self.config)
+
+
+ZmqConfig = ZmqMiddleware.Config

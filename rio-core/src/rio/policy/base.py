@@ -29,17 +29,6 @@ from ..config import Config, Configurable
 from ..schema import Observation
 
 
-class PolicyConfig(Config):
-    """Fields every policy accepts (a station's `[components.policy]` table, or `--policy NAME,k=v`).
-    Adapters subclass it with their own fields."""
-
-    max_horizon: int = Field(128, ge=1, le=4096,
-                             description="slots reserved for one chunk; longer chunks are cut to it")
-    horizon: int | None = Field(None, ge=1, description="use only the first N actions of each chunk")
-    action_indices: list[int] | None = Field(
-        None, description="columns of the model's output that form the station's action, in order")
-
-
 @dataclass
 class PolicyMetadata:
     """What a loaded policy tells the deploy loop. `action_dim` is the station's action size (after
@@ -97,7 +86,15 @@ class Policy(Configurable):
     Construction must stay cheap (clients build the object too, to learn its config); heavy work belongs
     in `load`."""
 
-    Config: ClassVar[type[PolicyConfig]] = PolicyConfig
+    class Config(Config):
+        """Fields every policy accepts (a station's `[components.policy]` table, or `--policy NAME,k=v`).
+        Adapters subclass it with their own fields."""
+
+        max_horizon: int = Field(128, ge=1, le=4096,
+                                 description="slots reserved for one chunk; longer chunks are cut to it")
+        horizon: int | None = Field(None, ge=1, description="use only the first N actions of each chunk")
+        action_indices: list[int] | None = Field(
+            None, description="columns of the model's output that form the station's action, in order")
     name: ClassVar[str] = "policy"
 
     def __init__(self, config: Any = None, /, **fields: Any):
@@ -162,3 +159,6 @@ class Policy(Configurable):
         if meta is None:
             meta = self._cached_meta = self.metadata()
         return meta
+
+
+PolicyConfig = Policy.Config

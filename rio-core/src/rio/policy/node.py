@@ -21,7 +21,7 @@ layout from the station's first observation.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import numpy as np
 from pydantic import Field, create_model
@@ -42,11 +42,14 @@ class PolicyNodeConfig(NodeConfig):
 
 def node_config(policy_class: type[Policy], name: str) -> type[NodeConfig]:
     """The policy's own config model plus the node's fields: what a station's policy table validates against."""
-    return create_model(name, __base__=(policy_class.Config, PolicyNodeConfig))
+    # a model class made at run time: typed as what it is, a node config (it subclasses PolicyNodeConfig)
+    return cast("type[NodeConfig]", create_model(name, __base__=(policy_class.Config, PolicyNodeConfig)))
 
 
 class PolicyNode(Node):
     policy_class: ClassVar[type[Policy]] = Policy
+    #: The policy's config plus `PolicyNodeConfig`; made for each subclass from its `policy_class`.
+    Config: type[NodeConfig] = node_config(Policy, "PolicyNodeConfig")
     loop = "req"
     buffer_capacity: ClassVar[int] = 4
     #: The client keeps at most one observation in flight; two slots leave room for a retry.
@@ -64,7 +67,7 @@ class PolicyNode(Node):
         self.layout = ObsLayout.from_dict(observation) if observation else None
         cfg = self.policy.config
         dim = self.layout.action_dim if self.layout is not None else 1
-        self.example_data = {"actions": np.zeros((cfg.max_horizon, dim)), "horizon": 0, "seq": np.int64(-1),
+        self.example_data: dict[str, Any] = {"actions": np.zeros((cfg.max_horizon, dim)), "horizon": 0, "seq": np.int64(-1),
                              "t_obs": 0.0, "dt": 0.0, "offset": 0.0, "t_recv": 0.0, "t_start": 0.0, "t_end": 0.0}
         self.example_request = self.layout.example_request() if self.layout is not None else {"seq": np.int64(0)}
         self._meta: PolicyMetadata | None = None
@@ -123,6 +126,9 @@ class PolicyNode(Node):
         Where the queue takes whole records (thread, shm) one reused record is filled in place."""
         from .. import clock
 
+        if self.layout is None:
+            raise InvalidRequest(self.name, None, "this policy node has no observation layout (pass "
+                                                  "observation=ObsLayout.of(obs).to_dict())")
         values = self.layout.encode(obs, instruction, t_obs, seq, reset)
         put_record = getattr(self.request_queue, "put_record", None)
         if put_record is None:  # a network sender: it encodes the dict itself
@@ -147,6 +153,3 @@ class PolicyNode(Node):
         h = int(s["horizon"])
         return ActionChunk(np.array(s["actions"][:h]), float(s["t_obs"]), float(s["dt"]), float(s["offset"]),
                            int(s["seq"]), float(s["t_recv"]), float(s["t_start"]), float(s["t_end"]))
-
-
-PolicyNode.Config = node_config(Policy, "PolicyNodeConfig")

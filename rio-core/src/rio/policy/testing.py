@@ -18,14 +18,11 @@ from .base import Policy, PolicyConfig, PolicyMetadata
 from .node import PolicyNode
 
 
-class StandInConfig(PolicyConfig):
-    forward_s: float = Field(0.0, ge=0, description="sleep this long in each forward pass")
-    chunk: int = Field(50, ge=1, le=4096, description="actions per chunk")
-    rate_hz: float = Field(50.0, gt=0, description="actions per second within a chunk")
-
-
 class _StandIn(Policy):
-    Config = StandInConfig
+    class Config(PolicyConfig):
+        forward_s: float = Field(0.0, ge=0, description="sleep this long in each forward pass")
+        chunk: int = Field(50, ge=1, le=4096, description="actions per chunk")
+        rate_hz: float = Field(50.0, gt=0, description="actions per second within a chunk")
 
     def metadata(self) -> PolicyMetadata:
         c = self.config
@@ -39,6 +36,9 @@ class _StandIn(Policy):
             time.sleep(self.config.forward_s)
 
 
+StandInConfig = _StandIn.Config
+
+
 class SleepPolicy(_StandIn):
     """Holds the observed state for a whole chunk after `forward_s` (the benchmark's model)."""
 
@@ -49,10 +49,6 @@ class SleepPolicy(_StandIn):
         return np.repeat(np.asarray(obs.proprio, dtype=np.float64)[None, :], self.config.chunk, axis=0)
 
 
-class RampConfig(StandInConfig):
-    slope: float = Field(0.5, description="units per second, on every action dimension")
-
-
 class RampPolicy(_StandIn):
     """Each chunk samples one straight line in time, `start + slope * (t - t0)`, where `start` and
     `t0` are the state and time of the first observation after a reset. Chunks computed from
@@ -60,7 +56,8 @@ class RampPolicy(_StandIn):
     command stream is that same line, whatever the latency."""
 
     name = "testing.ramp"
-    Config = RampConfig
+    class Config(StandInConfig):
+        slope: float = Field(0.5, description="units per second, on every action dimension")
 
     def setup(self) -> None:
         self.t0: float | None = None
@@ -87,15 +84,15 @@ class RampPolicy(_StandIn):
         return self.start[None, :] + self.config.slope * (times - self.t0)[:, None]
 
 
-class CrashConfig(StandInConfig):
-    crash_after: int = Field(2, ge=0, description="raise in the forward pass after this many chunks")
+RampConfig = RampPolicy.Config
 
 
 class CrashPolicy(SleepPolicy):
     """A model that fails mid-run (out of GPU memory, say): the node must be reported by name."""
 
     name = "testing.crash"
-    Config = CrashConfig
+    class Config(StandInConfig):
+        crash_after: int = Field(2, ge=0, description="raise in the forward pass after this many chunks")
 
     def setup(self) -> None:
         self.calls = 0
@@ -105,6 +102,9 @@ class CrashPolicy(SleepPolicy):
         if self.calls > self.config.crash_after:
             raise RuntimeError(f"simulated model failure after {self.config.crash_after} chunks")
         return super().infer(obs)
+
+
+CrashConfig = CrashPolicy.Config
 
 
 class SleepPolicyNode(PolicyNode):

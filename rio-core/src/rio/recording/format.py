@@ -20,7 +20,7 @@ Progress = Callable[[int, int, str], None]
 
 
 class DatasetFormat(Configurable):
-    Config: ClassVar[type[Config]] = Config
+    Config = Config
     name: ClassVar[str] = ""
     can_export: ClassVar[bool] = True
     can_import: ClassVar[bool] = False

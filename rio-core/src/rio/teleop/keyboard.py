@@ -30,14 +30,6 @@ _LINEAR = {"w": (0, 1), "s": (0, -1), "a": (1, 1), "d": (1, -1), "r": (2, 1), "f
 _ANGULAR = {"u": (3, 1), "o": (3, -1), "i": (4, 1), "k": (4, -1), "j": (5, 1), "l": (5, -1)}
 
 
-class KeyboardTeleopConfig(TeleopConfig):
-    speed: float = Field(0.05, gt=0, description="tool speed while a move key is down (m/s)")
-    rot_speed: float = Field(0.5, gt=0, description="rotation speed while a rotate key is down (rad/s)")
-    hold_s: float = Field(0.15, gt=0, description="how long one key press keeps moving (s)")
-    tty: str = Field("/dev/tty", description="terminal to read")
-    rate_hz: float = Field(100.0, gt=0)
-
-
 class KeyTwist:
     """Key presses -> twist, gripper and buttons (the part that needs no terminal; tested alone)."""
 
@@ -71,7 +63,12 @@ class KeyTwist:
 
 
 class KeyboardTeleop(TeleopNode):
-    Config = KeyboardTeleopConfig
+    class Config(TeleopConfig):
+        speed: float = Field(0.05, gt=0, description="tool speed while a move key is down (m/s)")
+        rot_speed: float = Field(0.5, gt=0, description="rotation speed while a rotate key is down (rad/s)")
+        hold_s: float = Field(0.15, gt=0, description="how long one key press keeps moving (s)")
+        tty: str = Field("/dev/tty", description="terminal to read")
+        rate_hz: float = Field(100.0, gt=0)
 
     def setup(self) -> None:
         super().setup()
@@ -125,3 +122,6 @@ class KeyboardTeleop(TeleopNode):
     @remote
     def help(self) -> str:
         return HELP
+
+
+KeyboardTeleopConfig = KeyboardTeleop.Config

@@ -40,21 +40,6 @@ class Move:
     gripper: float = 1.0
 
 
-class ScriptedTeleopConfig(TeleopConfig):
-    script: Literal["pick_place", "square", "moves"] = Field("pick_place", description="preset, or 'moves'")
-    pick: list[float] = Field([0.0, 0.06, -0.085], min_length=3, max_length=3,
-                              description="grasp point relative to the start tool position (m, base frame)")
-    place: list[float] = Field([0.0, -0.06, -0.08], min_length=3, max_length=3,
-                               description="release point relative to the start tool position (m)")
-    lift: float = Field(0.08, ge=0, description="lift above the grasp point before moving over (m)")
-    side: float = Field(0.05, gt=0, description="edge of the 'square' preset (m)")
-    moves: list[list[float]] = Field(default_factory=list,
-                                     description="script='moves': [[dx, dy, dz, gripper, seconds], ...]")
-    speed: float = Field(0.08, gt=0, description="peak tool speed (m/s)")
-    grasp_s: float = Field(0.8, ge=0, description="time to close or open the gripper (s)")
-    rate_hz: float = Field(100.0, gt=0)
-
-
 def _travel(delta, speed: float) -> Move:
     dist = float(np.linalg.norm(delta))
     # a raised cosine peaks at twice its mean speed: 2 * dist / T = speed
@@ -103,7 +88,19 @@ def bump(tau: float, seconds: float) -> float:
 
 
 class ScriptedTeleop(TeleopNode):
-    Config = ScriptedTeleopConfig
+    class Config(TeleopConfig):
+        script: Literal["pick_place", "square", "moves"] = Field("pick_place", description="preset, or 'moves'")
+        pick: list[float] = Field([0.0, 0.06, -0.085], min_length=3, max_length=3,
+                                  description="grasp point relative to the start tool position (m, base frame)")
+        place: list[float] = Field([0.0, -0.06, -0.08], min_length=3, max_length=3,
+                                   description="release point relative to the start tool position (m)")
+        lift: float = Field(0.08, ge=0, description="lift above the grasp point before moving over (m)")
+        side: float = Field(0.05, gt=0, description="edge of the 'square' preset (m)")
+        moves: list[list[float]] = Field(default_factory=list,
+                                         description="script='moves': [[dx, dy, dz, gripper, seconds], ...]")
+        speed: float = Field(0.08, gt=0, description="peak tool speed (m/s)")
+        grasp_s: float = Field(0.8, ge=0, description="time to close or open the gripper (s)")
+        rate_hz: float = Field(100.0, gt=0)
 
     def setup(self) -> None:
         super().setup()
@@ -138,3 +135,6 @@ class ScriptedTeleop(TeleopNode):
         twist[:3] = np.asarray(move.delta) * bump(t - t0, move.seconds)
         done = self.offsets[i - 1] if i > 0 else np.zeros(3)
         return {"twist": twist, "gripper": move.gripper, "buttons": buttons, "phase": i, "offset": done}
+
+
+ScriptedTeleopConfig = ScriptedTeleop.Config
