@@ -262,3 +262,15 @@ def test_keyboard_keys_to_twist_gripper_and_buttons():
     assert s["gripper"] == 0.0 and s["buttons"].tolist() == [True, False]
     k.press("q", 0.4)
     assert k.state(0.5)["buttons"].tolist() == [False, True]
+
+
+def test_linear_interpolator_elements_take_targets_separately():
+    """One interpolator carries values whose targets arrive on their own (the sim world's actuators)."""
+    li = LinearInterpolator([0.0, 0.0, 0.0], t=0.0)
+    li.set_target([1.0, 9.0, 2.0], t_target=[1.0, 9.0, 2.0], t_now=0.0, where=[True, False, True])
+    assert np.allclose(li.sample(0.5), [0.5, 0.0, 0.5])
+    li.set_target([0.0, 4.0, 0.0], t_target=1.5, t_now=0.5, where=[False, True, False])  # the others keep moving
+    assert np.allclose(li.sample(1.0), [1.0, 2.0, 1.0])
+    assert np.allclose(li.sample(3.0), [1.0, 4.0, 2.0]) and li.t_goal == 2.0
+    with pytest.raises(ValueError, match="shape"):
+        li.set_target([1.0], 1.0, 0.0)

@@ -187,3 +187,11 @@ def test_embodiment_options_are_checked_by_the_embodiment(reg):
             "middleware": {"name": "thread"}, "components": {"arm": {"driver": "rio.fake_arm"}}}
     with pytest.raises(ConfigError, match=r"embodiment\.action_space: Input should be 'joint_pos' or 'eef_pose'"):
         make_station(parse_station(data, registry=reg), registry=reg)
+
+
+def test_unknown_station_and_driver_say_which_plugin_provides_them(reg):
+    """A name from one of RIO's own plugins that is not loaded says which distribution to get."""
+    with pytest.raises(ConfigError, match=r"unknown station 'sim-so100'.*rio-sim"):
+        load_station("sim-so100", registry=reg)
+    with pytest.raises(ConfigError, match=r"components\.arm\.driver: unknown arm driver 'so101.follower'.*rio-so100"):
+        parse_station({"name": "s", "components": {"arm": {"driver": "so101.follower", "port": "x"}}}, registry=reg)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 from rio import clock
+from rio.control.interpolators import LinearInterpolator
 from rio.node import Node, NodeConfig, client_side, remote
 
 from .bus import WorldBus
@@ -85,10 +86,7 @@ class SimWorld(Node):
         mj.mj_forward(m, d)
         t = clock.now()
         self._t_origin = t - d.time          # wall time of sim time 0
-        self._start = d.ctrl.copy()
-        self._goal = d.ctrl.copy()
-        self._t0 = np.full(m.nu, t)
-        self._t1 = np.full(m.nu, t)
+        self._ctrl = LinearInterpolator(d.ctrl, t)  # each actuator towards its own timed target
         self._rtf_sim, self._rtf_wall, self._rtf = d.time, t, 1.0
 
     # -- loop -----------------------------------------------------------------------------------
@@ -98,16 +96,7 @@ class SimWorld(Node):
         if not new.any():
             return
         self._seen = stamp
-        cur = self._ctrl_at(t_wall)
-        self._start[new] = cur[new]
-        self._goal[new] = target[new]
-        self._t0[new] = t_wall
-        self._t1[new] = np.maximum(t_target[new], t_wall)
-
-    def _ctrl_at(self, t_wall: float) -> np.ndarray:
-        span = self._t1 - self._t0
-        a = np.where(span > 0, np.clip((t_wall - self._t0) / np.where(span > 0, span, 1.0), 0.0, 1.0), 1.0)
-        return self._start + a * (self._goal - self._start)
+        self._ctrl.set_target(target, t_target, t_wall, where=new)
 
     def read_state(self) -> dict[str, Any]:
         mj, m, d = self._mj, self.model, self.data
@@ -119,7 +108,7 @@ class SimWorld(Node):
             self._t_origin += (n - self.max_steps) * dt
             n = self.max_steps
         for _ in range(max(n, 0)):
-            d.ctrl[:] = self._ctrl_at(self._t_origin + d.time + dt)
+            d.ctrl[:] = self._ctrl.sample(self._t_origin + d.time + dt)
             mj.mj_step(m, d)
         self.bus.write_state(d.time, d.qpos, d.qvel, d.ctrl)
         if now - self._rtf_wall > 1.0:  # real-time factor over the last second or so

@@ -76,7 +76,7 @@ class _Commander:
     def step(self, now: float) -> np.ndarray:
         """The goal for this cycle."""
         quiet = not self.holding and now - self._t_cmd > self.watchdog_s
-        ended = now >= self._interp._t1
+        ended = now >= self._interp.t_goal
         if quiet and self._streamed and not ended:
             self.hold(now)  # a stream went silent mid-move: stop here
         self.goal = self._clip(self._toward(self.goal, self._interp.sample(now)))

@@ -20,6 +20,10 @@ from .se3 import as_pose, pose_interp
 
 
 class LinearInterpolator:
+    """Element-wise: every element has its own start, goal and times, so one interpolator can carry
+    values whose targets arrive separately (`set_target(..., where=mask)`: the sim world drives all
+    actuators of a scene with one, each arm's commands arriving on their own)."""
+
     def __init__(self, value, t: float = 0.0):
         self.reset(value, t)
 
@@ -29,26 +33,36 @@ class LinearInterpolator:
 
     @property
     def t_goal(self) -> float:
-        return self._t1
+        """When the last element arrives."""
+        return float(np.max(self._t1)) if self._t1.size else float(self._t_reset)
 
-    def set_target(self, goal, t_target: float, t_now: float) -> None:
-        """Start from the value at `t_now`; reach `goal` at `t_target` (at once if not in the future)."""
-        start = self.sample(t_now)
+    def set_target(self, goal, t_target, t_now: float, where=None) -> None:
+        """Start from the value at `t_now`; reach `goal` at `t_target` (at once if not in the future).
+        With `where` (a boolean mask of the value's shape) only those elements get the new target; the
+        others keep their move."""
         goal = np.array(goal, dtype=np.float64)
-        if goal.shape != start.shape:
-            raise ValueError(f"target has shape {goal.shape}, interpolator holds {start.shape}")
-        self._x0, self._x1 = start, goal
-        self._t0, self._t1 = float(t_now), max(float(t_target), float(t_now))
+        if goal.shape != self._x0.shape:
+            raise ValueError(f"target has shape {goal.shape}, interpolator holds {self._x0.shape}")
+        start = self.sample(t_now)
+        t1 = np.maximum(np.broadcast_to(np.asarray(t_target, dtype=np.float64), goal.shape), float(t_now))
+        m = np.ones(goal.shape, bool) if where is None else np.broadcast_to(np.asarray(where, bool), goal.shape)
+        self._x0 = np.where(m, start, self._x0)
+        self._x1 = np.where(m, goal, self._x1)
+        self._t0 = np.where(m, float(t_now), self._t0)
+        self._t1 = np.where(m, t1, self._t1)
 
     def reset(self, value, t: float) -> None:
         """Hold `value` from time `t`."""
         self._x0 = np.array(value, dtype=np.float64)
         self._x1 = self._x0.copy()
-        self._t0 = self._t1 = float(t)
+        self._t0 = np.full(self._x0.shape, float(t))
+        self._t1 = self._t0.copy()
+        self._t_reset = float(t)
 
     def sample(self, t: float) -> np.ndarray:
         span = self._t1 - self._t0
-        a = 1.0 if span <= 0 else min(max((float(t) - self._t0) / span, 0.0), 1.0)
+        moving = span > 0
+        a = np.where(moving, np.clip((float(t) - self._t0) / np.where(moving, span, 1.0), 0.0, 1.0), 1.0)
         return self._x0 + a * (self._x1 - self._x0)
 
 
@@ -61,6 +75,10 @@ class PoseInterpolator:
     @property
     def goal(self) -> np.ndarray:
         return self._p1.copy()
+
+    @property
+    def t_goal(self) -> float:
+        return self._t1
 
     def set_target(self, goal, t_target: float, t_now: float) -> None:
         self._p0, self._p1 = self.sample(t_now), as_pose(goal)
