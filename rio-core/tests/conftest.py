@@ -3,14 +3,39 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import pytest
 from rio.conformance.process import _is_resource_tracker, child_pids, shm_entries
 
 MIDDLEWARES = ["thread", "shm", "zmq", "zenoh", "portal"]
 
-__all__ = ["MIDDLEWARES", "child_pids", "shm_entries", "_is_resource_tracker"]
+__all__ = ["MIDDLEWARES", "child_pids", "shm_entries", "_is_resource_tracker", "run_rio"]
 
 
 @pytest.fixture(params=MIDDLEWARES)
 def mw(request: pytest.FixtureRequest) -> str:
     return request.param
+
+
+def run_rio(args, dist_path=None, **env):
+    """`python -m rio ARGS` in a subprocess, with `dist_path` (plugin distributions written by
+    `rio.testing.write_plugin_dist`) on its PYTHONPATH and `env` on top of this environment."""
+    full_env = {**os.environ, **env}
+    if dist_path is not None:
+        full_env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(dist_path), full_env.get("PYTHONPATH")]))
+    return subprocess.run([sys.executable, "-m", "rio", *args], capture_output=True, text=True, env=full_env,
+                          timeout=60)
+
+
+@pytest.fixture
+def registry(monkeypatch):
+    """An isolated registry (core only) that the CLI will use; tests register inline plugins into it."""
+    from rio import plugins
+    from rio.plugins import Registry
+
+    reg = Registry(load_entry_points=False)
+    monkeypatch.setattr(plugins, "_REGISTRY", reg)
+    return reg

@@ -11,12 +11,12 @@ import types
 import pytest
 import rio
 import typer
-from rio import plugins
 from rio.cli import main
 from rio.hookspecs import hookimpl
-from rio.plugins import Registry
 from rio.specs import Spec
 from rio.testing import write_plugin_dist
+
+from .conftest import run_rio
 
 GOOD = '''
 from rio.hookspecs import hookimpl
@@ -36,22 +36,6 @@ def dist_path(tmp_path_factory):
     write_plugin_dist(root, "cli-broken", "0.1", {"cli_broken": "raise ImportError('vendor SDK missing')\n"},
                       {"cli-broken": "cli_broken"})
     return root
-
-
-def run_rio(args, dist_path=None, **env):
-    full_env = {**os.environ, **env}
-    if dist_path is not None:
-        full_env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(dist_path), full_env.get("PYTHONPATH")]))
-    return subprocess.run([sys.executable, "-m", "rio", *args], capture_output=True, text=True, env=full_env,
-                          timeout=60)
-
-
-@pytest.fixture
-def registry(monkeypatch):
-    """An isolated registry (core only) that the CLI will use; tests register inline plugins into it."""
-    reg = Registry(load_entry_points=False)
-    monkeypatch.setattr(plugins, "_REGISTRY", reg)
-    return reg
 
 
 def test_version(capsys):

@@ -4,20 +4,20 @@
 from __future__ import annotations
 
 import json
-import os
-import subprocess
 import sys
 import types
 from importlib.metadata import PackageNotFoundError, distribution
 
 import pytest
-from rio import known_plugins, plugins
+from rio import known_plugins
 from rio.cli import main
 from rio.errors import ConfigError
 from rio.hookspecs import hookimpl
 from rio.plugins import Registry
 from rio.requirements import Requirement, evaluate
 from rio.testing import write_plugin_dist
+
+from .conftest import run_rio
 
 NEEDS = '''
 from rio.hookspecs import hookimpl
@@ -41,21 +41,6 @@ def broken():
 def confused():
     return 42
 '''
-
-
-def run_rio(args, dist_path, **env):
-    full_env = {**os.environ, **env}
-    full_env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(dist_path), full_env.get("PYTHONPATH")]))
-    return subprocess.run([sys.executable, "-m", "rio", *args], capture_output=True, text=True, env=full_env,
-                          timeout=60)
-
-
-@pytest.fixture
-def registry(monkeypatch):
-    """An isolated registry (core only) that the CLI will use; tests register inline plugins into it."""
-    reg = Registry(load_entry_points=False)
-    monkeypatch.setattr(plugins, "_REGISTRY", reg)
-    return reg
 
 
 @pytest.fixture
