@@ -8,7 +8,7 @@ closes them on `__exit__`. Every call is non-blocking: state comes from local ri
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -21,7 +21,7 @@ from .schema import Camera, Step
 
 class Env:
     def __init__(self, embodiment: type[Embodiment], config: EmbodimentConfig,
-                 robot_clients: dict[str, Callable[[], Any]], camera_clients: dict[str, Callable[[], Any]],
+                 robot_clients: Mapping[str, Callable[[], Any]], camera_clients: Mapping[str, Callable[[], Any]],
                  *, rate_hz: float = 30.0, station: str = "rio"):
         self.embodiment_cls, self.config = embodiment, config
         self.robot_clients, self.camera_clients = robot_clients, camera_clients

@@ -1,3 +1,6 @@
+# Hook specifications are signatures with docstrings: pluggy reads them and never calls them, so their
+# bodies are empty on purpose (what mypy's empty-body check would flag in ordinary functions).
+# mypy: disable-error-code="empty-body"
 """Hook specifications: what a RIO plugin can provide.
 
 Every spec-returning hook returns a list of `Spec`s (name, kind, import path, config model, one-line

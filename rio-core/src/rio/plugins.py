@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pluggy
 
@@ -22,6 +22,9 @@ from .known_plugins import missing_plugin_hint
 from .requirements import Requirement, check_requirement
 from .specs import HOOK_KINDS, Spec, check_spec
 from .suggest import closest, unknown
+
+if TYPE_CHECKING:
+    from .middleware.base import Middleware
 
 GROUP = "rio"
 CORE = "rio-core"
@@ -243,5 +246,5 @@ def specs(hook: str) -> list[Spec]:
     return get_registry().specs(hook)
 
 
-def get_middleware(name: str) -> type:
+def get_middleware(name: str) -> type[Middleware]:
     return get_registry().find("rio_middlewares", name, "middleware").load()

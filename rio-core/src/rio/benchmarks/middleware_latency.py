@@ -118,7 +118,7 @@ def node_roundtrip(mw: str, station: str, payload: np.ndarray) -> Iterator[Round
     from ..manager import ServerManager, connect, serve
     from ..testing import EchoNode
 
-    cfg = {"payload_bytes": int(payload.nbytes)}
+    cfg: dict[str, Any] = {"payload_bytes": int(payload.nbytes)}
     with ServerManager(mw, [serve(EchoNode, name="echo", **cfg)], station=station, ready_timeout=60.0):
         with connect(EchoNode, mw, name="echo", station=station, **cfg) as client:
             yield client.echo
@@ -155,7 +155,7 @@ def image_stream(mw: str, station: str, seconds: float, rate_hz: float, poll_s: 
     from ..manager import ServerManager, connect, serve
     from ..testing import ImageNode
 
-    cfg = {"rate_hz": float(rate_hz)}
+    cfg: dict[str, Any] = {"rate_hz": float(rate_hz)}
     with ServerManager(mw, [serve(ImageNode, name="camera", **cfg)], station=station, ready_timeout=60.0):
         with connect(ImageNode, mw, name="camera", station=station, **cfg) as cam:
             deadline = clock.now() + 10.0
@@ -257,7 +257,8 @@ def _stdout_to_stderr() -> Iterator[None]:
     """Keep stdout clean for the result: anything a library or a child process prints while we
     measure goes to stderr (file descriptor 1 too, which spawned children inherit)."""
     out = sys.stdout
-    saved_fd = fd = None
+    saved_fd: int | None = None
+    fd = -1
     try:
         out.flush()
         sys.stderr.flush()

@@ -27,6 +27,14 @@ class LinearInterpolator:
     def __init__(self, value, t: float = 0.0):
         self.reset(value, t)
 
+    def reset(self, value, t: float) -> None:
+        """Hold `value` from time `t`."""
+        self._x0 = np.array(value, dtype=np.float64)
+        self._x1 = self._x0.copy()
+        self._t0 = np.full(self._x0.shape, float(t))
+        self._t1 = self._t0.copy()
+        self._t_reset = float(t)
+
     @property
     def goal(self) -> np.ndarray:
         return self._x1.copy()
@@ -50,14 +58,6 @@ class LinearInterpolator:
         self._x1 = np.where(m, goal, self._x1)
         self._t0 = np.where(m, float(t_now), self._t0)
         self._t1 = np.where(m, t1, self._t1)
-
-    def reset(self, value, t: float) -> None:
-        """Hold `value` from time `t`."""
-        self._x0 = np.array(value, dtype=np.float64)
-        self._x1 = self._x0.copy()
-        self._t0 = np.full(self._x0.shape, float(t))
-        self._t1 = self._t0.copy()
-        self._t_reset = float(t)
 
     def sample(self, t: float) -> np.ndarray:
         span = self._t1 - self._t0

@@ -107,6 +107,7 @@ class ArmNode(JointNode):
         sample["eef_pose"] = self._eef = self._eef_of(sample)
         now = clock.now()
         if self.enabled and self.mode == EEF:
+            assert self.poses is not None  # EEF mode is entered only where opened() made the pose commander
             self.write_pose(self.poses.step(now))
         else:
             self.drive(now)
@@ -114,8 +115,11 @@ class ArmNode(JointNode):
 
     def complete(self, sample: dict[str, Any]) -> dict[str, Any]:
         sample = super().complete(sample)
-        if self.mode == EEF:
-            sample["holding"] = (not self.enabled) or self.poses.holding
+        if self.mode == EEF and self.enabled:
+            assert self.poses is not None  # EEF mode is entered only where opened() made the pose commander
+            sample["holding"] = self.poses.holding
+        elif self.mode == EEF:
+            sample["holding"] = True
         return sample
 
     def handle_request(self, request: dict[str, Any]) -> None:
@@ -126,6 +130,7 @@ class ArmNode(JointNode):
 
     def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
         if self.mode == EEF and self.enabled:  # leave Cartesian streaming from where the arm is
+            assert self.commander is not None  # made in opened(), before enable()
             self.commander.reset(self.read_joints()["joint_pos"], clock.now())
         super().command_joints(joint_pos, t_cmd_target)
         self.mode = JOINT
@@ -137,6 +142,7 @@ class ArmNode(JointNode):
             raise InvalidRequest(self.name, "eef_pose", "the quaternion is zero")
         now = clock.now()
         if self.streams_poses:
+            assert self.poses is not None  # made in opened() where the driver streams poses
             if self.mode != EEF:
                 self.poses.reset(self._eef, now)
             self.poses.command(eef_pose, t_cmd_target, now)
@@ -145,6 +151,7 @@ class ArmNode(JointNode):
         if self.kinematics is None:
             raise InvalidRequest(self.name, "eef_pose", f"{type(self).__name__} has no Cartesian control and no "
                                                         "robot_description() for IK: send joint targets")
+        assert self.commander is not None  # made in opened(), before enable()
         q = self.kinematics.solve(eef_pose, self.commander.target, max_iters=15).q
         self.command_joints(q, t_cmd_target)
 

@@ -6,6 +6,8 @@ A driver's `read_state()` returns `rgb` (H, W, 3) uint8 and `intrinsics` (3x3, p
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from pydantic import Field
 
@@ -22,7 +24,8 @@ class CameraNode(Node):
     def setup(self) -> None:
         c = self.config
         self.width, self.height, self.has_depth = int(c.width), int(c.height), bool(c.depth)
-        self.example_data = {"rgb": np.zeros((self.height, self.width, 3), np.uint8), "intrinsics": np.eye(3)}
+        self.example_data: dict[str, Any] = {"rgb": np.zeros((self.height, self.width, 3), np.uint8),
+                                             "intrinsics": np.eye(3)}
         if self.has_depth:
             self.example_data["depth"] = np.zeros((self.height, self.width), np.uint16)
             self.example_data["depth_scale"] = 0.001

@@ -72,11 +72,13 @@ class GripperNode(Node):
 
     def read_state(self) -> dict[str, Any]:
         sample = dict(self.read_width())
-        if self.enabled:
-            self.write_width(float(self.commander.step(clock.now())[0]), self.force)
         sample["max_width"] = self.width
         sample["enabled"] = self.enabled
-        sample["holding"] = (not self.enabled) or self.commander.holding
+        sample["holding"] = True
+        if self.enabled:
+            assert self.commander is not None  # made in opened(), before enable()
+            self.write_width(float(self.commander.step(clock.now())[0]), self.force)
+            sample["holding"] = self.commander.holding
         return sample
 
     def handle_request(self, request: dict[str, Any]) -> None:
@@ -85,6 +87,7 @@ class GripperNode(Node):
         force = float(request["force"])
         if force > 0:
             self.force = force
+        assert self.commander is not None  # made in opened(), before enable()
         self.commander.command([float(request["position"])], float(request["t_cmd_target"]), clock.now())
 
     # -- remote API ---------------------------------------------------------------------------------
@@ -92,12 +95,14 @@ class GripperNode(Node):
     def enable(self) -> bool:
         """Switch on, holding the present opening."""
         self.set_enabled(True)
+        assert self.commander is not None  # made in opened()
         self.commander.reset([float(self.read_width()["position"])], clock.now())
         self.enabled = True
         return True
 
     @remote
     def disable(self) -> bool:
+        assert self.commander is not None  # made in opened()
         self.commander.hold(clock.now())
         self.set_enabled(False)
         self.enabled = False

@@ -91,8 +91,9 @@ class JointNode(Node):
             if value is not None and len(value) != n:
                 raise ValueError(f"{field} has {len(value)} entries; node '{self.name}' drives {n} joints "
                                  f"{self.joint_list}")
-        self.example_data = {"joint_pos": np.zeros(n), "joint_vel": np.zeros(n), "enabled": False, "holding": True}
-        self.example_request = {"joint_pos": np.zeros(n), "t_cmd_target": 0.0}
+        self.example_data: dict[str, Any] = {"joint_pos": np.zeros(n), "joint_vel": np.zeros(n), "enabled": False,
+                                             "holding": True}
+        self.example_request: dict[str, Any] = {"joint_pos": np.zeros(n), "t_cmd_target": 0.0}
         self.enabled = False
         self.commander: JointCommander | None = None
 
@@ -133,6 +134,7 @@ class JointNode(Node):
     def drive(self, now: float) -> None:
         """Send this cycle's goal (when enabled)."""
         if self.enabled:
+            assert self.commander is not None  # made in opened(), before enable()
             self.write_joints(self.commander.step(now))
 
     def complete(self, sample: dict[str, Any]) -> dict[str, Any]:
@@ -140,7 +142,11 @@ class JointNode(Node):
         if "joint_vel" not in sample:
             sample["joint_vel"] = np.full(self.dof, np.nan)
         sample["enabled"] = self.enabled
-        sample["holding"] = (not self.enabled) or self.commander.holding
+        if self.enabled:
+            assert self.commander is not None  # made in opened(), before enable()
+            sample["holding"] = self.commander.holding
+        else:
+            sample["holding"] = True
         return sample
 
     def handle_request(self, request: dict[str, Any]) -> None:
@@ -149,6 +155,7 @@ class JointNode(Node):
     def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
         if not self.enabled:
             raise InvalidRequest(self.name, "joint_pos", "the device is disabled (call enable() first)")
+        assert self.commander is not None  # made in opened(), before enable()
         self.commander.command(joint_pos, t_cmd_target, clock.now())
 
     # -- remote API ---------------------------------------------------------------------------------
@@ -156,6 +163,7 @@ class JointNode(Node):
     def enable(self) -> bool:
         """Torque on, holding the present pose: nothing moves until the next command."""
         self.set_enabled(True)
+        assert self.commander is not None  # made in opened()
         self.commander.reset(self.read_joints()["joint_pos"], clock.now())
         self.enabled = True
         return True
@@ -163,6 +171,7 @@ class JointNode(Node):
     @remote
     def disable(self) -> bool:
         """Torque off (the robot goes limp: support it first)."""
+        assert self.commander is not None  # made in opened()
         self.commander.hold(clock.now())
         self.set_enabled(False)
         self.enabled = False
@@ -171,6 +180,7 @@ class JointNode(Node):
     @remote
     def hold(self) -> None:
         """Stop where the robot is commanded to be now."""
+        assert self.commander is not None  # made in opened()
         self.commander.hold(clock.now())
 
     @remote
@@ -183,6 +193,7 @@ class JointNode(Node):
     @remote
     def joint_limits(self) -> list[list[float]]:
         """[[lower...], [upper...]] in rad, as enforced (inf where unbounded)."""
+        assert self.commander is not None  # made in opened()
         return [self.commander.lower.tolist(), self.commander.upper.tolist()]
 
     @client_side

@@ -8,7 +8,7 @@ A driver's `read_state()` returns `twist` (6: m/s, rad/s, in the robot's base fr
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field
@@ -22,7 +22,8 @@ class TeleopNode(Node):
     leader_arm: ClassVar[bool] = False
 
     def setup(self) -> None:
-        self.example_data = {"twist": np.zeros(6), "gripper": 1.0, "buttons": np.zeros(self.config.buttons, bool)}
+        self.example_data: dict[str, Any] = {"twist": np.zeros(6), "gripper": 1.0,
+                                             "buttons": np.zeros(self.config.buttons, bool)}
 
 
 TeleopConfig = TeleopNode.Config

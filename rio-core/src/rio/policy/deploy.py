@@ -116,10 +116,10 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
     cfg = config or AsyncConfig()
     st = load_station(station, registry=registry)
     name, node_cls, policy_kwargs = resolve_policy(policy, st, registry)
-    servers, _clients, env = make_station(_without_policy(st), middleware=middleware, registry=registry)
+    servers, clients, env = make_station(_without_policy(st), middleware=middleware, registry=registry)
     if env is None:
         raise RioError(f"station '{st.name}' has no arm or humanoid to drive (roles: {sorted(st.roles())})")
-    mw = next(iter(servers.values())).mw
+    mw = next(iter(clients.values())).mw  # the station's middleware, shared by all its nodes
     freq = float(rate_hz or st.rate_hz)
     summary = DeploySummary(st.name, name, freq, instruction, record=record)
     say(f"starting station '{st.name}' ({len(servers)} nodes over {mw.name}) ...")

@@ -67,8 +67,9 @@ class PolicyNode(Node):
         self.layout = ObsLayout.from_dict(observation) if observation else None
         cfg = self.policy.config
         dim = self.layout.action_dim if self.layout is not None else 1
-        self.example_data: dict[str, Any] = {"actions": np.zeros((cfg.max_horizon, dim)), "horizon": 0, "seq": np.int64(-1),
-                             "t_obs": 0.0, "dt": 0.0, "offset": 0.0, "t_recv": 0.0, "t_start": 0.0, "t_end": 0.0}
+        self.example_data: dict[str, Any] = {
+            "actions": np.zeros((cfg.max_horizon, dim)), "horizon": 0, "seq": np.int64(-1), "t_obs": 0.0, "dt": 0.0,
+            "offset": 0.0, "t_recv": 0.0, "t_start": 0.0, "t_end": 0.0}
         self.example_request = self.layout.example_request() if self.layout is not None else {"seq": np.int64(0)}
         self._meta: PolicyMetadata | None = None
         self._request_rec: np.ndarray | None = None

@@ -81,6 +81,7 @@ class RampPolicy(_StandIn):
         self._sleep()
         meta = self._meta()
         times = self._t_obs + (np.arange(meta.horizon) + meta.offset) * meta.dt
+        assert self.start is not None and self.t0 is not None  # set by __call__, which runs infer()
         return self.start[None, :] + self.config.slope * (times - self.t0)[:, None]
 
 

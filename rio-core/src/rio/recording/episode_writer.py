@@ -97,6 +97,7 @@ class EpisodeWriter:
             self._start(step)
         elif self.length < 3 and (extra := self.schema.unknown_fields(step)):
             self._warn(f"step {self.length}: fields not in the episode's layout are not stored: {extra}")
+        assert self.schema is not None and self.steps is not None  # made by _start() at the first step
         i = self.length
         frames = self._frames(step, i, t)
         rec = self.schema.record(step, t, t_recv, frames)
@@ -122,6 +123,7 @@ class EpisodeWriter:
     def _frames(self, step: Any, i: int, t: float) -> dict[str, int]:
         out: dict[str, int] = {}
         cams = step.observation.cameras or {}
+        assert self.schema is not None  # made by _start() at the first step
         for cam, kinds in self.schema.cameras.items():
             c = cams.get(cam)
             for kind in kinds:
@@ -129,7 +131,7 @@ class EpisodeWriter:
                 arr = None if c is None else getattr(c, kind, None)
                 key = L.stream_key(cam, kind)
                 s = self.streams.get(key)
-                if arr is None:
+                if c is None or arr is None:
                     out[col] = -1 if s is None else s.count - 1
                     continue
                 ts = c.meta.get("timestamp") if c.meta else None
@@ -197,12 +199,13 @@ class EpisodeWriter:
     # -- ending -------------------------------------------------------------------------------------
     @property
     def duration_s(self) -> float:
-        if self.t_first is None:
+        if self.t_first is None or self.t_last is None:  # both are set at the first step
             return 0.0
         return self.t_last - self.t_first + 1.0 / self.fps
 
     def finish(self, ended_by: str = "keep", metadata: dict | None = None) -> dict[str, Any]:
         """Make the episode durable and final; returns its metadata (episode.json)."""
+        assert self.schema is not None and self.steps is not None, "finish() needs at least one step"
         for s in self.streams.values():
             if not s.opened:
                 self._open(s)

@@ -131,6 +131,7 @@ class Recorder:
     # -- episodes -----------------------------------------------------------------------------------
     def next_index(self) -> int:
         """Never reuses a number, not even a discarded episode's (its copy in .discarded/ keeps it)."""
+        assert self.index is not None  # read by open()
         used = set(L.scan(self.root)) | {e["index"] for e in self.index["episodes"]}
         trash = self.root / L.DISCARDED
         if trash.is_dir():
@@ -160,6 +161,7 @@ class Recorder:
         with self._mutex:
             if self.writer is None:
                 self.start_episode()
+            assert self.writer is not None  # made by start_episode()
             self.writer.add(step)
 
     def keep(self, metadata: dict | None = None, *, ended_by: str = "keep") -> dict[str, Any] | None:
@@ -178,6 +180,7 @@ class Recorder:
                 meta = w.finish(ended_by, {**self._episode_metadata, **(metadata or {})})
             finally:
                 self.writer = None
+            assert self.index is not None  # read by open(), before any episode started
             I.add_episode(self.index, meta)
             I.save(self.root, self.index)
             self.kept.append(meta)

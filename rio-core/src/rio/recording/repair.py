@@ -114,6 +114,7 @@ def repair_partial(root: Path, path: Path, index: int, report: RepairReport) -> 
                     ffile.unlink()
                 notes.append(f"{key}: no decodable frame; stream dropped")
                 continue
+            assert shape is not None  # read from the decodable frames
             streams[key] = {"camera": cam, "kind": kind, "file": vfile.name, "frames_file": ffile.name,
                             "frames": n, "height": shape[0], "width": shape[1], "rate": rate,
                             "codec": "ffv1" if kind == "depth" else video.codec, "dropped": 0}

@@ -5,6 +5,8 @@ shapes and sensor noise. Constant or random images would make compression figure
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .. import clock
@@ -62,13 +64,13 @@ def synthetic_step(i: int, t: float, cameras: dict[str, tuple[np.ndarray, float]
 
 def record_synthetic(root: str, episodes: int = 2, steps: int = 30, fps: float = 30.0, size: tuple[int, int] = (48, 64),
                      cameras: tuple[str, ...] = ("front", "wrist"), depth: bool = True, realtime: bool = False,
-                     **recorder_kw) -> list[dict]:
+                     **recorder_kw) -> list[dict[str, Any]]:
     """Record a small synthetic dataset (tests, examples); returns the kept episodes' metadata.
     Times are `rio.clock.now()`-based; with `realtime=False` steps are simulated at `fps` without waiting."""
     from .recorder import Recorder
 
     cams = {name: SyntheticCamera(*size, seed=k, noise=1.0, depth=depth and k == 0) for k, name in enumerate(cameras)}
-    metas = []
+    metas: list[dict[str, Any]] = []
     with Recorder(root, fps=fps, **recorder_kw) as rec:
         for _e in range(episodes):
             t0 = clock.now()
@@ -82,5 +84,7 @@ def record_synthetic(root: str, episodes: int = 2, steps: int = 30, fps: float =
                 rec.add(step)
                 if rate is not None:
                     rate.sleep()
-            metas.append(rec.keep())
+            meta = rec.keep()
+            if meta is not None:  # None only when steps=0: an empty episode is dropped, not kept
+                metas.append(meta)
     return metas

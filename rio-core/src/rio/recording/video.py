@@ -13,9 +13,12 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from fractions import Fraction
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from av.video.stream import VideoStream
 
 CODECS = {"h264": "libx264", "av1": "libsvtav1", "hevc": "libx265"}
 
@@ -42,7 +45,7 @@ class VideoOptions:
     def from_any(cls, value: VideoOptions | dict | str | None) -> VideoOptions:
         if value is None:
             return cls()
-        if isinstance(value, cls):
+        if isinstance(value, VideoOptions):
             return value
         if isinstance(value, str):
             return cls(codec=value)
@@ -89,7 +92,8 @@ class StreamWriter:
             self.container = av.open(str(self.path), "w", format="mp4",
                                      options={"movflags": "frag_keyframe+empty_moov+default_base_moof",
                                               "flush_packets": "1"})
-            self.stream = self.container.add_stream(codec, rate=_rate(rate), options=opts)
+            # a codec name from CODECS, all video encoders (av types a name it cannot check as any stream)
+            self.stream = cast("VideoStream", self.container.add_stream(codec, rate=_rate(rate), options=opts))
             self.stream.pix_fmt = "yuv420p"
             # 4:2:0 needs even sizes: pad by one pixel (the reader crops back to height x width)
             self.enc_h, self.enc_w = height + height % 2, width + width % 2

@@ -8,7 +8,7 @@ one middleware instance whose namespace is the station's name.
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from pydantic import ValidationError
 
@@ -19,14 +19,24 @@ from . import roles as R
 from .load import load_station
 from .model import Station
 
+if TYPE_CHECKING:
+    from ..embodiments.base import Embodiment
+    from ..env import Env
+    from ..manager import ServedNode
+    from ..middleware.base import Middleware
+    from ..node import Node
 
-class ClientFactory:
-    """Connects a client for one role: `clients["teleop"]()` returns a NodeClient (a context manager)."""
+N = TypeVar("N", bound="Node")
 
-    def __init__(self, role: str, cls: type, mw: Any, kwargs: dict[str, Any]):
+
+class ClientFactory(Generic[N]):
+    """Connects a client for one role: `clients["teleop"]()` returns what `rio.connect` returns, a
+    NodeClient proxy (a context manager) typed as the role's node class."""
+
+    def __init__(self, role: str, cls: type[N], mw: Middleware, kwargs: dict[str, Any]):
         self.role, self.cls, self.mw, self.kwargs = role, cls, mw, kwargs
 
-    def __call__(self) -> Any:
+    def __call__(self) -> N:
         from ..manager import connect
 
         return connect(self.cls, self.mw, name=self.role, **self.kwargs)
@@ -36,7 +46,7 @@ class ClientFactory:
 
 
 def resolve_middleware(station: Station, name: str | None = None, options: dict[str, Any] | None = None,
-                       registry: Registry | None = None) -> Any:
+                       registry: Registry | None = None) -> Middleware:
     """The station's middleware instance (name/options overridable), options checked by its `Config`."""
     reg = registry or get_registry()
     mw_name = name or station.middleware
@@ -58,7 +68,7 @@ def resolve_middleware(station: Station, name: str | None = None, options: dict[
     return cls(config, station=station.name)
 
 
-def resolve_embodiment(station: Station, registry: Registry | None = None) -> tuple[type | None, Any]:
+def resolve_embodiment(station: Station, registry: Registry | None = None) -> tuple[type[Embodiment] | None, Any]:
     """(Embodiment class, validated options), or (None, None) when the roles make no embodiment."""
     from ..embodiments.infer import infer_embodiment
 
@@ -80,7 +90,7 @@ def resolve_embodiment(station: Station, registry: Registry | None = None) -> tu
     return cls, config
 
 
-def load_node_class(station: Station, role: str) -> type:
+def load_node_class(station: Station, role: str) -> type[Node]:
     comp = station.components[role]
     try:
         return comp.node_class()
@@ -90,7 +100,8 @@ def load_node_class(station: Station, role: str) -> type:
 
 
 def make_station(station: str | os.PathLike | Station, *, middleware: str | None = None,
-                 middleware_options: dict[str, Any] | None = None, registry: Registry | None = None):
+                 middleware_options: dict[str, Any] | None = None, registry: Registry | None = None,
+                 ) -> tuple[dict[str, ServedNode], dict[str, ClientFactory[Node]], Env | None]:
     """Build a station (path, registered name or `Station`) into `(servers, clients, env)`.
 
     - servers: {role: ServedNode}, to pass to `ServerManager(servers)`;
@@ -106,8 +117,8 @@ def make_station(station: str | os.PathLike | Station, *, middleware: str | None
     st = load_station(station, registry=registry)
     mw = resolve_middleware(st, middleware, middleware_options, registry)
     emb_cls, emb_options = resolve_embodiment(st, registry)
-    servers: dict[str, Any] = {}
-    clients: dict[str, ClientFactory] = {}
+    servers: dict[str, ServedNode] = {}
+    clients: dict[str, ClientFactory[Node]] = {}
     for role, comp in st.components.items():
         cls, kwargs = load_node_class(st, role), comp.kwargs()
         try:

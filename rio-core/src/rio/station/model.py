@@ -4,11 +4,14 @@ resolved `Station` (each component bound to its registered spec and validated co
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from ..specs import Spec
+
+if TYPE_CHECKING:
+    from ..node import Node
 
 
 class MiddlewareSection(BaseModel):
@@ -46,7 +49,8 @@ class Component:
     #: Validated driver config (an instance of the spec's config model).
     config: BaseModel
 
-    def node_class(self) -> type:
+    def node_class(self) -> type[Node]:
+        """The driver's (or policy's) Node class, imported from its plugin."""
         return self.spec.load()
 
     def kwargs(self) -> dict[str, Any]:

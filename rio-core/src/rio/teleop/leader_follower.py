@@ -121,11 +121,12 @@ def run(station: Any, *, duration: float | None = None, rate_hz: float | None = 
     freq = float(rate_hz or st.rate_hz)
     dt = 1.0 / freq
     summary = LeaderFollowerSummary(st.name, rate_hz=freq)
-    say(f"starting station '{st.name}' ({len(servers)} nodes over {servers[roles[0][0]].mw.name}) ...")
+    say(f"starting station '{st.name}' ({len(servers)} nodes over {clients[roles[0][0]].mw.name}) ...")
     with ServerManager(servers, station=st.name), contextlib.ExitStack() as stack:
         stack.enter_context(env)
         env.instruction = instruction
         robot = env.robot
+        assert robot is not None  # connected by entering env
         labels = _labels(robot, [a for _, a, _ in roles])
         pairs = []
         for leader_role, arm_role, gripper_role in roles:
@@ -143,7 +144,7 @@ def run(station: Any, *, duration: float | None = None, rate_hz: float | None = 
             p = Pair(leader_role, arm_role, leader, label, glabel if gripper_role else None)
             p.q_cmd = np.asarray(arm.get_state()["joint_pos"], dtype=np.float64).copy()
             p.start_error = float(np.max(np.abs(np.asarray(s["joint_pos"]) - p.q_cmd)))
-            if p.gripper_label:
+            if p.gripper_label and gripper_role:
                 g = robot.clients[gripper_role]
                 p.max_width = float(g.max_width())
                 p.grip_cmd = float(g.get_state()["position"]) / p.max_width if p.max_width > 0 else 0.0

@@ -18,7 +18,7 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -28,6 +28,9 @@ from ..control.teleop import BUTTON_DONE, BUTTON_MODE, ButtonEdges, ModeSwitch, 
 from ..errors import RioError
 from .bindings import ArmBinding, bind_arms, build_action
 from .summary import ArmReport, ObjectReport, TeleopSummary
+
+if TYPE_CHECKING:
+    from .leader_follower import LeaderFollowerTick
 
 DEVICE_ROLES = ("teleop", "teleop2")
 
@@ -127,7 +130,7 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
                duration: float | None = None, middleware: str | None = None, rate_hz: float | None = None,
                mode: str | TeleopMode = TeleopMode.TRANSLATION, max_pos_speed: float = 0.15,
                max_rot_speed: float = 1.0, filter_hz: float | None = 8.0, device_config: dict | None = None,
-               on_step: Callable[[TeleopTick], None] | None = None,
+               on_step: Callable[[TeleopTick | LeaderFollowerTick], None] | None = None,
                log: Callable[[str], None] | None = print) -> Any:
     """Teleoperate `station` (registered name or .toml path) with `device` (default: the station's
     own `teleop` component). `viz=True` streams to rerun (a string: save to that .rrd file).
@@ -155,11 +158,12 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
     freq = float(rate_hz or st.rate_hz)
     dt = 1.0 / freq
     summary = TeleopSummary(st.name, st.components["teleop"].driver, "", rate_hz=freq, instruction=instruction)
-    say(f"starting station '{st.name}' ({len(servers)} nodes over {servers['teleop'].mw.name}) ...")
+    say(f"starting station '{st.name}' ({len(servers)} nodes over {clients['teleop'].mw.name}) ...")
     with ServerManager(servers, station=st.name), contextlib.ExitStack() as stack:
         stack.enter_context(env)
         env.instruction = instruction
-        devices = {r: stack.enter_context(clients[r]()) for r in DEVICE_ROLES if r in clients}
+        # teleop devices of any driver: their optional API (reset, help) is looked up with dir() below
+        devices: dict[str, Any] = {r: stack.enter_context(clients[r]()) for r in DEVICE_ROLES if r in clients}
         extras = {r: stack.enter_context(clients[r]()) for r in clients if kind_of(r) == "sensor"}
         arms = bind_arms(env.robot)
         for b in arms:
@@ -206,8 +210,9 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
                     done |= bool(p["buttons"].size > BUTTON_DONE and p["buttons"][BUTTON_DONE])
                     if r == "teleop":
                         switch.update(bool(pressed.size > BUTTON_MODE and pressed[BUTTON_MODE]), t_sample)
-                    if filters[r] is not None:
-                        p["twist"] = filters[r](p["twist"], t_sample)
+                    lowpass = filters[r]
+                    if lowpass is not None:
+                        p["twist"] = lowpass(p["twist"], t_sample)
                 for b in arms:
                     p = polled[drive[b.role]]
                     b.target = make_teleop_eef_cmd(b.target, p["twist"], h, switch.mode, max_pos_speed, max_rot_speed)
