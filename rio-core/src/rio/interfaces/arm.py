@@ -130,8 +130,7 @@ class ArmNode(JointNode):
 
     def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
         if self.mode == EEF and self.enabled:  # leave Cartesian streaming from where the arm is
-            assert self.commander is not None  # made in opened(), before enable()
-            self.commander.reset(self.read_joints()["joint_pos"], clock.now())
+            self.commander.reset(self.measured(), clock.now())
         super().command_joints(joint_pos, t_cmd_target)
         self.mode = JOINT
 
@@ -151,7 +150,6 @@ class ArmNode(JointNode):
         if self.kinematics is None:
             raise InvalidRequest(self.name, "eef_pose", f"{type(self).__name__} has no Cartesian control and no "
                                                         "robot_description() for IK: send joint targets")
-        assert self.commander is not None  # made in opened(), before enable()
         q = self.kinematics.solve(eef_pose, self.commander.target, max_iters=15).q
         self.command_joints(q, t_cmd_target)
 
@@ -159,6 +157,12 @@ class ArmNode(JointNode):
     def enable(self) -> bool:
         self.mode = JOINT
         return super().enable()
+
+    @remote
+    def hold(self) -> None:
+        super().hold()
+        if self.poses is not None:  # streaming poses: stop there too
+            self.poses.hold(clock.now())
 
     # -- client side --------------------------------------------------------------------------------
     @client_side

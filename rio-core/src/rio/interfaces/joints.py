@@ -27,8 +27,8 @@ from pydantic import Field
 
 from .. import clock
 from ..control.commander import JointCommander
-from ..errors import InvalidRequest
-from ..node import Node, NodeConfig, client_side, remote
+from ..node import client_side, remote
+from .commanded import CommandedNode
 
 log = logging.getLogger("rio.interfaces")
 
@@ -45,8 +45,8 @@ def as_vector(name: str, value: Any, n: int) -> np.ndarray:
     return v
 
 
-class JointNode(Node):
-    class Config(NodeConfig):
+class JointNode(CommandedNode):
+    class Config(CommandedNode.Config):
         joint_names: list[str] | None = Field(None, min_length=1, description="joints this node drives, in command "
                                                                               "order (default: the driver's)")
         home: list[float] | None = Field(None, description="joint positions (rad) that home() moves to "
@@ -54,11 +54,6 @@ class JointNode(Node):
         joint_limits: list[tuple[float, float]] | None = Field(
             None, description="[lower, upper] per joint (rad); narrows the hardware's own limits")
         max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad)")
-        watchdog_s: float = Field(0.5, gt=0, description="hold when no command came for this long while a move "
-                                                         "is under way (s)")
-        enable_on_open: bool = Field(True, description="enable (torque on, holding the present pose) at start")
-        disable_on_close: bool = Field(True, description="disable (torque off) when the node stops; a robot "
-                                                         "without brakes sags")
 
     # -- driver hooks -------------------------------------------------------------------------------
     def default_joint_names(self) -> list[str]:
@@ -78,11 +73,9 @@ class JointNode(Node):
     def write_joints(self, joint_pos: np.ndarray) -> None:
         raise NotImplementedError(f"{type(self).__name__} takes no joint targets")
 
-    def set_enabled(self, enabled: bool) -> None:
-        """Torque on (holding the present pose) or off. Default: nothing to switch."""
-
     # -- contract -----------------------------------------------------------------------------------
     def setup(self) -> None:
+        super().setup()
         c = self.config
         self.joint_list = list(c.joint_names or self.default_joint_names())
         n = self.dof = len(self.joint_list)
@@ -94,8 +87,6 @@ class JointNode(Node):
         self.example_data: dict[str, Any] = {"joint_pos": np.zeros(n), "joint_vel": np.zeros(n), "enabled": False,
                                              "holding": True}
         self.example_request: dict[str, Any] = {"joint_pos": np.zeros(n), "t_cmd_target": 0.0}
-        self.enabled = False
-        self.commander: JointCommander | None = None
 
     def limits(self) -> tuple[np.ndarray, np.ndarray]:
         """The hardware's limits narrowed by the station's `joint_limits`; unbounded where neither says."""
@@ -111,20 +102,12 @@ class JointNode(Node):
                              f"(lower {lower.tolist()}, upper {upper.tolist()})")
         return lower, upper
 
-    def opened(self) -> None:
+    def make_commander(self) -> JointCommander:
         lower, upper = self.limits()
-        q = np.asarray(self.read_joints()["joint_pos"], dtype=np.float64)
-        self.commander = JointCommander(lower, upper, self.config.max_step_rad, self.config.watchdog_s, start=q)
-        if self.config.enable_on_open:
-            self.enable()
+        return JointCommander(lower, upper, self.config.max_step_rad, self.config.watchdog_s, start=self.measured())
 
-    def closing(self) -> None:
-        if self.enabled and self.config.disable_on_close:
-            try:
-                self.set_enabled(False)
-            except Exception as e:  # closing must go on to release the device
-                log.warning("node '%s': disabling failed while closing: %s", self.name, e)
-            self.enabled = False
+    def measured(self) -> np.ndarray:
+        return np.asarray(self.read_joints()["joint_pos"], dtype=np.float64)
 
     def read_state(self) -> dict[str, Any]:
         sample = dict(self.read_joints())
@@ -134,55 +117,21 @@ class JointNode(Node):
     def drive(self, now: float) -> None:
         """Send this cycle's goal (when enabled)."""
         if self.enabled:
-            assert self.commander is not None  # made in opened(), before enable()
             self.write_joints(self.commander.step(now))
 
     def complete(self, sample: dict[str, Any]) -> dict[str, Any]:
         """The contract's keys on top of what the driver read: NaN for what it did not measure."""
         if "joint_vel" not in sample:
             sample["joint_vel"] = np.full(self.dof, np.nan)
-        sample["enabled"] = self.enabled
-        if self.enabled:
-            assert self.commander is not None  # made in opened(), before enable()
-            sample["holding"] = self.commander.holding
-        else:
-            sample["holding"] = True
-        return sample
+        return self.status(sample)
 
     def handle_request(self, request: dict[str, Any]) -> None:
         self.command_joints(np.asarray(request["joint_pos"]), float(request["t_cmd_target"]))
 
     def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
-        if not self.enabled:
-            raise InvalidRequest(self.name, "joint_pos", "the device is disabled (call enable() first)")
-        assert self.commander is not None  # made in opened(), before enable()
-        self.commander.command(joint_pos, t_cmd_target, clock.now())
+        self.command("joint_pos", joint_pos, t_cmd_target)
 
     # -- remote API ---------------------------------------------------------------------------------
-    @remote
-    def enable(self) -> bool:
-        """Torque on, holding the present pose: nothing moves until the next command."""
-        self.set_enabled(True)
-        assert self.commander is not None  # made in opened()
-        self.commander.reset(self.read_joints()["joint_pos"], clock.now())
-        self.enabled = True
-        return True
-
-    @remote
-    def disable(self) -> bool:
-        """Torque off (the robot goes limp: support it first)."""
-        assert self.commander is not None  # made in opened()
-        self.commander.hold(clock.now())
-        self.set_enabled(False)
-        self.enabled = False
-        return False
-
-    @remote
-    def hold(self) -> None:
-        """Stop where the robot is commanded to be now."""
-        assert self.commander is not None  # made in opened()
-        self.commander.hold(clock.now())
-
     @remote
     def home(self, seconds: float = 3.0) -> None:
         """Move to the home pose, arriving in `seconds` (still limited to `max_step_rad` per cycle)."""
@@ -193,7 +142,6 @@ class JointNode(Node):
     @remote
     def joint_limits(self) -> list[list[float]]:
         """[[lower...], [upper...]] in rad, as enforced (inf where unbounded)."""
-        assert self.commander is not None  # made in opened()
         return [self.commander.lower.tolist(), self.commander.upper.tolist()]
 
     @client_side
