@@ -19,12 +19,8 @@ PACKAGE = Path("rio-core/src/rio")
 # Files with known type errors whose fixes are under way elsewhere, left out of the clean run meanwhile.
 # Remove each entry once its file is fixed: the goal is no exclusion at all.
 PENDING = (
-    "known_plugins.py",
-    "scaffold.py",
     "conformance/driving.py",
     "conformance/drivers.py",
-    "teleop/keyboard.py",
-    "teleop/scripted.py",
 )
 
 needs_mypy = pytest.mark.skipif(importlib.util.find_spec("mypy") is None,

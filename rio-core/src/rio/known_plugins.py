@@ -4,21 +4,32 @@ A name that is not registered is most often one whose plugin is simply not insta
 then `rio teleop sim-so100`). The registry cannot know about a plugin that is not there, so this small
 table records, by name pattern, what the plugins shipped with RIO provide. Third-party plugins are not
 listed: for them the usual "did you mean" suggestion is all `rio` can offer.
+
+The same table is the list of this repository's distribution names, planned ones included (they
+provide nothing yet, so they never appear in a hint): `rio new plugin` refuses a name that would
+clash with one of them (`repository_plugin`).
 """
 
 from __future__ import annotations
 
+import re
 from fnmatch import fnmatchcase
 
 from .specs import DRIVER_KINDS
 
 #: distribution -> {kind group: shell-style name patterns}. Kind groups: "driver" (any driver kind),
-#: "policy", "dataset_format", "station". Keep in step with each plugin's plugin.py.
+#: "policy", "dataset_format", "station". Keep in step with each plugin's plugin.py. A planned plugin
+#: is listed with nothing yet: its name is taken, and no hint sends anyone to install it.
 KNOWN: dict[str, dict[str, tuple[str, ...]]] = {
+    "rio-core": {},  # the core's own names are always installed
     "rio-sim": {"driver": ("sim.*",), "station": ("sim-*",)},
     "rio-so100": {"driver": ("so100.*", "so101.*"), "station": ("so100", "so100-*", "so101", "so101-*")},
     "rio-policies": {"policy": ("openpi.*", "gr00t.*", "onnx.*", "lerobot.*", "replay.*")},
     "rio-datasets": {"dataset_format": ("lerobot", "zarr", "hdf5")},
+    # planned
+    "rio-ufactory": {}, "rio-robotiq": {}, "rio-franka": {}, "rio-ur": {}, "rio-kinova": {},
+    "rio-unitree": {}, "rio-booster": {}, "rio-realsense": {}, "rio-cameras": {}, "rio-teleop": {},
+    "rio-lerobot": {}, "rio-ros2": {},
 }
 
 
@@ -27,7 +38,15 @@ def _group(kind: str) -> str:
 
 
 def _norm(dist: str) -> str:
-    return dist.lower().replace("_", "-")
+    """A distribution name in its normalized form (PEP 503): lowercase, runs of '-', '_', '.' as one '-'."""
+    return re.sub(r"[-_.]+", "-", dist).lower()
+
+
+def repository_plugin(dist: str) -> str | None:
+    """`dist` as this repository names it when it is one of its distributions (shipped or planned),
+    whatever its spelling (`RIO_Sim`, `rio.sim`); None otherwise."""
+    want = _norm(dist)
+    return next((d for d in KNOWN if d == want), None)
 
 
 def provider(kind: str, name: str) -> str | None:
@@ -53,11 +72,11 @@ def missing_plugin_hint(kind: str, name: str, loaded: set[str]) -> str | None:
     installed and was not loaded (left out by RIO_LOAD_PLUGINS, or its import failed): installing it
     again would not help, so point at `rio doctor` instead."""
     hint = install_hint(kind, name, loaded)
-    if hint is None:
+    dist = provider(kind, name)
+    if hint is None or dist is None:
         return None
     from importlib.metadata import PackageNotFoundError, distribution
 
-    dist = provider(kind, name)
     try:
         distribution(dist)
     except PackageNotFoundError:

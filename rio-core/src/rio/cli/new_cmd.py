@@ -1,4 +1,5 @@
-"""`rio new plugin NAME --kind arm`: scaffold an installable, tested plugin distribution."""
+"""`rio new plugin NAME --kind KIND` scaffolds an installable, tested plugin; `rio new driver NAME --kind
+KIND`, run in a plugin's folder, adds another driver (of any kind) to it."""
 
 from __future__ import annotations
 
@@ -9,19 +10,45 @@ import typer
 
 app = typer.Typer(help="Create new things from templates.", no_args_is_help=True)
 
+_KINDS = "arm | gripper | camera | teleop | policy | sensor"
+
 
 @app.command("plugin")
 def plugin(
     name: Annotated[str, typer.Argument(help="Plugin name, lowercase (e.g. 'acme' -> rio-acme, driver 'acme.arm').")],
-    kind: Annotated[str, typer.Option("--kind", "-k", help="arm | gripper | camera | teleop | policy")] = "arm",
+    kind: Annotated[str, typer.Option("--kind", "-k", help=_KINDS)] = "arm",
     output: Annotated[Path, typer.Option("--output", "-o", help="Directory to create rio-NAME/ in.")] = Path("."),
     force: Annotated[bool, typer.Option("--force", help="Render into an existing, non-empty directory.")] = False,
 ) -> None:
-    """Generate rio-NAME/: pyproject with the `rio` entry point, a driver node with its config model,
-    an emulator, a station file, a test and a README."""
+    """Generate rio-NAME/: pyproject with the `rio` entry point, a driver of KIND in the kind's contract,
+    an emulator, a demo station, tests and a README."""
     from ..scaffold import new_plugin
-    from .output import console
 
     dst = new_plugin(name, kind, output, force=force)
-    console().print(f"created {dst}\nnext:\n  cd {dst}\n  pip install -e .   (or: uv pip install -e .)\n"
-                    f"  rio plugins list\n  pytest", markup=False)
+    typer.echo(f"created {dst}\nnext, install it into this environment and test it:\n"
+               f"  rio plugins install -e {dst}     (in a RIO checkout: uv run rio plugins install -e {dst})\n"
+               f"  rio plugins list\n  pytest {dst / 'tests'}\nthen see {dst / 'README.md'} (\"Try it\")")
+
+
+@app.command("driver")
+def driver(
+    name: Annotated[str, typer.Argument(help="Driver name, a Python module name (e.g. 'wrist_camera' -> "
+                                             "'<plugin>.wrist_camera' in src/<package>/wrist_camera.py).")],
+    kind: Annotated[str, typer.Option("--kind", "-k", help=_KINDS)] = "arm",
+    plugin_dir: Annotated[Path, typer.Option("--plugin", "-p", help="The plugin's folder (default: the one "
+                                                                     "containing the current directory).")] = Path("."),
+    register: Annotated[bool, typer.Option("--register/--no-register",
+                                           help="Add the driver's specs to the plugin's plugin.py.")] = True,
+) -> None:
+    """Add a driver of KIND to an existing plugin: its module, an emulator, a demo station and a test;
+    then register it in plugin.py (or print the lines to add when that file is not in a shape that can
+    be edited safely)."""
+    from ..scaffold import new_driver
+
+    out = new_driver(name, kind, plugin_dir, register=register)
+    root = out.plugin.root
+    files = "\n".join(f"  {f.relative_to(root)}" for f in out.files)
+    typer.echo(f"added {out.values['driver']} to {out.plugin.dist} ({root}):\n{files}\n{out.instructions()}\n"
+               f"next: pytest {root / 'tests' / (out.values['test_module'] + '.py')}\n"
+               f"      rio stations check {out.values['station']}   (an editable install picks the new driver up; "
+               "reinstall a regular one)")

@@ -33,8 +33,9 @@ _ANGULAR = {"u": (3, 1), "o": (3, -1), "i": (4, 1), "k": (4, -1), "j": (5, 1), "
 class KeyTwist:
     """Key presses -> twist, gripper and buttons (the part that needs no terminal; tested alone)."""
 
-    def __init__(self, speed: float, rot_speed: float, hold_s: float):
+    def __init__(self, speed: float, rot_speed: float, hold_s: float, buttons: int = 2):
         self.speed, self.rot_speed, self.hold_s = speed, rot_speed, hold_s
+        self.buttons = int(buttons)  # how many are published (the configured number)
         self.until = np.zeros(6)      # per twist axis: active until this time
         self.sign = np.zeros(6)
         self.gripper = 1.0
@@ -56,9 +57,9 @@ class KeyTwist:
     def state(self, t: float) -> dict[str, Any]:
         active = self.until > t
         scale = np.array([self.speed] * 3 + [self.rot_speed] * 3)
-        buttons = np.zeros(2, bool)
-        buttons[BUTTON_MODE] = t < self.mode_until
-        buttons[BUTTON_DONE] = self.done
+        buttons = np.zeros(self.buttons, bool)
+        buttons[BUTTON_MODE:BUTTON_MODE + 1] = t < self.mode_until  # where the configured buttons include it
+        buttons[BUTTON_DONE:BUTTON_DONE + 1] = self.done
         return {"twist": np.where(active, self.sign * scale, 0.0), "gripper": self.gripper, "buttons": buttons}
 
 
@@ -73,9 +74,9 @@ class KeyboardTeleop(TeleopNode):
     def setup(self) -> None:
         super().setup()
         c = self.config
-        self.tty, self.keys = c.tty, KeyTwist(c.speed, c.rot_speed, c.hold_s)
+        self.tty, self.keys = c.tty, KeyTwist(c.speed, c.rot_speed, c.hold_s, c.buttons)
         self._fd: int | None = None
-        self._saved = None
+        self._saved: list[Any] | None = None  # the terminal's settings, restored on close
 
     def open(self) -> None:
         import termios
@@ -106,6 +107,7 @@ class KeyboardTeleop(TeleopNode):
 
     def read_state(self) -> dict[str, Any]:
         t = clock.now()
+        assert self._fd is not None  # opened in open()
         try:
             data = os.read(self._fd, 64)
         except BlockingIOError:

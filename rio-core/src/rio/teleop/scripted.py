@@ -43,7 +43,8 @@ class Move:
 def _travel(delta, speed: float) -> Move:
     dist = float(np.linalg.norm(delta))
     # a raised cosine peaks at twice its mean speed: 2 * dist / T = speed
-    return Move(tuple(float(x) for x in delta), max(2.0 * dist / speed, 0.4))
+    dx, dy, dz = (float(x) for x in delta)
+    return Move((dx, dy, dz), max(2.0 * dist / speed, 0.4))
 
 
 def build_script(cfg: ScriptedTeleopConfig) -> list[Move]:
@@ -121,13 +122,13 @@ class ScriptedTeleop(TeleopNode):
         return float(self.ends[-1])
 
     def read_state(self) -> dict[str, Any]:
-        twist, buttons = np.zeros(6), np.zeros(2, bool)
+        twist, buttons = np.zeros(6), np.zeros(self.config.buttons, bool)
         if self.t_start is None:
             return {"twist": twist, "gripper": 1.0, "buttons": buttons, "phase": -1, "offset": np.zeros(3)}
         t = clock.now() - self.t_start
         i = int(np.searchsorted(self.ends, t, side="right"))
         if i >= len(self.moves):
-            buttons[BUTTON_DONE] = True
+            buttons[BUTTON_DONE:BUTTON_DONE + 1] = True  # where the configured buttons include it
             return {"twist": twist, "gripper": self.moves[-1].gripper, "buttons": buttons, "phase": len(self.moves),
                     "offset": self.offsets[-1]}
         move = self.moves[i]
