@@ -108,3 +108,17 @@ def test_pose_watchdog_holds_a_move_whose_commands_stopped():
     c.step(0.1)
     held = c.step(0.3)[0]
     assert c.holding and c.step(1.5)[0] == held and held < 0.12
+
+
+def test_watchdog_holds_a_silent_stream_still_stepping_towards_a_far_target():
+    """Targets due now but far away (`move_joints(q)` without a time) are reached through the step
+    limit over many cycles: a stream that goes silent meanwhile is held too, not finished."""
+    c = _cmd(max_step=0.01, watchdog=0.3)
+    c.command([0.0, 0.0], t_target=0.0, now=0.0)
+    c.command([1.0, 0.0], t_target=0.05, now=0.05)
+    for k in range(1, 20):
+        c.step(0.05 + 0.01 * k)  # 0.19 rad by t = 0.24, still moving
+    assert not c.holding
+    held = c.step(0.36)[0]  # 0.31 s without a command
+    assert c.holding and held < 0.25
+    assert c.step(1.0)[0] == held

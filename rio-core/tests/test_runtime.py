@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import rio
 from rio import Node, ServerManager, client_side, connect, remote, serve
-from rio.testing import wait_until
+from rio.testing import FakeArm, wait_until
 
 
 class PubOnly(Node):
@@ -102,6 +102,11 @@ def test_error_in_loop_is_reported_by_name_to_clients():
 def test_duplicate_server_names_rejected():
     with pytest.raises(rio.errors.ConfigError, match="'x'"):
         ServerManager("thread", [serve(PubOnly, name="x"), serve(PubOnly, name="x")])
+
+
+def test_config_refused_by_setup_is_reported_with_the_node_name():
+    with pytest.raises(rio.RioError, match=r"node 'arm' \(FakeArm\): ValueError: home has 2 entries"):
+        serve(FakeArm, name="arm", dof=3, home=[0.0, 0.0])
 
 
 def test_bad_node_config_fails_in_caller():

@@ -16,13 +16,6 @@ import rio
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = Path("rio-core/src/rio")
 
-# Files with known type errors whose fixes are under way elsewhere, left out of the clean run meanwhile.
-# Remove each entry once its file is fixed: the goal is no exclusion at all.
-PENDING = (
-    "conformance/driving.py",
-    "conformance/drivers.py",
-)
-
 needs_mypy = pytest.mark.skipif(importlib.util.find_spec("mypy") is None,
                                 reason="mypy is not installed (it is in the workspace's dev dependency group)")
 
@@ -41,8 +34,7 @@ def test_py_typed_is_shipped():
 def test_mypy_is_clean_on_rio_core():
     if not (ROOT / PACKAGE).is_dir():
         pytest.skip("needs the repository checkout (rio-core/src/rio)")
-    excludes = [arg for path in PENDING for arg in ("--exclude", f"^{PACKAGE}/{path}$".replace(".", r"\."))]
-    result = _mypy(str(PACKAGE), *excludes)
+    result = _mypy(str(PACKAGE))
     assert result.returncode == 0, f"mypy found errors in rio-core:\n{result.stdout}{result.stderr}"
 
 

@@ -51,11 +51,13 @@ def _middleware(mw: str | Middleware, station: str, options: dict | None = None)
 def _build_node(cls: type[Node], name: str | None, config: dict[str, Any]) -> Node:
     if not (isinstance(cls, type) and issubclass(cls, Node)):
         raise ConfigError(f"{cls!r} is not a rio.Node subclass")
+    who = f"node '{name or cls.__name__.lower()}' ({cls.__name__})"
     try:
         node = cls(**config)
     except ValidationError as e:
-        raise ConfigError(f"node '{name or cls.__name__.lower()}' ({cls.__name__}) config:\n  "
-                          + "\n  ".join(error_lines(e, "", cls.Config))) from None
+        raise ConfigError(f"{who} config:\n  " + "\n  ".join(error_lines(e, "", cls.Config))) from None
+    except Exception as e:  # setup() refused the config (an unknown model, a mismatched length, ...)
+        raise ConfigError(f"{who}: {type(e).__name__}: {e}") from e
     node.name = name or node.name
     return node
 

@@ -133,8 +133,10 @@ class FailingOpenNode(Node):
 
 
 class FakeArm(ifc.ArmNode):
-    """Arm with joint and Cartesian control, tracked independently (no kinematics: an end-effector goal
-    moves the reported pose, not the joints)."""
+    """Arm with joint and Cartesian control and no kinematic model. Its tool is carried by its joints
+    the way a gantry's is (each joint moves it 0.1 m per rad along one axis: joint i along x, y, z for
+    i mod 3 = 0, 1, 2), so the measured pose follows joint moves; an end-effector goal moves the tool
+    directly and leaves the joints where they are."""
 
     class Config(ifc.ArmNode.Config):
         dof: int = Field(6, ge=1, le=64, description="number of joints (named joint1..N)")
@@ -148,7 +150,10 @@ class FakeArm(ifc.ArmNode):
     def open(self) -> None:
         home = self.config.home
         self.q = np.zeros(self.dof) if home is None else np.asarray(home, dtype=np.float64)
+        #: tool travel (m) per joint motion (rad): 3 x dof
+        self._carry = 0.1 * (np.arange(3)[:, None] == np.arange(self.dof)[None, :] % 3)
         self.pose = ifc.IDENTITY_POSE.copy()
+        self.pose[:3] = self._carry @ self.q
         self._q_prev, self._t_prev = self.q.copy(), clock.now()
 
     def read_joints(self) -> dict[str, Any]:
@@ -158,7 +163,9 @@ class FakeArm(ifc.ArmNode):
         return {"joint_pos": self.q.copy(), "joint_vel": vel, "eef_pose": self.pose.copy()}
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
-        self.q = np.array(joint_pos, dtype=np.float64)
+        q = np.array(joint_pos, dtype=np.float64)
+        self.pose[:3] += self._carry @ (q - self.q)  # the joints carry the tool
+        self.q = q
 
     def write_pose(self, eef_pose: np.ndarray) -> None:
         self.pose = np.array(eef_pose, dtype=np.float64)

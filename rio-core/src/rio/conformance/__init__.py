@@ -17,6 +17,23 @@ Or without a file, against any registered middleware: `pytest --rio-middleware m
 comes from the pytest plugin `rio.conformance.pytest_plugin`, which pytest loads by itself (entry
 point `pytest11: rio`) wherever rio-core is installed.
 
+Driver kit (`rio.conformance.drivers`): one base class per driver kind (`ArmConformance`,
+`GripperConformance`, `HandConformance`, `HumanoidConformance`, `CameraConformance`,
+`TeleopConformance`, `SensorConformance`) checking the kind's contract: keys, shapes and dtypes, SI
+units, NaN for what is not measured, limit clipping, maximum step, the watchdog, disable/enable,
+`close()` after an error and start-up failures named by node. A plugin names its driver, its config
+and its emulator:
+
+    from rio.conformance.drivers import ArmConformance
+
+    class TestAcmeArm(ArmConformance):
+        driver = "acme.arm"
+        config = {"port": "emulator"}
+
+or, without a file, `pytest --rio-driver acme.arm --rio-driver-config '{"port": "/dev/ttyUSB0"}'`.
+The kits live in `driver_base` (every driver), `commandable` (joints, grippers) and `sensing`
+(cameras, teleop), with the ticking and fault-injection helpers in `driving`.
+
 Helpers (`rio.conformance.process`): `child_pids()`, `shm_entries()` and `assert_no_shm_left()`,
 to check in a plugin's own tests that nothing is left behind.
 

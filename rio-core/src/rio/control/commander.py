@@ -46,6 +46,10 @@ class _Commander:
     def _toward(self, goal: np.ndarray, desired: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
+    def _arrived(self) -> bool:
+        """The goal has reached the end of the current move (the step limit may lag the interpolation)."""
+        return bool(np.allclose(self.goal, self._interp.goal, rtol=0.0, atol=1e-9))
+
     def reset(self, value, t: float) -> np.ndarray:
         """Hold `value` (the measured state at start-up, after enabling, after switching modes)."""
         self.goal = self._clip(value)
@@ -76,11 +80,10 @@ class _Commander:
     def step(self, now: float) -> np.ndarray:
         """The goal for this cycle."""
         quiet = not self.holding and now - self._t_cmd > self.watchdog_s
-        ended = now >= self._interp.t_goal
-        if quiet and self._streamed and not ended:
+        if quiet and self._streamed and not (now >= self._interp.t_goal and self._arrived()):
             self.hold(now)  # a stream went silent mid-move: stop here
         self.goal = self._clip(self._toward(self.goal, self._interp.sample(now)))
-        if quiet and ended:
+        if quiet and now >= self._interp.t_goal and self._arrived():
             self.holding = True  # the move is over and nothing fresh is being followed
         return self.goal.copy()
 
@@ -127,6 +130,11 @@ class PoseCommander(_Commander):
         p = as_pose(pose)
         p[:3] = np.clip(p[:3], self.lower, self.upper)
         return p
+
+    def _arrived(self) -> bool:
+        target = self._interp.goal
+        return bool(np.allclose(self.goal[:3], target[:3], rtol=0.0, atol=1e-9)
+                    and quat_angle(self.goal[3:], target[3:]) <= 1e-9)
 
     def _toward(self, goal: np.ndarray, desired: np.ndarray) -> np.ndarray:
         out = desired.copy()
