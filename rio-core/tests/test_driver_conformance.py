@@ -13,6 +13,7 @@ from rio.conformance.drivers import (
     GripperConformance,
     HandConformance,
     HumanoidConformance,
+    SensorConformance,
     TeleopConformance,
 )
 
@@ -52,6 +53,10 @@ class TestFakeHand(HandConformance):
 class TestFakeHumanoid(HumanoidConformance):
     driver = "rio.fake_humanoid"
     config = {"dof": 6, "joint_limits": [(-1.0, 1.0)] * 6}
+
+
+class TestFakeSensor(SensorConformance):
+    driver = "rio.fake_sensor"
 
 
 class TestScriptedTeleop(TeleopConformance):

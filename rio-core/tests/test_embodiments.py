@@ -199,3 +199,25 @@ def test_station_over_a_process_middleware(reg):
         env.step(target, t_cmd_target=clock.now() + 0.05)
         assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, target), timeout=10)
         assert env.get_state().observation.cameras["top"].rgb.shape == (8, 16, 3)
+
+
+def test_sensor_roles_ride_along_in_step_meta_and_are_recorded(tmp_path):
+    """A `<name>_sensor` belongs to no morphology: each step carries its latest sample in
+    meta["sensors"], which the recorder stores as columns."""
+    from rio.recording import Dataset, Recorder
+    from rio.station import make_station, parse_station
+
+    st = parse_station({"name": "ft", "middleware": {"name": "thread"}, "components": {
+        "arm": {"driver": "rio.fake_arm"}, "ft_sensor": {"driver": "rio.fake_sensor", "value": [1, 2, 3, 0, 0, 0]}}})
+    servers, _clients, env = make_station(st)
+    with ServerManager(servers), env:
+        step = env.reset()
+        assert np.allclose(step.meta["sensors"]["ft"]["value"], [1, 2, 3, 0, 0, 0])
+        assert "ft_sensor" in step.meta["timestamps"]
+        with Recorder(tmp_path / "data", env=env) as rec:
+            rec.start_episode()
+            for _ in range(5):
+                rec.add(env.step(np.zeros(env.action_dim)))
+            rec.keep()
+    ep = Dataset(tmp_path / "data").episode(0)
+    assert np.allclose(ep.column("meta.sensors.ft.value"), [1, 2, 3, 0, 0, 0])

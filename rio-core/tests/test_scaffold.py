@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, distribution
 from pathlib import Path
 
+import numpy as np
 import pytest
 import rio
 from rio.cli import main
@@ -232,8 +233,10 @@ def test_sensor_station_records(plugins, tmp_path):
     assert "1 episode(s) kept" in out, out
     ep = Dataset(data).episode(0)
     assert ep.length > 30
-    if not any("wrench" in name for name in ep.columns.dtype.names):
-        pytest.xfail("sensor roles are not recorded: the embodiment's Observation has no field for them")
+    wrench = [name for name in ep.columns.dtype.names if name.startswith("meta.sensors.") and name.endswith(".wrench")]
+    assert len(wrench) == 1, ep.columns.dtype.names  # every step carries the sensor's latest sample
+    values = ep.column(wrench[0])
+    assert values.shape == (ep.length, 6) and np.isfinite(values).all()
 
 
 # -- rio new driver, names -------------------------------------------------------------------------------

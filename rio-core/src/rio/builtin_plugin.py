@@ -51,6 +51,7 @@ def rio_drivers() -> list[Spec]:
         Spec("rio.fake_teleop", "teleop", f"{t}:FakeTeleop", f"teleop: {_FAKE}"),
         Spec("rio.fake_hand", "hand", f"{t}:FakeHand", f"hand: {_FAKE}"),
         Spec("rio.fake_humanoid", "humanoid", f"{t}:FakeHumanoid", f"humanoid: {_FAKE}"),
+        Spec("rio.fake_sensor", "sensor", f"{t}:FakeSensor", f"sensor (a constant reading): {_FAKE}"),
         # Teleop devices that need no hardware
         Spec("teleop.scripted", "teleop", "rio.teleop.scripted:ScriptedTeleop",
              "scripted end-effector moves (pick and place); headless demos and tests"),

@@ -1,8 +1,12 @@
 """Env: the gym-style face of a station (`reset`, `step`, `get_state`), as in the RIO paper.
 
-It owns the clients of its embodiment's roles and of every camera, connects them on `__enter__` and
-closes them on `__exit__`. Every call is non-blocking: state comes from local ring buffers and
-`step` only enqueues commands, so the control loop keeps its own timing.
+It owns the clients of its embodiment's roles, of every camera and of every sensor, connects them on
+`__enter__` and closes them on `__exit__`. Every call is non-blocking: state comes from local ring
+buffers and `step` only enqueues commands, so the control loop keeps its own timing.
+
+Sensors (`<name>_sensor` roles: a force-torque sensor, the sim world's ground truth) belong to no
+morphology, so they are not in the `Observation`: each step carries their latest numeric values in
+`meta["sensors"][name]`, which the recorder stores as `meta.sensors.<name>.<key>` columns.
 """
 
 from __future__ import annotations
@@ -22,12 +26,15 @@ from .schema import Camera, Step
 class Env:
     def __init__(self, embodiment: type[Embodiment], config: EmbodimentConfig,
                  robot_clients: Mapping[str, Callable[[], Any]], camera_clients: Mapping[str, Callable[[], Any]],
-                 *, rate_hz: float = 30.0, station: str = "rio"):
+                 sensor_clients: Mapping[str, Callable[[], Any]] | None = None, *, rate_hz: float = 30.0,
+                 station: str = "rio"):
         self.embodiment_cls, self.config = embodiment, config
         self.robot_clients, self.camera_clients = robot_clients, camera_clients
+        self.sensor_clients = dict(sensor_clients or {})
         self.rate_hz, self.station = float(rate_hz), station
         self.robot: Embodiment | None = None
         self.cameras: dict[str, Any] = {}
+        self.sensors: dict[str, Any] = {}
         self.instruction: str | None = None
         self.timestep = 0
         self.t_start: float | None = None
@@ -39,6 +46,7 @@ class Env:
         try:
             clients = {role: stack.enter_context(make()) for role, make in self.robot_clients.items()}
             self.cameras = {name: stack.enter_context(make()) for name, make in self.camera_clients.items()}
+            self.sensors = {name: stack.enter_context(make()) for name, make in self.sensor_clients.items()}
             self.robot = self.embodiment_cls(clients, self.config)
         except BaseException:
             stack.close()
@@ -49,7 +57,7 @@ class Env:
     def __exit__(self, *exc: Any) -> None:
         if self._stack is not None:
             self._stack.close()
-        self._stack, self.robot, self.cameras = None, None, {}
+        self._stack, self.robot, self.cameras, self.sensors = None, None, {}, {}
 
     def _robot(self) -> Embodiment:
         if self.robot is None:
@@ -90,10 +98,18 @@ class Env:
         obs.cameras = {name: self._camera(name, client) for name, client in self.cameras.items()}
         stamps = dict(robot.timestamps)
         stamps.update({f"{n}_camera": c.meta["timestamp"] for n, c in obs.cameras.items()})
+        if self.sensors:
+            meta["sensors"] = {name: self._sensor(name, client, stamps) for name, client in self.sensors.items()}
         meta.update(t_obs=t_obs, timestamps=stamps, station=self.station)
         if self.t_start is not None:
             meta["t_start"] = self.t_start
         return Step(self.timestep, obs, self.instruction, action, meta)
+
+    @staticmethod
+    def _sensor(name: str, client: Any, stamps: dict[str, float]) -> dict[str, Any]:
+        s = client.get_state()
+        stamps[f"{name}_sensor"] = float(s["timestamp"])
+        return {k: v for k, v in s.items() if k != "timestamp"}
 
     @staticmethod
     def _camera(name: str, client: Any) -> Camera:

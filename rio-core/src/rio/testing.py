@@ -278,6 +278,20 @@ class FakeTeleop(ifc.TeleopNode):
                 "buttons": np.zeros(self.config.buttons, bool)}
 
 
+class FakeSensor(Node):
+    """A sensor of no standard kind (a force-torque sensor, say) publishing a constant reading."""
+
+    class Config(NodeConfig):
+        value: list[float] = Field(default_factory=lambda: [0.0] * 6, min_length=1, max_length=64,
+                                   description="the reading published (e.g. a wrench: N, N m)")
+
+    def setup(self) -> None:
+        self.example_data = {"value": np.zeros(len(self.config.value))}
+
+    def read_state(self) -> dict[str, Any]:
+        return {"value": np.asarray(self.config.value, dtype=np.float64)}
+
+
 class _FakeJoints:
     """Joints that follow the goal (for the fake hand and humanoid)."""
 

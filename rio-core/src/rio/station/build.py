@@ -123,15 +123,13 @@ def make_station(station: str | os.PathLike | Station, *, middleware: str | None
         cls, kwargs = load_node_class(st, role), comp.kwargs()
         try:
             servers[role] = serve(cls, mw, name=role, **kwargs)
-        except ConfigError:
-            raise
-        except Exception as e:  # the node's constructor rejected a validated config
-            raise ConfigError(f"{st.source}: components.{role}: driver '{comp.driver}' rejected its config: "
-                              f"{type(e).__name__}: {e}") from e
+        except ConfigError as e:  # the node's setup() refused a validated config
+            raise ConfigError(f"{st.source}: components.{role}: driver '{comp.driver}' rejected its config: {e}") from e
         clients[role] = ClientFactory(role, cls, mw, kwargs)
     env = None
     if emb_cls is not None:
         robot = {r: clients[r] for r in sorted(emb_cls.roles() & st.roles())}
         cameras = {R.camera_name(r): clients[r] for r in sorted(st.roles()) if R.kind_of(r) == "camera"}
-        env = Env(emb_cls, emb_options, robot, cameras, rate_hz=st.rate_hz, station=st.name)
+        sensors = {R.sensor_name(r): clients[r] for r in sorted(st.roles()) if R.kind_of(r) == "sensor"}
+        env = Env(emb_cls, emb_options, robot, cameras, sensors, rate_hz=st.rate_hz, station=st.name)
     return servers, clients, env

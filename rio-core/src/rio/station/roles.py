@@ -38,3 +38,8 @@ def hook_of(kind: str) -> str:
 def camera_name(role: str) -> str:
     """'front_camera' -> 'front': the key of the camera in `Observation.cameras`."""
     return role[: -len("_camera")]
+
+
+def sensor_name(role: str) -> str:
+    """'ft_sensor' -> 'ft': the key of the sensor in a step's `meta["sensors"]`."""
+    return role[: -len("_sensor")]
