@@ -12,7 +12,7 @@ from rio.conformance.process import _is_resource_tracker, child_pids, shm_entrie
 
 MIDDLEWARES = ["thread", "shm", "zmq", "zenoh", "portal"]
 
-__all__ = ["MIDDLEWARES", "child_pids", "shm_entries", "_is_resource_tracker", "run_rio"]
+__all__ = ["MIDDLEWARES", "child_pids", "shm_entries", "_is_resource_tracker", "run_rio", "kit_outcomes"]
 
 
 @pytest.fixture(params=MIDDLEWARES)
@@ -39,3 +39,18 @@ def registry(monkeypatch):
     reg = Registry(load_entry_points=False)
     monkeypatch.setattr(plugins, "_REGISTRY", reg)
     return reg
+
+
+def kit_outcomes(reprec: pytest.HookRecorder) -> dict[str, dict[str, str]]:
+    """A pytester run of a conformance kit as {class name: {case: outcome}} ("passed", "failed",
+    "skipped", or "error" for a failure outside the test body), with each failure's text as
+    "<case> text": how the kit tests prove that a broken implementation fails the right cases."""
+    out: dict[str, dict[str, str]] = {}
+    for rep in reprec.getreports("pytest_runtest_logreport"):
+        if rep.when != "call" and not (rep.failed or rep.skipped):
+            continue
+        cls, case = rep.nodeid.split("::")[-2:]
+        out.setdefault(cls, {})[case] = "error" if rep.failed and rep.when != "call" else rep.outcome
+        if rep.failed:
+            out[cls][f"{case} text"] = rep.longreprtext
+    return out

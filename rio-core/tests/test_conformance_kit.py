@@ -14,6 +14,8 @@ from importlib.metadata import entry_points
 import pytest
 import rio.conformance.middleware  # noqa: F401 - loaded before the in-process pytester runs, which keep it
 
+from .conftest import kit_outcomes
+
 pytest_plugins = ["pytester"]
 
 KIT_CASES = 19  # cases per middleware, the parametrized one counted once per parameter set
@@ -97,19 +99,6 @@ class TestLossy(MiddlewareConformance):
 '''
 
 
-def _outcomes(reprec: pytest.HookRecorder) -> dict[str, dict[str, str]]:
-    """{class name: {case (with its parameters): outcome}}, and the failure texts as "<case> text"."""
-    out: dict[str, dict[str, str]] = {}
-    for rep in reprec.getreports("pytest_runtest_logreport"):
-        if rep.when != "call" and not (rep.failed or rep.skipped):
-            continue
-        cls, case = rep.nodeid.split("::")[-2:]
-        out.setdefault(cls, {})[case] = rep.outcome
-        if rep.failed:
-            out[cls][f"{case} text"] = rep.longreprtext
-    return out
-
-
 def test_pytest11_entry_point_is_registered():
     plugins = {ep.name: ep.value for ep in entry_points(group="pytest11")}
     assert plugins.get("rio") == "rio.conformance.pytest_plugin"
@@ -125,7 +114,7 @@ def test_plugin_import_is_cheap():
 
 def test_kit_catches_broken_middlewares_and_passes_the_sound_one(pytester: pytest.Pytester):
     pytester.makepyfile(test_broken_middlewares=BROKEN_MIDDLEWARES)
-    res = _outcomes(pytester.inline_run("-p", "no:cacheprovider"))
+    res = kit_outcomes(pytester.inline_run("-p", "no:cacheprovider"))
 
     sound = res["TestSound"]
     assert len(sound) == KIT_CASES, sound

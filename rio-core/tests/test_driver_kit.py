@@ -13,6 +13,8 @@ import rio.conformance.drivers  # noqa: F401 - loaded before the in-process pyte
 from rio.plugins import get_registry
 from rio.testing import FakeModelArm, lifecycle
 
+from .conftest import kit_outcomes
+
 pytest_plugins = ["pytester"]
 
 BROKEN_DRIVERS = '''
@@ -107,19 +109,6 @@ MOTION = {"test_targets_beyond_the_limit_end_at_the_limit", "test_a_far_target_m
           "test_a_silent_stream_is_held_by_the_watchdog", "test_disabled_refuses_commands_and_enable_holds_the_pose"}
 
 
-def _outcomes(reprec: pytest.HookRecorder) -> dict[str, dict[str, str]]:
-    """{class name: {case: outcome}}, and the failure texts as "<case> text"."""
-    out: dict[str, dict[str, str]] = {}
-    for rep in reprec.getreports("pytest_runtest_logreport"):
-        if rep.when != "call" and not (rep.failed or rep.skipped):
-            continue
-        cls, case = rep.nodeid.split("::")[-2:]
-        out.setdefault(cls, {})[case] = "error" if rep.failed and rep.when != "call" else rep.outcome
-        if rep.failed:
-            out[cls][f"{case} text"] = rep.longreprtext
-    return out
-
-
 def _failed(results: dict[str, str]) -> set[str]:
     return {c for c, o in results.items() if o in ("failed", "error")}
 
@@ -142,7 +131,7 @@ def kit_loaded() -> None:
 def test_kit_catches_broken_drivers_and_passes_the_sound_fakes(kit_loaded: None, pytester: pytest.Pytester):
     pytester.makepyfile(broken_drivers=BROKEN_DRIVERS, test_broken_drivers=KIT_RUN)
     pytester.syspathinsert()  # the broken drivers are importable by name, like a plugin's
-    res = _outcomes(pytester.inline_run("-p", "no:cacheprovider"))
+    res = kit_outcomes(pytester.inline_run("-p", "no:cacheprovider"))
 
     for cls, n in (("TestSoundArm", ARM_CASES), ("TestSoundModelArm", ARM_CASES), ("TestSoundGripper", GRIPPER_CASES)):
         assert len([c for c in res[cls] if not c.endswith(" text")]) == n, (cls, res[cls])

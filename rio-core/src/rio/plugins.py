@@ -11,6 +11,7 @@ loads none but the core's), like datasette's DATASETTE_LOAD_PLUGINS: useful to b
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -133,13 +134,9 @@ class Registry:
         caller = getattr(self.pm.hook, hook, None)
         return list(caller.get_hookimpls()) if caller is not None else []
 
-    def specs(self, hook: str) -> list[Spec]:
-        """Every valid spec from `hook`, each tagged with its plugin; first registration of a name wins."""
-        if hook not in HOOK_KINDS:
-            raise ValueError(f"'{hook}' is not a spec hook; spec hooks: {sorted(HOOK_KINDS)}")
-        if hook in self._specs:
-            return self._specs[hook]
-        out: dict[str, Spec] = {}
+    def _each_list(self, hook: str, item: str) -> Iterator[tuple[str, list | tuple]]:
+        """(plugin name, the list its `hook` returned), one plugin at a time: a hook that raises or
+        returns something other than a list of `item` is reported as a Problem and skipped."""
         for impl in self._impls(hook):
             plugin = impl.plugin_name
             try:
@@ -150,8 +147,18 @@ class Registry:
             if result is None:
                 continue
             if not isinstance(result, (list, tuple)):
-                self.report(Problem(plugin, f"hook {hook} returned {type(result).__name__}, not a list of Spec"))
+                self.report(Problem(plugin, f"hook {hook} returned {type(result).__name__}, not a list of {item}"))
                 continue
+            yield plugin, result
+
+    def specs(self, hook: str) -> list[Spec]:
+        """Every valid spec from `hook`, each tagged with its plugin; first registration of a name wins."""
+        if hook not in HOOK_KINDS:
+            raise ValueError(f"'{hook}' is not a spec hook; spec hooks: {sorted(HOOK_KINDS)}")
+        if hook in self._specs:
+            return self._specs[hook]
+        out: dict[str, Spec] = {}
+        for plugin, result in self._each_list(hook, "Spec"):
             for spec in result:
                 why = check_spec(spec, HOOK_KINDS[hook])
                 if why is not None:
@@ -188,20 +195,8 @@ class Registry:
         """{plugin distribution: its valid requirements}, from each plugin's `rio_requirements` hook in
         turn; a hook that raises or returns something malformed is reported as a Problem and skipped."""
         out: dict[str, list[Requirement]] = {}
-        for impl in self._impls("rio_requirements"):
-            plugin = impl.plugin_name
+        for plugin, result in self._each_list("rio_requirements", "Requirement"):
             dist = self.plugins[plugin].dist if plugin in self.plugins else plugin
-            try:
-                result = impl.function()
-            except Exception as e:
-                self.report(Problem(plugin, f"hook rio_requirements raised {type(e).__name__}: {e}"))
-                continue
-            if result is None:
-                continue
-            if not isinstance(result, (list, tuple)):
-                self.report(Problem(plugin, f"hook rio_requirements returned {type(result).__name__}, "
-                                            "not a list of Requirement"))
-                continue
             for req in result:
                 why = check_requirement(req)
                 if why is not None:
