@@ -37,7 +37,7 @@ def _group(kind: str) -> str:
     return "driver" if kind in DRIVER_KINDS else kind
 
 
-def _norm(dist: str) -> str:
+def normalize(dist: str) -> str:
     """A distribution name in its normalized form (PEP 503): lowercase, runs of '-', '_', '.' as one '-'."""
     return re.sub(r"[-_.]+", "-", dist).lower()
 
@@ -45,7 +45,7 @@ def _norm(dist: str) -> str:
 def repository_plugin(dist: str) -> str | None:
     """`dist` as this repository names it when it is one of its distributions (shipped or planned),
     whatever its spelling (`RIO_Sim`, `rio.sim`); None otherwise."""
-    want = _norm(dist)
+    want = normalize(dist)
     return next((d for d in KNOWN if d == want), None)
 
 
@@ -62,7 +62,7 @@ def install_hint(kind: str, name: str, installed: set[str]) -> str | None:
     """" (provided by rio-sim, which is not installed: pip install rio-sim)" when a known plugin that is
     not in `installed` (distribution names) provides `name`; None otherwise."""
     dist = provider(kind, name)
-    if dist is None or dist in {_norm(d) for d in installed}:
+    if dist is None or dist in {normalize(d) for d in installed}:
         return None
     return f" (provided by {dist}, which is not installed: pip install {dist})"
 

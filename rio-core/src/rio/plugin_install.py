@@ -9,16 +9,12 @@ command builders only build the argument list, so they are unit-tested without i
 from __future__ import annotations
 
 import os
-import re
 import sys
 from collections.abc import Sequence
 
+from .known_plugins import normalize
+
 CORE = "rio-core"
-
-
-def normalize(name: str) -> str:
-    """A distribution name as PEP 503 compares it: `RIO_Core` and `rio.core` are `rio-core`."""
-    return re.sub(r"[-_.]+", "-", name).lower()
 
 
 def install_command(specs: Sequence[str], editable: bool = False, upgrade: bool = False, *,

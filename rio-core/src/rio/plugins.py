@@ -19,7 +19,7 @@ import pluggy
 
 from . import builtin_plugin, hookspecs
 from .errors import ConfigError
-from .known_plugins import missing_plugin_hint
+from .known_plugins import missing_plugin_hint, normalize
 from .requirements import Requirement, check_requirement
 from .specs import HOOK_KINDS, Spec, check_spec
 from .suggest import closest, unknown
@@ -56,10 +56,6 @@ class Problem:
         return f"plugin '{self.plugin}': {self.message}"
 
 
-def _norm(name: str) -> str:
-    return name.lower().replace("_", "-")
-
-
 def _core_version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -90,14 +86,14 @@ class Registry:
     def _load_entry_points(self, only: str | None) -> None:
         from importlib.metadata import entry_points
 
-        wanted = None if only is None else {_norm(n.strip()) for n in only.split(",") if n.strip()}
+        wanted = None if only is None else {normalize(n.strip()) for n in only.split(",") if n.strip()}
         seen: set[str] = set()
         for ep in sorted(entry_points(group=GROUP), key=lambda e: e.name):
             dist = getattr(ep, "dist", None)
             dist_name = dist.name if dist is not None else ep.name
-            if wanted is not None and not ({_norm(ep.name), _norm(dist_name)} & wanted):
+            if wanted is not None and not ({normalize(ep.name), normalize(dist_name)} & wanted):
                 continue
-            seen |= {_norm(ep.name), _norm(dist_name)}
+            seen |= {normalize(ep.name), normalize(dist_name)}
             if ep.name in self.plugins:
                 self.report(Problem(ep.name, f"entry point name already used by "
                                              f"'{self.plugins[ep.name].dist}'; skipped"))
