@@ -208,3 +208,22 @@ def test_kinds_are_abstract_about_hardware_only():
 
     with pytest.raises(NotImplementedError, match="Lazy must define read_joints"):
         Lazy().opened()
+
+
+def test_a_registered_policy_variant_is_a_preset():
+    from rio.policy.resolve import resolve_policy
+
+    reg = Registry(load_entry_points=False)
+    mod = types.ModuleType("policy_presets")
+
+    @hookimpl
+    def rio_policies():
+        return [Spec("acme.fast", "policy", "rio.policy.testing:RampPolicyNode", "steep ramp", preset={"slope": 4.0})]
+
+    mod.rio_policies = rio_policies
+    reg.register(mod, name="policy-presets")
+    station = types.SimpleNamespace(name="s", components={})
+    name, cls, kwargs = resolve_policy("acme.fast,chunk=8", station, reg)
+    assert (name, kwargs["slope"], kwargs["chunk"]) == ("acme.fast", 4.0, 8)
+    with pytest.raises(ConfigError, match=r"--policy\.slope: 'acme.fast' fixes it to 4.0 \(got 1\)"):
+        resolve_policy("acme.fast,slope=1", station, reg)

@@ -18,7 +18,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from ..config import error_lines
+from ..config import apply_preset, error_lines
 from ..errors import ConfigError
 from ..specs import import_path
 from .node import PolicyNode
@@ -46,8 +46,10 @@ def parse_policy_arg(text: str) -> tuple[str, dict[str, Any]]:
     return name, fields
 
 
-def policy_node_class(name: str, registry: Any = None) -> tuple[type[PolicyNode], Any]:
-    """(PolicyNode subclass, its config model) for a registered name or a 'module:Class' path."""
+def policy_node_class(name: str, registry: Any = None) -> tuple[type[PolicyNode], dict[str, Any]]:
+    """(PolicyNode subclass, the preset values its registered name fixes) for a registered name or a
+    'module:Class' path (no preset)."""
+    preset: dict[str, Any] = {}
     if ":" in name:
         try:
             cls = import_path(name)
@@ -57,6 +59,7 @@ def policy_node_class(name: str, registry: Any = None) -> tuple[type[PolicyNode]
         from ..plugins import get_registry
 
         spec = (registry or get_registry()).find("rio_policies", name, "policy")
+        preset = spec.preset
         try:
             cls = spec.load()
         except ImportError as e:
@@ -64,7 +67,7 @@ def policy_node_class(name: str, registry: Any = None) -> tuple[type[PolicyNode]
                               "Is its optional dependency installed? (`rio doctor`)") from None
     if not (isinstance(cls, type) and issubclass(cls, PolicyNode)):
         raise ConfigError(f"policy '{name}' is {cls!r}, not a rio.policy.PolicyNode subclass")
-    return cls, cls.Config
+    return cls, preset
 
 
 def resolve_policy(ref: str | None, station: Any, registry: Any = None) -> tuple[str, type[PolicyNode], dict[str, Any]]:
@@ -76,9 +79,12 @@ def resolve_policy(ref: str | None, station: Any, registry: Any = None) -> tuple
         name, fields, where = comp.driver, comp.kwargs(), "components.policy"
     else:
         (name, fields), where = parse_policy_arg(ref), "--policy"
-    cls, model = policy_node_class(name, registry)
+    cls, preset = policy_node_class(name, registry)
+    model = cls.Config
     try:
-        config = model.model_validate(fields)
+        config = model.model_validate(apply_preset(preset, fields, name))
     except ValidationError as e:
         raise ConfigError(f"invalid policy '{name}':\n  " + "\n  ".join(error_lines(e, where, model))) from None
+    except ValueError as e:  # a field contradicting the preset
+        raise ConfigError(f"invalid policy '{name}':\n  {where}.{e}") from None
     return name, cls, config.model_dump()
