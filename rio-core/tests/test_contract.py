@@ -40,16 +40,18 @@ def test_a_component_receives_its_validated_config_from_fields_or_an_object():
         FakeArm(dof=0)
 
 
-def test_station_fields_over_a_preset_and_a_contradicting_one_is_an_error():
+def registry_with(hook: str, *specs: Spec) -> Registry:
+    """The core's plugin plus one inline plugin whose `hook` returns `specs`."""
     reg = Registry(load_entry_points=False)
-    mod = types.ModuleType("preset_plugin")
+    mod = types.ModuleType(f"inline_{hook}")
+    setattr(mod, hook, hookimpl(specname=hook)(lambda: list(specs)))
+    reg.register(mod, name=f"inline-{hook}")
+    return reg
 
-    @hookimpl
-    def rio_drivers():
-        return [Spec("acme.arm7", "arm", "rio.testing:FakeArm", "7-joint variant", preset={"dof": 7})]
 
-    mod.rio_drivers = rio_drivers
-    reg.register(mod, name="presets")
+def test_station_fields_over_a_preset_and_a_contradicting_one_is_an_error():
+    reg = registry_with("rio_drivers", Spec("acme.arm7", "arm", "rio.testing:FakeArm", "7-joint variant",
+                                            preset={"dof": 7}))
     st = parse_station({"name": "p", "components": {"arm": {"driver": "acme.arm7"}}}, registry=reg)
     assert st.components["arm"].config.dof == 7
     with pytest.raises(ConfigError, match=r"components\.arm\.dof: 'acme.arm7' fixes it to 7 \(got 6\)"):
@@ -213,15 +215,8 @@ def test_kinds_are_abstract_about_hardware_only():
 def test_a_registered_policy_variant_is_a_preset():
     from rio.policy.resolve import resolve_policy
 
-    reg = Registry(load_entry_points=False)
-    mod = types.ModuleType("policy_presets")
-
-    @hookimpl
-    def rio_policies():
-        return [Spec("acme.fast", "policy", "rio.policy.testing:RampPolicyNode", "steep ramp", preset={"slope": 4.0})]
-
-    mod.rio_policies = rio_policies
-    reg.register(mod, name="policy-presets")
+    reg = registry_with("rio_policies", Spec("acme.fast", "policy", "rio.policy.testing:RampPolicyNode", "steep ramp",
+                                             preset={"slope": 4.0}))
     station = types.SimpleNamespace(name="s", components={})
     name, cls, kwargs = resolve_policy("acme.fast,chunk=8", station, reg)
     assert (name, kwargs["slope"], kwargs["chunk"]) == ("acme.fast", 4.0, 8)

@@ -171,6 +171,22 @@ class FakeArm(ifc.ArmNode):
         self.pose = np.array(eef_pose, dtype=np.float64)
 
 
+class _FakeJoints:
+    """Joints that follow the goal (the fake hand, humanoid and model arm)."""
+
+    config: Any
+    dof: int
+
+    def default_joint_names(self) -> list[str]:
+        return [f"joint{i + 1}" for i in range(self.config.dof)]
+
+    def open(self) -> None:
+        self.q = np.zeros(self.dof)
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.q = np.array(joint_pos, dtype=np.float64)
+
+
 #: A 6-joint arm for tests of the kinematic part of the arm contract (simple geoms, tool site "tool"):
 #: yaw, two pitches, then a spherical wrist (roll, pitch, roll). Arm straight up at zero.
 SIX_DOF_MJCF = """<mujoco model="rio-test-arm">
@@ -197,7 +213,7 @@ SIX_DOF_MJCF = """<mujoco model="rio-test-arm">
 </mujoco>"""
 
 
-class FakeModelArm(ifc.ArmNode):
+class FakeModelArm(_FakeJoints, ifc.ArmNode):
     """A joint-only arm that ships a robot model and measures no end-effector pose: the arm kind
     computes `eef_pose` by forward kinematics and turns end-effector targets into joint targets by IK
     (needs `rio-core[ik]`)."""
@@ -211,14 +227,8 @@ class FakeModelArm(ifc.ArmNode):
     def default_home(self) -> list[float]:
         return [0.0, 0.5, 1.2, 0.0, 1.4, 0.0]  # tool in front of the base, pointing down
 
-    def open(self) -> None:
-        self.q = np.zeros(self.dof)
-
     def read_joints(self) -> dict[str, Any]:
         return {"joint_pos": self.q.copy()}
-
-    def write_joints(self, joint_pos: np.ndarray) -> None:
-        self.q = np.array(joint_pos, dtype=np.float64)
 
     def robot_description(self) -> dict[str, Any]:
         return {"format": "mjcf", "xml": SIX_DOF_MJCF, "frame": "tool", "frame_type": "site",
@@ -290,22 +300,6 @@ class FakeSensor(Node):
 
     def read_state(self) -> dict[str, Any]:
         return {"value": np.asarray(self.config.value, dtype=np.float64)}
-
-
-class _FakeJoints:
-    """Joints that follow the goal (for the fake hand and humanoid)."""
-
-    config: Any
-    dof: int
-
-    def default_joint_names(self) -> list[str]:
-        return [f"joint{i + 1}" for i in range(self.config.dof)]
-
-    def open(self) -> None:
-        self.q = np.zeros(self.dof)
-
-    def write_joints(self, joint_pos: np.ndarray) -> None:
-        self.q = np.array(joint_pos, dtype=np.float64)
 
 
 class FakeHand(_FakeJoints, ifc.HandNode):

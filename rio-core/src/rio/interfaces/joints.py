@@ -18,7 +18,6 @@ coming mid-move. A disabled device refuses commands (they would otherwise be rep
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Mapping
 from typing import Any
 
@@ -29,9 +28,6 @@ from .. import clock
 from ..control.commander import JointCommander
 from ..node import client_side, remote
 from .commanded import CommandedNode
-
-log = logging.getLogger("rio.interfaces")
-
 
 def t_target(t_cmd_target: float | None) -> float:
     """A command's target time: now when not given."""
