@@ -29,6 +29,7 @@ from ..control.commander import JointCommander
 from ..node import client_side, remote
 from .commanded import CommandedNode
 
+
 def t_target(t_cmd_target: float | None) -> float:
     """A command's target time: now when not given."""
     return clock.now() if t_cmd_target is None else float(t_cmd_target)
