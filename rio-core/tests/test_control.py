@@ -274,3 +274,16 @@ def test_linear_interpolator_elements_take_targets_separately():
     assert np.allclose(li.sample(3.0), [1.0, 4.0, 2.0]) and li.t_goal == 2.0
     with pytest.raises(ValueError, match="shape"):
         li.set_target([1.0], 1.0, 0.0)
+
+
+def test_quat_to_euler_inverts_euler_to_quat():
+    from rio.control import quat_to_euler
+
+    rng = np.random.default_rng(3)
+    for rpy in [*rng.uniform([-3, -1.5, -3], [3, 1.5, 3], size=(50, 3)), (np.pi, 0.0, 0.0), (0.3, -0.2, 2.9)]:
+        back = quat_to_euler(euler_to_quat(*rpy))
+        assert np.allclose(euler_to_quat(*back), euler_to_quat(*rpy)) or np.allclose(
+            euler_to_quat(*back), -euler_to_quat(*rpy))
+        assert abs(back[1] - rpy[1]) < 1e-9
+    lock = quat_to_euler(euler_to_quat(0.4, np.pi / 2, 0.1))  # gimbal lock: one rotation about z remains
+    assert np.allclose(np.abs(euler_to_quat(*lock) @ euler_to_quat(0.4, np.pi / 2, 0.1)), 1.0)

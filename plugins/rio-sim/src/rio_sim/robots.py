@@ -56,6 +56,18 @@ ROBOTS: dict[str, RobotModel] = {
         finger_joints=("finger_a", "finger_b"),
         home=(0.0, -0.2085, 0.0, 0.5075, 0.0, 0.716, -1.5708), home_tool=(0.35, 0.0, 0.10),
         max_width=0.085, description="xArm7-class 7-DOF arm with a parallel gripper"),
+    "xarm6": RobotModel(
+        name="xarm6", file="xarm6.xml",
+        arm_joints=tuple(f"joint{i}" for i in range(1, 7)),
+        finger_joints=("finger_a", "finger_b"),
+        home=(0.0, -0.2387, -0.5068, 0.0, 0.7455, -1.5708), home_tool=(0.35, 0.0, 0.10),
+        max_width=0.085, description="xArm6-class 6-DOF arm with a parallel gripper"),
+    "lite6": RobotModel(
+        name="lite6", file="lite6.xml",
+        arm_joints=tuple(f"joint{i}" for i in range(1, 7)),
+        finger_joints=("finger_a", "finger_b"),
+        home=(0.0, 0.2722, 0.8433, 0.0, 0.5712, -1.5708), home_tool=(0.25, 0.0, 0.10),
+        max_width=0.06, description="Lite6-class 6-DOF arm with a parallel gripper"),
 }
 
 

@@ -129,7 +129,25 @@ def _xarm7() -> Scene:
                  table=(0.5, 0.5), table_center=(0.3, 0.0))
 
 
-SCENES = {"so100": _so100, "so100_bimanual": _bimanual, "xarm7": _xarm7}
+def _xarm6() -> Scene:
+    arm = ArmMount("arm", "xarm6")
+    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
+    objs += [SceneObject("can", "cylinder", (0.02, 0.04), (0.45, -0.18, 0.04), (0.2, 0.7, 0.3, 1), mass=0.08)]
+    return Scene("xarm6", "xArm6 on a table: a red cube to pick, a blue pad, a can",
+                 (arm,), tuple(objs), (_look((0.9, 0.0, 0.55), (0.35, 0.0, 0.05), 55),),
+                 table=(0.5, 0.5), table_center=(0.3, 0.0))
+
+
+def _lite6() -> Scene:
+    arm = ArmMount("arm", "lite6")
+    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
+    objs += [SceneObject("can", "cylinder", (0.018, 0.035), (0.33, -0.16, 0.035), (0.2, 0.7, 0.3, 1), mass=0.06)]
+    return Scene("lite6", "Lite 6 on a table: a red cube to pick, a blue pad, a can",
+                 (arm,), tuple(objs), (_look((0.7, 0.0, 0.45), (0.25, 0.0, 0.05), 55),),
+                 table=(0.4, 0.45), table_center=(0.2, 0.0))
+
+
+SCENES = {"so100": _so100, "so100_bimanual": _bimanual, "xarm7": _xarm7, "xarm6": _xarm6, "lite6": _lite6}
 
 
 @cache

@@ -30,7 +30,7 @@ from .scenes import get_scene
 
 class SimWorld(Node):
     class Config(NodeConfig):
-        scene: str = Field("so100", description="packaged scene: so100, so100_bimanual, xarm7")
+        scene: str = Field("so100", description="packaged scene: so100, so100_bimanual, xarm7, xarm6, lite6")
         world: str = Field("sim", description="name the station's sim nodes use to find this world")
         rate_hz: float = Field(250.0, gt=0, description="physics batches per second (state published at this rate)")
         max_steps_per_tick: int = Field(20, ge=1, description="physics steps per tick at most (then time slows)")

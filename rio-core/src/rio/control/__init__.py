@@ -17,6 +17,7 @@ from .rotations import (
     quat_normalize,
     quat_rotate,
     quat_slerp,
+    quat_to_euler,
     quat_to_matrix,
     quat_to_rotvec,
     rotvec_to_quat,
@@ -48,7 +49,7 @@ from .teleop import (
 __all__ = [
     "LowPassFilter", "OneEuroFilter", "PoseFilter", "LinearInterpolator", "PoseInterpolator", "Waypoints",
     "euler_to_quat", "matrix_to_quat", "quat_angle", "quat_conj", "quat_mul", "quat_normalize", "quat_rotate",
-    "quat_slerp", "quat_to_matrix", "quat_to_rotvec", "rotvec_to_quat",
+    "quat_slerp", "quat_to_euler", "quat_to_matrix", "quat_to_rotvec", "rotvec_to_quat",
     "IDENTITY", "apply_twist", "as_pose", "matrix_to_pose", "pose_error", "pose_interp", "pose_inv", "pose_mul",
     "pose_to_matrix", "twist_between",
     "BUTTON_DONE", "BUTTON_MODE", "ButtonEdges", "ModeSwitch", "TeleopMode", "gripper_opening", "limit_twist",

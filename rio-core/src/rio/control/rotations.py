@@ -114,3 +114,13 @@ def euler_to_quat(roll: float, pitch: float, yaw: float) -> np.ndarray:
     qy = rotvec_to_quat([0.0, pitch, 0.0])
     qz = rotvec_to_quat([0.0, 0.0, yaw])
     return quat_normalize(quat_mul(qz, quat_mul(qy, qx)))
+
+
+def quat_to_euler(q) -> np.ndarray:
+    """`[roll, pitch, yaw]` (fixed-axis x-y-z, the inverse of `euler_to_quat`); pitch in [-pi/2, pi/2].
+    At pitch = +-pi/2 (gimbal lock) roll is 0 and yaw carries the whole rotation about z."""
+    m = quat_to_matrix(q)
+    pitch = float(np.arcsin(np.clip(-m[2, 0], -1.0, 1.0)))
+    if abs(m[2, 0]) < 1.0 - 1e-9:
+        return np.array([np.arctan2(m[2, 1], m[2, 2]), pitch, np.arctan2(m[1, 0], m[0, 0])])
+    return np.array([0.0, pitch, np.arctan2(-m[0, 1], m[1, 1])])

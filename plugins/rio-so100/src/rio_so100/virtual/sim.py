@@ -2,9 +2,9 @@
 
 `port = "sim"` (or `"sim:ARM"`, `"sim:ARM@WORLD"`; ARM is the scene's arm prefix: arm, left, right)
 gives a driver a private `VirtualBus` whose present positions come from a running `sim.world`'s
-joints and whose goal positions go to that world's position actuators, through rio-sim's world bus
-(shared memory; rio-sim's public node-side API). The driver above it is unchanged: scservo_sdk
-packets over a pty, calibration, safety, faults. So a station with a `sim.world` and
+joints and whose goal positions go to that world's position actuators, through rio-sim's
+`WorldArm` (one arm of a running world, over its shared-memory bus). The driver above it is
+unchanged: scservo_sdk packets over a pty, calibration, safety, faults. So a station with a `sim.world` and
 `so100.follower` with `port = "sim"` runs the real driver against physics, cameras included.
 
 The calibration is the sim model's: 0 rad at mid-turn, each joint's range from the MJCF; the jaw
@@ -12,6 +12,8 @@ servo's range maps linearly onto the finger opening (0 .. the robot's max width)
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -27,29 +29,30 @@ _JAW_SPAN = 1200  # steps between closed and fully open jaw
 
 
 def parse_sim_port(port: str) -> tuple[str, str] | None:
-    """'sim' -> ('arm', 'sim'); 'sim:left@w' -> ('left', 'w'); anything else -> None."""
+    """'sim' -> ('arm', 'sim'); 'sim:left@w' -> ('left', 'w'); anything else -> None (rio-sim's
+    `parse_sim_target`; a port that is not a sim port never imports rio-sim)."""
     if port != "sim" and not port.startswith("sim:"):
         return None
-    rest = port[4:] if port.startswith("sim:") else ""
-    arm, _, world = rest.partition("@")
-    return arm or "arm", world or "sim"
+    try:
+        from rio_sim.world_arm import parse_sim_target
+    except ImportError as e:
+        raise ImportError(f"port '{port}' needs rio-sim: install rio-so100[sim]") from e
+    return parse_sim_target(port)
 
 
 class SimJoint:
-    """One servo's link to the world: qpos addresses (several for the fingers) and actuators."""
+    """One servo's link to the world: how to read its position (rad or m) and command a target."""
 
-    def __init__(self, world, qpos: np.ndarray, act: np.ndarray, to_steps, from_steps):
-        self.world, self.qpos, self.act = world, qpos, act
+    def __init__(self, read: Callable[[], float], write: Callable[[float, float], None],
+                 to_steps: Callable[[float], float], from_steps: Callable[[float], float]):
+        self.read, self.write = read, write
         self.to_steps, self.from_steps = to_steps, from_steps
-        self._buf = {"qpos": np.empty(world.nq), "qvel": np.empty(world.nv), "ctrl": np.empty(world.nu)}
 
     def position(self) -> float:
-        self.world.check_alive()
-        return self.to_steps(self.world.read_state(self._buf)["qpos"][self.qpos])
+        return self.to_steps(self.read())
 
     def command(self, steps: float, t_target: float) -> None:
-        targets = self.from_steps(steps)
-        self.world.command(self.act, np.broadcast_to(targets, self.act.shape).astype(np.float64), t_target)
+        self.write(self.from_steps(steps), t_target)
 
 
 class SimServo(VirtualServo):
@@ -79,38 +82,37 @@ class SimServo(VirtualServo):
 
 def open_sim_bus(port: str, timeout: float = 60.0) -> tuple[VirtualBus, ArmCalibration]:
     """Attach to the world named in `port` and serve its arm's joints as servos 1-6."""
-    from rio_sim.bus import WorldBus
-    from rio_sim.indices import arm_indices
-    from rio_sim.robots import get_robot
-    from rio_sim.scenes import build_model, get_scene
+    from rio_sim.world_arm import WorldArm
 
-    arm, world_name = parse_sim_port(port)
-    world = WorldBus.attach(world_name, timeout=timeout)
+    parsed = parse_sim_port(port)
+    if parsed is None:
+        raise ValueError(f"'{port}' is not a sim port ('sim', 'sim:ARM' or 'sim:ARM@WORLD')")
+    arm_name, world_name = parsed
+    arm = WorldArm.attach(world_name, arm_name, timeout=timeout)
     try:
-        model = build_model(world.scene)
-        robot = get_robot(get_scene(world.scene).arm(arm).robot)
+        robot, model = arm.robot, arm.model
         if tuple(robot.arm_joints) != ARM_JOINTS:
-            raise ValueError(f"sim arm '{arm}' is a {robot.name}, not an SO-arm: its joints are {robot.arm_joints}")
-        idx = arm_indices(model, arm, robot)
+            raise ValueError(f"sim arm '{arm_name}' is a {robot.name}, not an SO-arm: its joints are "
+                             f"{robot.arm_joints}")
+        cal = ArmCalibration("so100", "follower", f"sim-{arm_name}")
+        bus = VirtualBus(ids=(), start=False)
+        for k, (name, sid) in enumerate(zip(ARM_JOINTS, ARM_IDS, strict=True)):
+            lo, hi = model.jnt_range[model.joint(f"{arm_name}/{name}").id]
+            jc = JointCalibration(sid, 0, MID, max(1, MID + int(np.ceil(lo / RAD_PER_STEP))),
+                                  min(T.STEPS_PER_TURN - 1, MID + int(np.floor(hi / RAD_PER_STEP))))
+            cal.joints[name] = jc
+            joint = SimJoint(lambda k=k: float(arm.joint_pos()[k]),
+                             lambda q, t, k=k: arm.command_joints([q], t, joints=[k]),
+                             lambda q: MID + q / RAD_PER_STEP, lambda s: (s - MID) * RAD_PER_STEP)
+            bus.servos[sid] = SimServo(sid, joint)
+        jaw = JointCalibration(GRIPPER_ID, 0, MID, MID, MID + _JAW_SPAN)
+        cal.joints[GRIPPER] = jaw
+        width = robot.max_width
+        fingers = SimJoint(arm.finger_width, arm.command_width,
+                           lambda w: jaw.from_fraction(w / width), lambda s: jaw.fraction(s) * width)
+        bus.servos[GRIPPER_ID] = SimServo(GRIPPER_ID, fingers)
     except Exception:
-        world.close()
+        arm.close()
         raise
-    cal = ArmCalibration("so100", "follower", f"sim-{arm}")
-    bus = VirtualBus(ids=(), start=False)
-    for k, (name, sid) in enumerate(zip(ARM_JOINTS, ARM_IDS, strict=True)):
-        lo, hi = model.jnt_range[model.joint(f"{arm}/{name}").id]
-        jc = JointCalibration(sid, 0, MID, max(1, MID + int(np.ceil(lo / RAD_PER_STEP))),
-                              min(T.STEPS_PER_TURN - 1, MID + int(np.floor(hi / RAD_PER_STEP))))
-        cal.joints[name] = jc
-        joint = SimJoint(world, idx.qpos[k:k + 1], idx.act[k:k + 1], lambda q: MID + float(q[0]) / RAD_PER_STEP,
-                         lambda s: (s - MID) * RAD_PER_STEP)
-        bus.servos[sid] = SimServo(sid, joint)
-    jaw = JointCalibration(GRIPPER_ID, 0, MID, MID, MID + _JAW_SPAN)
-    cal.joints[GRIPPER] = jaw
-    width, n = robot.max_width, len(idx.finger_act)
-    fingers = SimJoint(world, idx.finger_qpos, idx.finger_act,
-                       lambda q: jaw.from_fraction(float(np.sum(q)) / width),
-                       lambda s: jaw.fraction(s) * width / n)
-    bus.servos[GRIPPER_ID] = SimServo(GRIPPER_ID, fingers)
-    bus.on_close(world.close)
+    bus.on_close(arm.close)
     return bus.start(), cal
