@@ -26,8 +26,10 @@ KNOWN: dict[str, dict[str, tuple[str, ...]]] = {
     "rio-so100": {"driver": ("so100.*", "so101.*"), "station": ("so100", "so100-*", "so101", "so101-*")},
     "rio-policies": {"policy": ("openpi.*", "gr00t.*", "onnx.*", "lerobot.*", "replay.*")},
     "rio-datasets": {"dataset_format": ("lerobot", "zarr", "hdf5")},
+    "rio-ufactory": {"driver": ("ufactory.*",), "station": ("xarm*", "lite6*")},
+    "rio-robotiq": {"driver": ("robotiq.*", "dh.*")},
     # planned
-    "rio-ufactory": {}, "rio-robotiq": {}, "rio-franka": {}, "rio-ur": {}, "rio-kinova": {},
+    "rio-franka": {}, "rio-ur": {}, "rio-kinova": {},
     "rio-unitree": {}, "rio-booster": {}, "rio-realsense": {}, "rio-cameras": {}, "rio-teleop": {},
     "rio-lerobot": {}, "rio-ros2": {},
 }

@@ -69,6 +69,26 @@ def run_check(target: str) -> str | None:
     return f"check {target} returned {type(result).__name__}, not None or a problem string"
 
 
+def serial_port_problem() -> str | None:
+    """A ready-made check for plugins on USB serial adapters (`check="rio.requirements:serial_port_problem"`):
+    adapters that exist but that this user may not open (on Linux they belong to a group such as dialout
+    or uucp). No adapter at all is fine: the device may be unplugged."""
+    import glob
+    import os
+
+    ports = sorted(glob.glob("/dev/ttyACM*") + glob.glob("/dev/ttyUSB*"))
+    denied = [p for p in ports if not os.access(p, os.R_OK | os.W_OK)]
+    if not denied:
+        return None
+    try:
+        import grp
+
+        group = grp.getgrgid(os.stat(denied[0]).st_gid).gr_name
+    except (ImportError, KeyError, OSError):
+        group = "dialout"
+    return f"no permission on {', '.join(denied)}: sudo usermod -aG {group} $USER, then log in again"
+
+
 @dataclass(frozen=True)
 class Status:
     """A requirement as found on this machine. `present` is None when there is no module to look for;

@@ -50,28 +50,11 @@ def rio_stations() -> list[Spec]:
 def rio_requirements() -> list[Requirement]:
     return [
         Requirement("scservo_sdk", "pip install feetech-servo-sdk",
-                    "the Feetech STS3215 bus of every SO-100/SO-101 driver", check=f"{_P}.plugin:serial_port_problem"),
+                    "the Feetech STS3215 bus of every SO-100/SO-101 driver",
+                    check="rio.requirements:serial_port_problem"),
         Requirement("serial", "pip install pyserial", "serial ports under the Feetech SDK"),
     ]
 
-
-def serial_port_problem() -> str | None:
-    """`rio doctor` check: USB serial adapters that exist but that this user may not open (Linux: the
-    ports belong to a group such as dialout or uucp). No port at all is fine: arms may be unplugged."""
-    import glob
-    import os
-
-    ports = sorted(glob.glob("/dev/ttyACM*") + glob.glob("/dev/ttyUSB*"))
-    denied = [p for p in ports if not os.access(p, os.R_OK | os.W_OK)]
-    if not denied:
-        return None
-    try:
-        import grp
-
-        group = grp.getgrgid(os.stat(denied[0]).st_gid).gr_name
-    except (ImportError, KeyError, OSError):
-        group = "dialout"
-    return f"no permission on {', '.join(denied)}: sudo usermod -aG {group} $USER, then log in again"
 
 
 @hookimpl

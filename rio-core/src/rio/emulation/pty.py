@@ -2,8 +2,9 @@
 usual serial library and sees the bytes a USB-RS485 adapter would give it.
 
 Subclasses write `on_data(data) -> bytes`: bytes that arrived (any split: serial has no packets), the
-reply to write back. One thread serves the master side; the device keeps the slave open itself, so a
-driver may close and reopen the port while the device lives.
+reply to write back. One thread (named `thread_name` and the port) serves the master side; the device
+keeps the slave open itself, so a driver may close and reopen the port while the device lives.
+`start=False` opens the pty without serving it yet: set the device up, then `start()`.
 """
 
 from __future__ import annotations
@@ -13,12 +14,18 @@ import os
 import select
 import threading
 import tty
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 log = logging.getLogger("rio.emulation")
 
+_D = TypeVar("_D", bound="PtyDevice")
+
 
 class PtyDevice:
+    #: Prefix of the serving thread's name.
+    thread_name = "rio-pty"
+
     def __init__(self, *, start: bool = True):
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)  # no echo, no line editing: bytes pass as they are
@@ -27,16 +34,16 @@ class PtyDevice:
         self.lock = threading.RLock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._on_close: list = []
+        self._on_close: list[Callable[[], object]] = []
         if start:
             self.start()
 
     def on_data(self, data: bytes) -> bytes:
         raise NotImplementedError
 
-    def start(self) -> PtyDevice:
+    def start(self: _D) -> _D:
         if self._thread is None:
-            self._thread = threading.Thread(target=self._serve, name=f"rio-pty-{self.port}", daemon=True)
+            self._thread = threading.Thread(target=self._serve, name=f"{self.thread_name}-{self.port}", daemon=True)
             self._thread.start()
         return self
 
@@ -54,11 +61,11 @@ class PtyDevice:
         while self._on_close:
             self._on_close.pop()()
 
-    def on_close(self, fn) -> None:
+    def on_close(self, fn: Callable[[], object]) -> None:
         """Call `fn()` when the device closes (release what it is attached to)."""
         self._on_close.append(fn)
 
-    def __enter__(self) -> Any:
+    def __enter__(self: _D) -> _D:
         return self
 
     def __exit__(self, *exc: Any) -> None:

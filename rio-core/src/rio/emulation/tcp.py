@@ -98,6 +98,7 @@ class TcpDevice:
                 continue
             except OSError:
                 return
+            conn.settimeout(None)  # not the listener's poll timeout, nor a process-wide default (the xArm SDK sets one)
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             with self._guard:
                 self._clients.add(conn)

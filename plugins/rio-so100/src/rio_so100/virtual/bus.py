@@ -6,20 +6,18 @@ from an id nobody has, SYNC READ answers one servo after the other. Instruction 
 checksum are ignored, as a servo ignores them. For tests, `corrupt_replies()` damages the checksum
 of the next status packets and `VirtualServo.responsive = False` silences a servo.
 
-The bus is served by one thread reading the pty's master side. It keeps the slave open itself, so a
-driver may close and reopen the port while the bus lives.
+The pty's lifecycle is core's `rio.emulation.PtyDevice` (one thread serves the master side; the slave
+stays open, so a driver may close and reopen the port while the bus lives); this class is the protocol.
 """
 
 from __future__ import annotations
 
 import logging
-import os
-import select
-import threading
-import tty
 from collections import Counter
 from collections.abc import Iterable
 from typing import Any
+
+from rio.emulation import PtyDevice
 
 from ..feetech import protocol as P
 from .servo import VirtualServo
@@ -28,53 +26,18 @@ SO_ARM_IDS = (1, 2, 3, 4, 5, 6)
 log = logging.getLogger("rio_so100.virtual")
 
 
-class VirtualBus:
+class VirtualBus(PtyDevice):
+    """`lock` (the device's) is taken while a packet is handled: hold it to change servos consistently
+    from another thread. `start=False`: add or replace servos, then `start()`."""
+
+    thread_name = "rio-virtual-bus"
+
     def __init__(self, ids: Iterable[int] = SO_ARM_IDS, *, start: bool = True, **servo_options: Any):
         self.servos: dict[int, VirtualServo] = {int(i): VirtualServo(int(i), **servo_options) for i in ids}
         self.stats: Counter[str] = Counter()
-        #: Taken while a packet is handled; hold it to change servos consistently from another thread.
-        self.lock = threading.RLock()
         self._corrupt: list[int | None] = []
-        self._master, self._slave = os.openpty()
-        tty.setraw(self._slave)  # no echo, no line editing: bytes pass as they are
-        self.port = os.ttyname(self._slave)
         self._buf = bytearray()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self._on_close: list = []
-        if start:
-            self.start()
-
-    # -- lifecycle -----------------------------------------------------------------------------------
-    def start(self) -> VirtualBus:
-        if self._thread is None:
-            self._thread = threading.Thread(target=self._serve, name=f"rio-virtual-bus-{self.port}", daemon=True)
-            self._thread.start()
-        return self
-
-    def close(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(2.0)
-            self._thread = None
-        for fd in (self._master, self._slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
-        self._master = self._slave = -1
-        while self._on_close:
-            self._on_close.pop()()
-
-    def on_close(self, fn) -> None:
-        """Call `fn()` when the bus closes (release what its servos are attached to)."""
-        self._on_close.append(fn)
-
-    def __enter__(self) -> VirtualBus:
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
+        super().__init__(start=start)
 
     def __repr__(self) -> str:
         return f"<VirtualBus {self.port} ids={sorted(self.servos)}>"
@@ -95,30 +58,17 @@ class VirtualBus:
                 s.update()
             return {i: s.present() for i, s in self.servos.items()}
 
-    # -- serving -------------------------------------------------------------------------------------
-    def _serve(self) -> None:
-        while not self._stop.is_set():
+    # -- serving (under `lock`) -----------------------------------------------------------------------
+    def on_data(self, data: bytes) -> bytes:
+        self._buf += data
+        replies = bytearray()
+        for pkt in self._packets():
             try:
-                ready, _, _ = select.select([self._master], [], [], 0.05)
-                if not ready:
-                    continue
-                data = os.read(self._master, 4096)
-            except OSError:  # closed under us
-                return
-            self._buf += data
-            replies = bytearray()
-            with self.lock:
-                for pkt in self._packets():
-                    try:
-                        replies += self._handle(pkt)
-                    except Exception:  # an emulator bug must look like a silent servo, not kill the bus
-                        log.exception("virtual bus %s: cannot handle packet %s", self.port, pkt.hex(" "))
-                        self.stats["emulator_error"] += 1
-            if replies:
-                try:
-                    os.write(self._master, bytes(replies))
-                except OSError:
-                    return
+                replies += self._handle(pkt)
+            except Exception:  # an emulator bug must look like a silent servo, not stop the other packets
+                log.exception("virtual bus %s: cannot handle packet %s", self.port, pkt.hex(" "))
+                self.stats["emulator_error"] += 1
+        return bytes(replies)
 
     def _packets(self):
         """Complete, checksum-valid instruction packets from the input buffer."""

@@ -1,0 +1,86 @@
+"""`rio ufactory ...`: run the emulator, and recover an arm from a shell (clear errors, enable,
+status) while a station runs or without one. Each command talks to the controller through the SDK
+directly (the controller accepts several clients), so it works whatever holds the arm."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+app = typer.Typer(help="UFACTORY xArm / Lite 6: emulator, status, clear errors, enable.", no_args_is_help=True)
+
+Ip = Annotated[str, typer.Option("--ip", help="controller IP address")]
+
+
+def _connect(ip: str):
+    from .controller import Controller
+
+    try:
+        return Controller.acquire(ip, connect_timeout_s=3.0)
+    except Exception as e:
+        typer.echo(f"error: {e}", err=True)
+        raise typer.Exit(1) from None
+
+
+@app.command()
+def status(ip: Ip) -> None:
+    """Model, state, mode, error and warning of a controller."""
+    ctl = _connect(ip)
+    try:
+        api = ctl.api
+        fault = ctl.fault()
+        typer.echo(f"{ip}: {ctl.model.label if ctl.model else 'unknown model'} (axis {api.axis}, type "
+                   f"{api.device_type}), firmware {api.version}")
+        typer.echo(f"state {api.state}, mode {api.mode}, joints (rad) {[round(a, 4) for a in ctl.joints(api.axis)[0]]}")
+        typer.echo(f"fault: {fault}" if fault else "no fault")
+    finally:
+        ctl.release()
+
+
+@app.command("clear-errors")
+def clear_errors(ip: Ip) -> None:
+    """Clear the controller's error and warning (release an emergency stop first)."""
+    from .faults import XArmFault
+
+    ctl = _connect(ip)
+    try:
+        before = ctl.fault()
+        ctl.clear_faults()
+        typer.echo(f"{ip}: cleared {before}" if before else f"{ip}: nothing to clear")
+        typer.echo("next: `rio ufactory enable --ip IP`, or the station node's enable()/clear_faults()")
+    except XArmFault as e:
+        typer.echo(f"error: {e}", err=True)
+        raise typer.Exit(1) from None
+    finally:
+        ctl.release()
+
+
+@app.command()
+def enable(ip: Ip) -> None:
+    """Motors on, servo mode, ready (what a station does at start)."""
+    from .faults import XArmError
+
+    ctl = _connect(ip)
+    try:
+        ctl.enable_servo()
+        typer.echo(f"{ip}: enabled, servo mode")
+    except XArmError as e:
+        typer.echo(f"error: {e}", err=True)
+        raise typer.Exit(1) from None
+    finally:
+        ctl.release()
+
+
+@app.command()
+def emulator(
+    model: Annotated[str, typer.Option("--model", help="xarm5, xarm6, xarm7, xarm850 or lite6")] = "xarm7",
+    ip: Annotated[str, typer.Option("--ip", help="loopback address to listen on")] = "127.0.0.2",
+    sim: Annotated[str | None, typer.Option("--sim", help='back the joints with a running rio-sim world: "sim" '
+                                                          'or "sim:ARM@WORLD"')] = None,
+    gripper: Annotated[str, typer.Option("--gripper", help="xarm, bio, lite6, robotiq or none")] = "xarm",
+) -> None:
+    """Serve an emulated controller until Ctrl-C; point a driver (or UFACTORY's own tools) at --ip."""
+    from .emulator import serve
+
+    serve(model=model, host=ip, backend=sim or "model", gripper=None if gripper == "none" else gripper)

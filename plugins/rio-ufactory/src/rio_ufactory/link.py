@@ -1,0 +1,137 @@
+"""What every node of this plugin does the same way: open the shared controller connection, notice a
+fault or a dropped socket, keep the node alive with the device held, and recover.
+
+A fault does not end the node (unlike a servo bus error on a hobby arm): the xArm stops and brakes by
+itself, the node reports `fault_code` and refuses commands naming the fault, and `clear_faults()` (or
+`rio ufactory clear-errors` from a shell, while the station runs) brings it back holding where it is.
+A dropped command socket is retried once a second; meanwhile `connected` is false and commands are
+refused, and after the reconnect the node holds where the arm is, whatever was commanded before.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from pydantic import Field, field_validator
+from rio import clock
+from rio.config import Config
+from rio.errors import InvalidRequest
+from rio.node import remote
+
+from .controller import Controller
+from .faults import Fault, XArmFault, XArmLost
+
+log = logging.getLogger("rio_ufactory")
+
+
+class LinkConfig(Config):
+    """Station fields every node on an xArm controller takes (mixed into each driver's Config)."""
+
+    ip: str = Field(description="controller IP address (on the control box's label; `rio ufactory emulator` "
+                                "prints its own)")
+    connect_timeout_s: float = Field(5.0, ge=0, description="keep trying to connect this long at start (s): a "
+                                                            "controller still booting answers after a while")
+
+    @field_validator("ip")
+    @classmethod
+    def _dotted_ipv4(cls, v: str) -> str:
+        import ipaddress
+
+        try:  # the SDK takes anything else for a serial port
+            return str(ipaddress.IPv4Address(v.strip()))
+        except ValueError:
+            raise ValueError(f"'{v}' is not an IPv4 address like 192.168.1.185 (the controller's, on its "
+                             "label)") from None
+
+
+class ControllerLink:
+    """Mixed into a commanded node (`CommandedNode` kinds) whose config is a `LinkConfig`."""
+
+    config: Any
+    name: str
+    enabled: bool
+    ctl: Controller | None = None
+    fault: Fault | None = None
+    model_name: str | None = None  # checked against the controller's identity when set
+    _was_enabled = False  # enabled when the link dropped: enable again (holding) once it is back
+
+    def open_controller(self) -> Controller:
+        c = self.config
+        self.ctl = Controller.acquire(c.ip, model=self.model_name, connect_timeout_s=c.connect_timeout_s)
+        self.fault = None
+        return self.ctl
+
+    def close(self) -> None:
+        if self.ctl is not None:
+            self.ctl.release()
+            self.ctl = None
+
+    # -- faults and connection ------------------------------------------------------------------------
+    def link_status(self) -> dict[str, Any]:
+        """Keys every sample carries; also where a dropped socket is noticed and retried."""
+        ctl = self.ctl
+        assert ctl is not None  # opened
+        if not ctl.connected:
+            self.on_lost()
+            if ctl.reconnect() and self._was_enabled:
+                self._was_enabled = False
+                self.resume()
+        return {"connected": ctl.connected, "fault_code": self.fault.code if self.fault else 0}
+
+    def on_lost(self) -> None:
+        if self.enabled:
+            log.error("node '%s': lost the xArm at %s; holding, reconnecting", self.name,
+                      self.ctl.ip if self.ctl else "?")
+            self.enabled = False
+            self._was_enabled = True
+
+    def on_fault(self, fault: Fault) -> None:
+        if self.fault != fault:
+            log.error("node '%s': xArm at %s stopped: %s", self.name, self.ctl.ip if self.ctl else "?", fault)
+        self.fault = fault
+        self.enabled = False  # the controller holds the arm; the commander must not replay old goals later
+
+    def guarded(self, fn, *args: Any) -> None:
+        """Run one device command; a controller fault turns into the held, named-fault state, a lost link
+        into the held, reconnecting one."""
+        try:
+            fn(*args)
+        except XArmFault as e:
+            self.on_fault(e.fault)
+        except XArmLost:
+            self.on_lost()
+
+    def check_ready(self) -> None:
+        if self.fault is not None:
+            raise InvalidRequest(self.name, None, f"stopped by a controller fault: {self.fault}")
+        if self.ctl is None or not self.ctl.connected:
+            raise InvalidRequest(self.name, None, "the xArm connection is down (reconnecting); nothing was sent")
+
+    def set_enabled_checked(self) -> None:
+        """Before enabling: a controller error must be cleared first (named); a plain stop clears here."""
+        assert self.ctl is not None
+        self.fault = self.ctl.fault()
+        if self.fault is not None:
+            self.check_ready()
+
+    def resume(self) -> None:
+        """Enable again holding the present state (after a reconnect or a cleared fault)."""
+        self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable
+
+    @remote
+    def clear_faults(self) -> str:
+        """Clear the controller's error and warning, then enable holding where the arm is."""
+        assert self.ctl is not None
+        self.ctl.clear_faults()
+        self.fault = None
+        self.resume()
+        return "cleared"
+
+    @remote
+    def controller_fault(self) -> dict[str, Any] | None:
+        """The controller's current fault (asked now), or None."""
+        assert self.ctl is not None
+        f = self.ctl.fault()
+        return None if f is None else {"code": f.code, "name": f.name, "meaning": f.meaning, "recovery": f.recovery,
+                                       "t": clock.now()}
