@@ -29,7 +29,7 @@ def start_emulator(model: str) -> tuple[subprocess.Popen, str]:
     from rio_ufactory.loopback import free_loopback, is_free
 
     host = free_loopback()
-    proc = subprocess.Popen([sys.executable, "-m", "rio_ufactory.emulator", "--model", model, "--host", host,
+    proc = subprocess.Popen([sys.executable, "-m", "rio", "ufactory", "emulator", "--model", model, "--ip", host,
                              "--gripper", "none"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     t_end = time.monotonic() + 30
     while is_free(host):

@@ -5,7 +5,7 @@ stopped after the test."""
 from __future__ import annotations
 
 import pytest
-from rio_ufactory.loopback import free_loopback
+from rio_ufactory.loopback import PORT_502_HINT, can_listen_on_502, free_loopback
 
 
 @pytest.fixture
@@ -14,6 +14,9 @@ def make_emulator():
     from rio_ufactory.emulator import XArmEmulator
 
     emus = []
+
+    if not can_listen_on_502():
+        pytest.skip(PORT_502_HINT)
 
     def make(model: str = "xarm7", **options):
         emu = XArmEmulator(model, host=free_loopback(), **options)

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 
+import pytest
 from rio.conformance.drivers import ArmConformance, GripperConformance
 from rio_ufactory.emulator import XArmEmulator
-from rio_ufactory.loopback import free_loopback
+from rio_ufactory.loopback import PORT_502_HINT, can_listen_on_502, free_loopback
 
 
 class OnEmulator:
@@ -17,8 +18,10 @@ class OnEmulator:
 
     @contextmanager
     def emulator(self):
+        if not can_listen_on_502():
+            pytest.skip(PORT_502_HINT)
         with XArmEmulator(self.model, host=free_loopback(), gripper=self.tool) as emu:
-            yield {"ip": emu.host}
+            yield emu.driver_fields
 
 
 class TestXArm5(OnEmulator, ArmConformance):

@@ -58,17 +58,21 @@ def test_listing_imports_no_sdk():
     assert out.stdout.strip() == "False", out.stderr
 
 
+def cli_args(emu) -> list[str]:
+    return ["--ip", emu.host]
+
+
 def test_status_clear_errors_and_enable_commands(make_emulator, capsys):
     emu = make_emulator("xarm6")
-    assert main(["ufactory", "status", "--ip", emu.host]) == 0
+    assert main(["ufactory", "status", *cli_args(emu)]) == 0
     out = capsys.readouterr().out
     assert "xArm 6 (axis 6, type 6)" in out and "no fault" in out
     emu.inject_fault("collision")
-    assert main(["ufactory", "status", "--ip", emu.host]) == 0
+    assert main(["ufactory", "status", *cli_args(emu)]) == 0
     assert "C31 collision" in capsys.readouterr().out
-    assert main(["ufactory", "clear-errors", "--ip", emu.host]) == 0
+    assert main(["ufactory", "clear-errors", *cli_args(emu)]) == 0
     assert "cleared C31 collision" in capsys.readouterr().out and emu.error_code == 0
-    assert main(["ufactory", "enable", "--ip", emu.host]) == 0
+    assert main(["ufactory", "enable", *cli_args(emu)]) == 0
     assert "enabled, servo mode" in capsys.readouterr().out
     assert emu.enabled and emu.mode == 1 and emu.state in (1, 2)
 

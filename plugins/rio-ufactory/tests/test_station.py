@@ -12,6 +12,9 @@ import numpy as np
 import pytest
 from rio.recording.dataset import Dataset
 from rio.teleop import run_teleop
+from rio_ufactory.loopback import PORT_502_HINT, can_listen_on_502
+
+pytestmark = pytest.mark.skipif(not can_listen_on_502(), reason=PORT_502_HINT)
 
 STATION = "xarm7-emulator"
 

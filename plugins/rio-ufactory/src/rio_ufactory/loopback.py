@@ -35,3 +35,23 @@ def free_loopback() -> str:
         if is_free(host):
             return host
     raise RuntimeError("no free loopback address for an xArm emulator (127.0.0.2-253 all in use)")
+
+
+PORT_502_HINT = ("the xArm emulator listens on the controller's port 502: run as root, or allow it once with "
+                 "`sudo sysctl net.ipv4.ip_unprivileged_port_start=0`")
+
+
+def can_listen_on_502() -> bool:
+    """Whether this process may listen on the controller's port 502 (root, or a system that allows
+    unprivileged ports from 0: `sysctl net.ipv4.ip_unprivileged_port_start`)."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        s.bind(("127.0.0.1", PORTS[0]))  # the permission check comes before "address in use"
+    except PermissionError:
+        return False
+    except OSError:
+        pass
+    finally:
+        s.close()
+    return True

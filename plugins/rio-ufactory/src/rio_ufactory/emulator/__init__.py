@@ -6,7 +6,7 @@ moves a model of the arm (or a rio-sim arm) and the gripper on its tool port.
     with XArmEmulator("lite6", host="127.0.0.2", gripper="lite6") as emu:
         ...  # XArmAPI("127.0.0.2") works as against a Lite 6
 
-`python -m rio_ufactory.emulator --model xarm7` runs one until Ctrl-C (`serve`).
+`rio ufactory emulator --model xarm7` runs one until Ctrl-C (`serve`).
 """
 
 from .codes import FAULTS, Err

@@ -220,9 +220,9 @@ class XArmEmulator:
 
     # -- tests and demos -----------------------------------------------------------------------------------
     @property
-    def address(self) -> str:
-        """What to give the driver / SDK as the controller's IP."""
-        return self.host
+    def driver_fields(self) -> dict[str, Any]:
+        """The station fields that point a rio-ufactory driver at this emulator."""
+        return {"ip": self.host}
 
     @property
     def version(self) -> str:

@@ -1,5 +1,4 @@
-"""Run an emulator in the foreground until Ctrl-C: what `rio ufactory emulator` and
-`python -m rio_ufactory.emulator` do."""
+"""Run an emulator in the foreground until Ctrl-C: what `rio ufactory emulator` does."""
 
 from __future__ import annotations
 
