@@ -9,22 +9,10 @@ import numpy as np
 import pytest
 from rio import clock
 from rio.errors import RioError
-from rio.manager import ServerManager
-from rio.station import make_station
 from rio.testing import wait_until
 from rio_sim.robots import get_robot
+from rio_sim.testing import running_world
 from rio_sim.world_arm import WorldArm, parse_sim_target
-
-STATION = """
-name = "{name}"
-rate_hz = 30
-[middleware]
-name = "thread"
-[components.world_sensor]
-driver = "sim.world"
-scene = "{scene}"
-world = "{name}"
-"""
 
 # another process (same RIO_SIM_SESSION, inherited) moves joint 1 and reports what it reads back
 _OTHER_PROCESS = """
@@ -44,11 +32,8 @@ arm.close()
 
 
 @pytest.fixture(scope="module")
-def world(tmp_path_factory):
-    p = tmp_path_factory.mktemp("wa") / "wa.toml"
-    p.write_text(STATION.format(name="wa", scene="xarm7"))
-    servers, clients, env = make_station(str(p))
-    with ServerManager(servers), clients["world_sensor"]() as w:
+def world():
+    with running_world("xarm7", "wa") as w:
         yield w
 
 
@@ -109,11 +94,8 @@ def test_unknown_arm_or_world_is_refused(world):
         WorldArm.attach("no-such-world", timeout=0.1)
 
 
-def test_arm_sees_its_world_stop(tmp_path):
-    p = tmp_path / "wa2.toml"
-    p.write_text(STATION.format(name="wa2", scene="xarm7"))
-    servers, clients, env = make_station(str(p))
-    with ServerManager(servers):
+def test_arm_sees_its_world_stop():
+    with running_world("xarm7", "wa2"):
         arm = WorldArm.attach("wa2", timeout=30)
         arm.check_alive()
     with pytest.raises(RioError, match="stopped"):
@@ -125,12 +107,9 @@ def test_arm_sees_its_world_stop(tmp_path):
 
 
 @pytest.mark.parametrize("scene", ["xarm6", "lite6"])
-def test_other_ufactory_class_arms_live_in_their_scenes(tmp_path, scene):
-    p = tmp_path / f"{scene}.toml"
-    p.write_text(STATION.format(name=f"wa-{scene}", scene=scene))
-    servers, clients, env = make_station(str(p))
+def test_other_ufactory_class_arms_live_in_their_scenes(scene):
     robot = get_robot(scene)
-    with ServerManager(servers), WorldArm.attach(f"wa-{scene}", timeout=30) as arm:
+    with running_world(scene, f"wa-{scene}"), WorldArm.attach(f"wa-{scene}", timeout=30) as arm:
         assert arm.robot is robot and len(arm.joint_pos()) == 6
         assert np.allclose(arm.joint_pos(), robot.home, atol=0.02)
         target = np.asarray(robot.home) + np.array([0.2, 0.1, -0.1, 0.2, -0.15, 0.3])

@@ -3,11 +3,10 @@ joint and Cartesian space, the model check, faults held and recovered, a dropped
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from rio import clock
+from rio.conformance.driving import Loop
 from rio.errors import InvalidRequest
 from rio.testing import lifecycle, wait_until
 from rio_ufactory.arm.driver import XArm
@@ -18,20 +17,11 @@ from rio_ufactory.loopback import free_loopback
 
 def spin(arm, seconds: float) -> dict:
     """Run the node's cycle for `seconds` (as its loop would) and return the last sample."""
-    t_end, s = time.monotonic() + seconds, None
-    while time.monotonic() < t_end or s is None:
-        s = arm.read_state()
-        time.sleep(0.004)
-    return s
+    return Loop(arm).run(seconds=seconds)
 
 
 def run_until(arm, pred, timeout: float = 8.0) -> dict:
-    t_end = time.monotonic() + timeout
-    while True:
-        s = arm.read_state()
-        if pred(s) or time.monotonic() > t_end:
-            return s
-        time.sleep(0.004)
+    return Loop(arm).run(until=pred, timeout=timeout)
 
 
 def test_joint_targets_stream_as_servo_commands_and_the_report_follows(make_emulator):

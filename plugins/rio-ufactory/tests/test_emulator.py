@@ -455,31 +455,16 @@ def test_stop_releases_ports_and_threads(make_emulator, connect):
 
 
 # -- rio-sim backend ----------------------------------------------------------------------------------------------
-SIM_STATION = """
-name = "{name}"
-rate_hz = 30
-[middleware]
-name = "thread"
-[components.world_sensor]
-driver = "sim.world"
-scene = "xarm7"
-world = "{name}"
-"""
 
 
 @pytest.fixture(scope="module")
-def sim_world(tmp_path_factory):
+def sim_world():
     pytest.importorskip("rio_sim.world_arm", reason="rio-sim is not installed")
     pytest.importorskip("mujoco")
-    from rio.manager import ServerManager
-    from rio.station import make_station
+    from rio_sim.testing import running_world
 
-    name = "ufemu"
-    p = tmp_path_factory.mktemp("ufemu") / "world.toml"
-    p.write_text(SIM_STATION.format(name=name))
-    servers, clients, env = make_station(str(p))
-    with ServerManager(servers), clients["world_sensor"]():
-        yield name
+    with running_world("xarm7", "ufemu"):
+        yield "ufemu"
 
 
 def test_sim_backend_moves_the_world_arm(sim_world, make_emulator, connect):

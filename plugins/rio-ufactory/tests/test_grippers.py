@@ -3,10 +3,9 @@ opening and closing to a width, an object stopping the fingers, and the tool-IO 
 
 from __future__ import annotations
 
-import time
-
 import pytest
 from rio import clock
+from rio.conformance.driving import Loop
 from rio.testing import lifecycle
 from rio_ufactory.gripper.bio import BioGripper
 from rio_ufactory.gripper.lite6 import Lite6Gripper, VacuumGripper
@@ -15,12 +14,7 @@ from rio_ufactory.gripper.xarm_gripper import XArmGripper
 
 
 def run_until(node, pred, timeout: float = 10.0) -> dict:
-    t_end = time.monotonic() + timeout
-    while True:
-        s = node.read_state()
-        if pred(s) or time.monotonic() > t_end:
-            return s
-        time.sleep(0.02)
+    return Loop(node).run(until=pred, timeout=timeout)
 
 
 # driver, its fields, the emulator's tool device, where the emulated fingers put the object for an opening

@@ -82,3 +82,26 @@ def test_commands_say_what_is_wrong_without_a_controller(capsys):
 
     assert main(["ufactory", "status", "--ip", free_loopback()]) == 1
     assert "no xArm controller answers on TCP 502" in capsys.readouterr().err
+
+
+def test_emulator_command_serves_a_controller_until_interrupted():
+    import signal
+
+    from rio_ufactory.controller import Controller
+    from rio_ufactory.loopback import PORT_502_HINT, can_listen_on_502, free_loopback
+
+    if not can_listen_on_502():
+        pytest.skip(PORT_502_HINT)
+    host = free_loopback()
+    proc = subprocess.Popen([sys.executable, "-m", "rio", "ufactory", "emulator", "--model", "lite6", "--ip", host,
+                             "--gripper", "lite6"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        first = proc.stdout.readline()
+        assert f"Lite 6 controller emulator listening on {host}" in first, first
+        ctl = Controller.acquire(host, model="lite6")
+        assert (ctl.api.axis, ctl.api.device_type) == (6, 9)
+        ctl.release()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=30)
+    assert proc.returncode == 0, out

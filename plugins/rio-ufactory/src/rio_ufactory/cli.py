@@ -4,7 +4,9 @@ directly (the controller accepts several clients), so it works whatever holds th
 
 from __future__ import annotations
 
-from typing import Annotated
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Annotated, Any
 
 import typer
 
@@ -13,63 +15,55 @@ app = typer.Typer(help="UFACTORY xArm / Lite 6: emulator, status, clear errors, 
 Ip = Annotated[str, typer.Option("--ip", help="controller IP address")]
 
 
-def _connect(ip: str):
+@contextmanager
+def _controller(ip: str) -> Iterator[Any]:
+    """The controller at `ip` for one command; an `XArmError` (no answer, a fault that will not clear)
+    is printed as one line and exits 1."""
     from .controller import Controller
+    from .faults import XArmError
 
     try:
-        return Controller.acquire(ip, connect_timeout_s=3.0)
-    except Exception as e:
+        ctl = Controller.acquire(ip, connect_timeout_s=3.0)
+    except XArmError as e:
         typer.echo(f"error: {e}", err=True)
         raise typer.Exit(1) from None
+    try:
+        yield ctl
+    except XArmError as e:
+        typer.echo(f"error: {e}", err=True)
+        raise typer.Exit(1) from None
+    finally:
+        ctl.release()
 
 
 @app.command()
 def status(ip: Ip) -> None:
     """Model, state, mode, error and warning of a controller."""
-    ctl = _connect(ip)
-    try:
+    with _controller(ip) as ctl:
         api = ctl.api
         fault = ctl.fault()
         typer.echo(f"{ip}: {ctl.model.label if ctl.model else 'unknown model'} (axis {api.axis}, type "
                    f"{api.device_type}), firmware {api.version}")
         typer.echo(f"state {api.state}, mode {api.mode}, joints (rad) {[round(a, 4) for a in ctl.joints(api.axis)[0]]}")
         typer.echo(f"fault: {fault}" if fault else "no fault")
-    finally:
-        ctl.release()
 
 
 @app.command("clear-errors")
 def clear_errors(ip: Ip) -> None:
     """Clear the controller's error and warning (release an emergency stop first)."""
-    from .faults import XArmFault
-
-    ctl = _connect(ip)
-    try:
+    with _controller(ip) as ctl:
         before = ctl.fault()
         ctl.clear_faults()
         typer.echo(f"{ip}: cleared {before}" if before else f"{ip}: nothing to clear")
         typer.echo("next: `rio ufactory enable --ip IP`, or the station node's enable()/clear_faults()")
-    except XArmFault as e:
-        typer.echo(f"error: {e}", err=True)
-        raise typer.Exit(1) from None
-    finally:
-        ctl.release()
 
 
 @app.command()
 def enable(ip: Ip) -> None:
     """Motors on, servo mode, ready (what a station does at start)."""
-    from .faults import XArmError
-
-    ctl = _connect(ip)
-    try:
+    with _controller(ip) as ctl:
         ctl.enable_servo()
         typer.echo(f"{ip}: enabled, servo mode")
-    except XArmError as e:
-        typer.echo(f"error: {e}", err=True)
-        raise typer.Exit(1) from None
-    finally:
-        ctl.release()
 
 
 @app.command()

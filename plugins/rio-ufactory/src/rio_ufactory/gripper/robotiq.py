@@ -2,13 +2,14 @@
 methods (Modbus RTU frames relayed by the controller). For a Robotiq on a USB adapter or a UR arm,
 use the `robotiq.*` drivers of rio-robotiq instead.
 
-Robotiq units: position 0 open .. 255 closed, speed and force 0..255. Object detection is the
-gripper's own gOBJ flag (fingers stopped by contact).
+What a Robotiq is (strokes, the 0..255 scales, the fault classes) is rio-robotiq's knowledge; this
+driver only carries it over the xArm's tool port (`pip install 'rio-ufactory[robotiq]'`). Object
+detection is the gripper's own gOBJ flag (fingers stopped by contact).
 """
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -16,8 +17,15 @@ from pydantic import Field
 from ..faults import XArmError
 from .base import ToolGripper
 
-_STROKE = {"2f85": 0.085, "2f140": 0.140}
-_FORCE_MAX_N = {"2f85": 235.0, "2f140": 125.0}
+
+def _robotiq() -> Any:
+    try:
+        import rio_robotiq.faults as faults
+        import rio_robotiq.models as models
+    except ImportError as e:
+        raise ImportError(f"the xArm's Robotiq driver needs rio-robotiq ({e}): pip install 'rio-ufactory[robotiq]'") \
+            from None
+    return models, faults
 
 
 class XArmRobotiq(ToolGripper):
@@ -28,7 +36,9 @@ class XArmRobotiq(ToolGripper):
 
     def setup(self) -> None:
         super().setup()
-        self.width = _STROKE[self.config.model]  # the kind clips to [0, width]
+        self.models, self.faults = _robotiq()
+        self.spec = self.models.ROBOTIQ_MODELS[self.config.model]
+        self.width = self.spec.stroke  # the kind clips to [0, width]
 
     def start_device(self) -> None:
         assert self.ctl is not None
@@ -39,13 +49,14 @@ class XArmRobotiq(ToolGripper):
         assert self.ctl is not None
         self.ctl.call("robotiq_get_status", number_of_registers=3)
         st = self.ctl.api.robotiq_status
-        if st.get("gFLT", 0) in (0x08, 0x0A, 0x0B, 0x0C, 0x0D, 0x0E, 0x0F):
-            raise XArmError(self.ctl.ip, "robotiq", f"Robotiq fault 0x{st['gFLT']:02X} (see rio-robotiq's README)")
-        width = (255 - float(st.get("gPO", 0))) / 255.0 * self.width
-        return width, st.get("gOBJ", 0) in (1, 2)
+        code = int(st.get("gFLT", 0))
+        if self.faults.is_major(code):
+            raise XArmError(self.ctl.ip, "robotiq", f"{self.spec.label} fault 0x{code:02X}: "
+                            f"{self.faults.fault_meaning(code)}")
+        return self.models.robotiq_width(int(st.get("gPO", 0)), self.spec.stroke), st.get("gOBJ", 0) in (1, 2)
 
     def send_goal(self, width: float, force: float) -> None:
         assert self.ctl is not None
-        pos = int(round(255 * (1.0 - width / self.width)))
-        f = 255 if np.isnan(force) else int(np.clip(force / _FORCE_MAX_N[self.config.model] * 255, 0, 255))
+        pos = self.models.robotiq_counts(width, self.spec.stroke)
+        f = 255 if np.isnan(force) else self.models.scale_to_byte(force, *self.spec.force_range)
         self.ctl.call("robotiq_set_position", pos, speed=self.config.speed, force=f, wait=False)
