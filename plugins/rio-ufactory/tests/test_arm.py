@@ -113,7 +113,7 @@ def test_a_fault_holds_the_arm_names_itself_and_clears(make_emulator, kind, code
         np.testing.assert_allclose(emu.joint_pos, stopped, atol=1e-3)  # held where it stopped
         with pytest.raises(InvalidRequest, match=f"C{code} {name}"):
             arm.handle_request({"mode": 0, "joint_pos": goal, "eef_pose": np.zeros(7), "t_cmd_target": clock.now()})
-        assert arm.controller_fault()["code"] == code
+        assert arm.fault_info()["code"] == code
         assert arm.clear_faults() == "cleared"
         s = spin(arm, 0.1)
         assert s["enabled"] and s["fault_code"] == 0 and emu.error_code == 0

@@ -14,13 +14,12 @@ import logging
 from typing import Any
 
 from pydantic import Field, field_validator
-from rio import clock
 from rio.config import Config
 from rio.errors import InvalidRequest
-from rio.node import remote
+from rio.interfaces import Fault, FaultHolding
 
 from .controller import Controller
-from .faults import Fault, XArmFault, XArmLost
+from .faults import XArmFault, XArmLost
 
 log = logging.getLogger("rio_ufactory")
 
@@ -45,20 +44,19 @@ class LinkConfig(Config):
                              "label)") from None
 
 
-class ControllerLink:
-    """Mixed into a commanded node (`CommandedNode` kinds) whose config is a `LinkConfig`."""
+class ControllerLink(FaultHolding):
+    """Mixed in ahead of a commanded kind (`CommandedNode`) whose config is a `LinkConfig`. Faults are held
+    the core way (`rio.interfaces.FaultHolding`); this adds the controller connection and its drops."""
 
     config: Any
-    name: str
-    enabled: bool
     ctl: Controller | None = None
-    fault: Fault | None = None
     model_name: str | None = None  # checked against the controller's identity when set
     _was_enabled = False  # enabled when the link dropped: enable again (holding) once it is back
 
     def open_controller(self) -> Controller:
         c = self.config
         self.ctl = Controller.acquire(c.ip, model=self.model_name, connect_timeout_s=c.connect_timeout_s)
+        self.device_label = f"xArm at {c.ip}"
         self.fault = None
         return self.ctl
 
@@ -67,7 +65,16 @@ class ControllerLink:
             self.ctl.release()
             self.ctl = None
 
-    # -- faults and connection ------------------------------------------------------------------------
+    # -- FaultHolding hooks -----------------------------------------------------------------------------
+    def device_fault(self) -> Fault | None:
+        assert self.ctl is not None
+        return self.ctl.fault()
+
+    def clear_device_faults(self) -> None:
+        assert self.ctl is not None
+        self.ctl.clear_faults()
+
+    # -- connection -------------------------------------------------------------------------------------
     def link_status(self) -> dict[str, Any]:
         """Keys every sample carries; also where a dropped socket is noticed and retried."""
         ctl = self.ctl
@@ -76,8 +83,8 @@ class ControllerLink:
             self.on_lost()
             if ctl.reconnect() and self._was_enabled:
                 self._was_enabled = False
-                self.resume()
-        return {"connected": ctl.connected, "fault_code": self.fault.code if self.fault else 0}
+                self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable: holds where it is
+        return {"connected": ctl.connected, **self.fault_status()}
 
     def on_lost(self) -> None:
         if self.enabled:
@@ -85,12 +92,6 @@ class ControllerLink:
                       self.ctl.ip if self.ctl else "?")
             self.enabled = False
             self._was_enabled = True
-
-    def on_fault(self, fault: Fault) -> None:
-        if self.fault != fault:
-            log.error("node '%s': xArm at %s stopped: %s", self.name, self.ctl.ip if self.ctl else "?", fault)
-        self.fault = fault
-        self.enabled = False  # the controller holds the arm; the commander must not replay old goals later
 
     def guarded(self, fn, *args: Any) -> None:
         """Run one device command; a controller fault turns into the held, named-fault state, a lost link
@@ -103,35 +104,6 @@ class ControllerLink:
             self.on_lost()
 
     def check_ready(self) -> None:
-        if self.fault is not None:
-            raise InvalidRequest(self.name, None, f"stopped by a controller fault: {self.fault}")
+        super().check_ready()
         if self.ctl is None or not self.ctl.connected:
             raise InvalidRequest(self.name, None, "the xArm connection is down (reconnecting); nothing was sent")
-
-    def set_enabled_checked(self) -> None:
-        """Before enabling: a controller error must be cleared first (named); a plain stop clears here."""
-        assert self.ctl is not None
-        self.fault = self.ctl.fault()
-        if self.fault is not None:
-            self.check_ready()
-
-    def resume(self) -> None:
-        """Enable again holding the present state (after a reconnect or a cleared fault)."""
-        self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable
-
-    @remote
-    def clear_faults(self) -> str:
-        """Clear the controller's error and warning, then enable holding where the arm is."""
-        assert self.ctl is not None
-        self.ctl.clear_faults()
-        self.fault = None
-        self.resume()
-        return "cleared"
-
-    @remote
-    def controller_fault(self) -> dict[str, Any] | None:
-        """The controller's current fault (asked now), or None."""
-        assert self.ctl is not None
-        f = self.ctl.fault()
-        return None if f is None else {"code": f.code, "name": f.name, "meaning": f.meaning, "recovery": f.recovery,
-                                       "t": clock.now()}

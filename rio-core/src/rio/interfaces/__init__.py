@@ -28,10 +28,11 @@ published as NaN, never as a made-up number.
 
 from .arm import EEF, IDENTITY_POSE, JOINT, ArmNode
 from .camera import CameraNode
+from .faults import FAULT_KEYS, Fault, FaultHolding
 from .gripper import GripperNode
 from .hand import HandNode, HumanoidNode
 from .joints import JointNode
 from .teleop import TeleopNode
 
 __all__ = ["ArmNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "JointNode",
-           "JOINT", "EEF", "IDENTITY_POSE"]
+           "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolding", "FAULT_KEYS"]

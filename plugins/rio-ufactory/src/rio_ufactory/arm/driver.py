@@ -13,7 +13,7 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
-from rio.interfaces import ArmNode
+from rio.interfaces import FAULT_KEYS, ArmNode
 from rio.node import remote
 
 from ..controller import STOPPED as STOPPED_STATE
@@ -49,7 +49,7 @@ class XArm(ControllerLink, ArmNode):
         super().setup()
         self.arm = get_arm(self.config.model)
         self.model_name = self.arm.name
-        self.example_data = {**self.example_data, "connected": True, "fault_code": 0, "report_age": 0.0}
+        self.example_data = {**self.example_data, **FAULT_KEYS, "connected": True, "report_age": 0.0}
 
     def default_joint_names(self) -> list[str]:
         return get_arm(self.config.model).joint_names
@@ -81,7 +81,7 @@ class XArm(ControllerLink, ArmNode):
     def set_enabled(self, enabled: bool) -> None:
         assert self.ctl is not None
         if enabled:
-            self.set_enabled_checked()
+            self.check_device_fault()
             self.ctl.enable_servo()
             self.ctl.wait_report(0.5)  # hold from a position measured after the controller is ready
         else:
@@ -109,6 +109,3 @@ class XArm(ControllerLink, ArmNode):
         assert self.ctl is not None
         self.guarded(self.ctl.call, "set_servo_cartesian", to_xarm(eef_pose))
 
-    def handle_request(self, request: dict[str, Any]) -> None:
-        self.check_ready()
-        super().handle_request(request)

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
-from rio.interfaces import GripperNode
+from rio.interfaces import FAULT_KEYS, GripperNode
 
 from ..faults import XArmFault, XArmLost
 from ..link import ControllerLink, LinkConfig
@@ -42,7 +42,7 @@ class ToolGripper(ControllerLink, GripperNode):
     # -- shared -------------------------------------------------------------------------------------
     def setup(self) -> None:
         super().setup()
-        self.example_data = {**self.example_data, "object_detected": False, "connected": True, "fault_code": 0}
+        self.example_data = {**self.example_data, **FAULT_KEYS, "object_detected": False, "connected": True}
         self._sent: tuple[float, float] | None = None
         self._last = (float(self.config.max_width), False)
 
@@ -76,6 +76,3 @@ class ToolGripper(ControllerLink, GripperNode):
         self._sent = (width, force)
         self.guarded(self.send_goal, width, force)
 
-    def handle_request(self, request: dict[str, Any]) -> None:
-        self.check_ready()
-        super().handle_request(request)

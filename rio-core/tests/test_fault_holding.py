@@ -1,0 +1,64 @@
+"""`FaultHolding`: a fault the hardware reports holds the node alive and disabled, names itself in
+refusals and samples, and clears through the driver's hook back to holding where the device is."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from rio import clock
+from rio.errors import InvalidRequest
+from rio.interfaces import FAULT_KEYS, Fault, FaultHolding
+from rio.testing import FakeArm, lifecycle
+
+COLLISION = Fault(31, "collision", "the arm hit something", "clear the obstacle", tag="C31")
+
+
+class HoldingArm(FaultHolding, FakeArm):
+    """The fake arm with a hardware fault register: `hw_fault` is what the device reports now."""
+
+    hw_fault: Fault | None = None
+    cleared = 0
+
+    def setup(self) -> None:
+        super().setup()
+        self.example_data = {**self.example_data, **FAULT_KEYS}
+
+    def read_joints(self):
+        if self.hw_fault is not None and self.fault is None:
+            self.on_fault(self.hw_fault)
+        return {**super().read_joints(), **self.fault_status()}
+
+    def set_enabled(self, enabled: bool) -> None:
+        if enabled:
+            self.check_device_fault()
+        super().set_enabled(enabled)
+
+    def device_fault(self) -> Fault | None:
+        return self.hw_fault
+
+    def clear_device_faults(self) -> None:
+        self.cleared += 1
+        self.hw_fault = None
+
+
+def request(q) -> dict:
+    return {"mode": 0, "joint_pos": np.asarray(q, float), "eef_pose": np.zeros(7), "t_cmd_target": clock.now()}
+
+
+def test_a_fault_holds_names_itself_and_clears():
+    with lifecycle(HoldingArm(dof=3)) as arm:
+        assert arm.read_state()["fault_code"] == 0 and arm.enabled
+        arm.hw_fault = COLLISION
+        s = arm.read_state()
+        assert s["fault_code"] == 31 and not s["enabled"] and arm.fault is COLLISION
+        with pytest.raises(InvalidRequest, match="C31 collision: the arm hit something; clear the obstacle"):
+            arm.handle_request(request([0.1, 0.0, 0.0]))
+        with pytest.raises(InvalidRequest, match="C31 collision"):
+            arm.enable()  # the device still reports it
+        assert arm.fault_info() == COLLISION.as_dict()
+        held = arm.read_state()["joint_pos"].copy()
+        assert arm.clear_faults() == "cleared" and arm.cleared == 1
+        s = arm.read_state()
+        assert s["enabled"] and s["fault_code"] == 0 and arm.fault_info() is None
+        np.testing.assert_allclose(s["joint_pos"], held)
+        arm.handle_request(request([0.1, 0.0, 0.0]))  # accepted again
