@@ -200,3 +200,20 @@ def test_tcp_device_serves_and_drops_clients_while_listening():
         again.sendall(b"x")
         assert again.recv(8) == b"x"
         again.close()
+
+
+def test_free_loopback_skips_addresses_whose_ports_are_taken():
+    from rio.emulation import can_listen, free_loopback, is_free
+
+    host = free_loopback([47001, 47002])
+    assert host.startswith("127.0.0.") and is_free(host, [47001, 47002])
+    taken = socket.socket()
+    taken.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    taken.bind((host, 47002))
+    taken.listen(1)
+    try:
+        assert not is_free(host, [47001, 47002])
+        assert free_loopback([47001, 47002]) != host
+    finally:
+        taken.close()
+    assert can_listen(47003)  # unprivileged ports are open to everyone

@@ -8,10 +8,12 @@ model moves like the hardware would.
 - `modbus`: Modbus RTU, the protocol of RS-485 grippers and tools, written once for every emulator
   that speaks it: `RegisterSlave` (a register map answering functions 3/4/6/16 with exceptions
   1/2/3, on frames without CRC), `ModbusRtuDevice` (RTU framing on a `PtyDevice` around slaves),
-  `crc16` / `with_crc` / `frame_length`.
+  `crc16` / `with_crc` / `frame_length`;
+- `free_loopback(ports)`: a 127.0.0.N address of its own for an emulator whose SDK dials fixed ports.
 """
 
 from .finger import FingerModel
+from .loopback import can_listen, free_loopback, is_free
 from .modbus import (
     ILLEGAL_DATA_ADDRESS,
     ILLEGAL_DATA_VALUE,
@@ -29,4 +31,4 @@ from .tcp import TcpDevice
 
 __all__ = ["FingerModel", "PtyDevice", "TcpDevice", "RegisterSlave", "ModbusRtuDevice", "ModbusError",
            "ILLEGAL_FUNCTION", "ILLEGAL_DATA_ADDRESS", "ILLEGAL_DATA_VALUE", "crc16", "with_crc", "frame_length",
-           "in_block"]
+           "in_block", "free_loopback", "is_free", "can_listen"]
