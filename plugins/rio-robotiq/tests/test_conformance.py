@@ -39,7 +39,7 @@ class TestRobotiqHandEVirtual(GripperConformance):
 class TestRobotiqUrcap(GripperConformance):
     driver = "robotiq.urcap"
     config = {"model": "2f85"}
-    bad_config = {"host": "127.0.0.1", "port": 1}  # nothing listens there: connection refused
+    bad_config = {"host": "127.0.0.1", "port": 1, "connect_timeout_s": 0.0}  # nothing listens: refused
 
     @contextmanager
     def emulator(self):

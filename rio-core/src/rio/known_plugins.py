@@ -27,9 +27,11 @@ KNOWN: dict[str, dict[str, tuple[str, ...]]] = {
     "rio-policies": {"policy": ("openpi.*", "gr00t.*", "onnx.*", "lerobot.*", "replay.*")},
     "rio-datasets": {"dataset_format": ("lerobot", "zarr", "hdf5")},
     "rio-ufactory": {"driver": ("ufactory.*",), "station": ("xarm*", "lite6*")},
-    "rio-robotiq": {"driver": ("robotiq.*", "dh.*")},
+    "rio-robotiq": {"driver": ("robotiq.*", "dh.*"), "station": ("robotiq-*",)},
+    "rio-ur": {"driver": ("ur.*",), "station": ("ur3e*", "ur5e*", "ur7e*", "ur10e*", "ur12e*", "ur16e*")},
+    "rio-franka": {"driver": ("franka.*",), "station": ("fr3*", "panda*")},
+    "rio-kinova": {"driver": ("kinova.*",), "station": ("gen3*",)},
     # planned
-    "rio-franka": {}, "rio-ur": {}, "rio-kinova": {},
     "rio-unitree": {}, "rio-booster": {}, "rio-realsense": {}, "rio-cameras": {}, "rio-teleop": {},
     "rio-lerobot": {}, "rio-ros2": {},
 }

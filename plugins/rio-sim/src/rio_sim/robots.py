@@ -68,6 +68,19 @@ ROBOTS: dict[str, RobotModel] = {
         finger_joints=("finger_a", "finger_b"),
         home=(0.0, 0.2722, 0.8433, 0.0, 0.5712, -1.5708), home_tool=(0.25, 0.0, 0.10),
         max_width=0.06, description="Lite6-class 6-DOF arm with a parallel gripper"),
+    "panda": RobotModel(
+        name="panda", file="panda.xml",
+        arm_joints=tuple(f"panda_joint{i}" for i in range(1, 8)),
+        finger_joints=("finger_a", "finger_b"),
+        home=(0.0, 0.169215, 0.0, -2.566342, 0.0, 2.735556, 0.785398), home_tool=(0.45, 0.0, 0.10),
+        max_width=0.08, description="Panda-class 7-DOF arm (Franka's kinematics) with a Franka Hand-like gripper"),
+    "ur5e": RobotModel(
+        name="ur5e", file="ur5e.xml",
+        arm_joints=("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+                    "wrist_2_joint", "wrist_3_joint"),
+        finger_joints=("finger_a", "finger_b"),
+        home=(2.8018, -1.2766, 1.7239, 1.1235, 1.5708, 1.231), home_tool=(0.40, 0.0, 0.10),
+        max_width=0.085, description="UR5e (UR's DH table, via rio-ur) with a 2F-85-stroke parallel gripper"),
 }
 
 

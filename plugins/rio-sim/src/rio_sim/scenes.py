@@ -147,7 +147,26 @@ def _lite6() -> Scene:
                  table=(0.4, 0.45), table_center=(0.2, 0.0))
 
 
-SCENES = {"so100": _so100, "so100_bimanual": _bimanual, "xarm7": _xarm7, "xarm6": _xarm6, "lite6": _lite6}
+def _panda() -> Scene:
+    arm = ArmMount("arm", "panda")
+    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
+    objs += [SceneObject("can", "cylinder", (0.02, 0.04), (0.55, -0.2, 0.04), (0.2, 0.7, 0.3, 1), mass=0.08)]
+    return Scene("panda", "Panda on a table: a red cube to pick, a blue pad, a can",
+                 (arm,), tuple(objs), (_look((1.0, 0.0, 0.6), (0.45, 0.0, 0.05), 55),),
+                 table=(0.55, 0.5), table_center=(0.35, 0.0))
+
+
+def _ur5e() -> Scene:
+    arm = ArmMount("arm", "ur5e")
+    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
+    objs += [SceneObject("can", "cylinder", (0.02, 0.04), (0.5, -0.2, 0.04), (0.2, 0.7, 0.3, 1), mass=0.08)]
+    return Scene("ur5e", "UR5e on a table: a red cube to pick, a blue pad, a can",
+                 (arm,), tuple(objs), (_look((0.95, 0.0, 0.6), (0.4, 0.0, 0.05), 55),),
+                 table=(0.55, 0.55), table_center=(0.3, 0.0))
+
+
+SCENES = {"so100": _so100, "so100_bimanual": _bimanual, "xarm7": _xarm7, "xarm6": _xarm6, "lite6": _lite6,
+          "panda": _panda, "ur5e": _ur5e}
 
 
 @cache

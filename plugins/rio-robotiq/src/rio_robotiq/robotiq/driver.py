@@ -205,6 +205,8 @@ class RobotiqUrcapGripper(RobotiqBase):
         host: str = Field(description='address of the UR controller, or "virtual" for an emulated URCap')
         port: int = Field(63352, ge=1, le=65535, description="the URCap's gripper socket")
         timeout_s: float = Field(1.0, gt=0, description="how long to wait for a reply (s)")
+        connect_timeout_s: float = Field(5.0, ge=0, description="keep trying to connect this long at start (s): "
+                                                                "a controller still booting answers after a while")
 
     def connect(self) -> Any:
         from .urcap_link import RobotiqUrcapLink
@@ -213,4 +215,5 @@ class RobotiqUrcapGripper(RobotiqBase):
         if virtual.is_virtual(host):
             self._virtual = virtual.robotiq_urcap(c.model)
             host, port = self._virtual.host, self._virtual.port
-        return RobotiqUrcapLink(host, port, timeout_s=c.timeout_s, label=self.spec.label).open()
+        return RobotiqUrcapLink(host, port, timeout_s=c.timeout_s, label=self.spec.label,
+                                connect_timeout_s=c.connect_timeout_s).open()

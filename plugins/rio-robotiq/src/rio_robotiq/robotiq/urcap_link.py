@@ -15,6 +15,7 @@ from __future__ import annotations
 import re
 import select
 import socket
+import time
 
 from ..errors import CommunicationError
 from .registers import RobotiqStatus
@@ -25,17 +26,25 @@ _GRACE_S = 0.005
 
 
 class RobotiqUrcapLink:
-    def __init__(self, host: str, port: int, *, timeout_s: float, label: str):
+    def __init__(self, host: str, port: int, *, timeout_s: float, label: str, connect_timeout_s: float = 0.0):
         self.host, self.port, self.timeout_s, self.label = host, int(port), float(timeout_s), label
+        self.connect_timeout_s = float(connect_timeout_s)
         self.where = f"URCap {host}:{self.port}"
         self._sock: socket.socket | None = None
 
     def open(self) -> RobotiqUrcapLink:
-        try:
-            self._sock = socket.create_connection((self.host, self.port), timeout=self.timeout_s)
-        except OSError as e:
-            raise CommunicationError(f"cannot connect to the {self.label} on {self.where}: {e}; is the robot on, "
-                                     "the Robotiq URCap installed and the gripper powered?") from e
+        """Connect, trying again for `connect_timeout_s` (a controller still booting, an emulator starting
+        with the station)."""
+        deadline = time.monotonic() + self.connect_timeout_s
+        while True:
+            try:
+                self._sock = socket.create_connection((self.host, self.port), timeout=self.timeout_s)
+                break
+            except OSError as e:
+                if time.monotonic() >= deadline:
+                    raise CommunicationError(f"cannot connect to the {self.label} on {self.where}: {e}; is the "
+                                             "robot on, the Robotiq URCap installed and the gripper powered?") from e
+                time.sleep(0.2)
         self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         return self
 

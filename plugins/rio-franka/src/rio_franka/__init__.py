@@ -1,0 +1,1 @@
+"""rio-franka plugin."""

@@ -1,0 +1,79 @@
+"""`franka.hand`: the Franka Hand through franky's `Gripper` (its own TCP connection to the control box).
+
+The hand runs its own speed-limited finger motion and takes one command at a time (each franky
+command preempts the running one), so the node sends the kind's per-cycle goal only when it changed
+by more than `deadband_m` or the force changed: a held hand gets no commands, a moving one one per
+cycle (raise `max_step_m` for fewer, larger steps). Closing with a
+force is a `grasp(width, speed, force, epsilon_inner, epsilon_outer)`: libfranka reports an object as
+grasped when the fingers stop within [width - epsilon_inner, width + epsilon_outer], so the default
+`epsilon_outer` counts any object narrower than the opening; opening (or no force) is a `move`.
+`object_detected` is franky's `is_grasped`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+from rio.interfaces import GripperNode
+
+from .backend import connect_gripper
+from .link import FrankaLink, LinkConfig
+
+
+class FrankaHand(FrankaLink, GripperNode):
+    class Config(LinkConfig, GripperNode.Config):
+        rate_hz: float = Field(20.0, gt=0, le=100, description="cycles per second (one width read each)")
+        max_width: float = Field(0.08, gt=0, description="full opening (m): the Franka Hand opens 80 mm")
+        force: float | None = Field(20.0, ge=0, description="grasp force (N) when closing; 0 or None: plain moves")
+        speed: float = Field(0.1, gt=0, le=0.2, description="finger speed (m/s)")
+        epsilon_inner: float = Field(0.005, ge=0, description="grasped if the fingers stop at most this much "
+                                                              "inside the goal (m)")
+        epsilon_outer: float = Field(0.08, ge=0, description="grasped if the fingers stop at most this much "
+                                                             "outside the goal (m)")
+        deadband_m: float = Field(0.001, ge=0, description="send a new goal only when it moved more than this (m)")
+
+    def setup(self) -> None:
+        super().setup()
+        self.example_data = {**self.example_data, "object_detected": False, "connected": True, "fault_code": 0}
+        self._sent: tuple[float, float] | None = None
+        self._last = (float(self.config.max_width), False)
+
+    def connect(self) -> Any:
+        return connect_gripper(self.config.ip, self.config.backend)
+
+    def open(self) -> None:
+        self.open_link()
+
+    def set_enabled(self, enabled: bool) -> None:
+        self._sent = None
+
+    def read_width(self) -> dict[str, Any]:
+        status = self.link_status()
+        hand = self.handle
+        if hand is not None:
+            got = self.guarded(lambda: (float(hand.width), bool(hand.is_grasped)))
+            if got is not None:
+                self._last = got
+        width, obj = self._last
+        return {"position": width, "object_detected": obj, "connected": self.handle is not None,
+                "fault_code": status["fault_code"]}
+
+    def write_width(self, width: float, force: float) -> None:
+        goal = float(width)  # the kind's goal this cycle (clipped, step-limited, held by the watchdog)
+        sent = self._sent
+        same_force = sent is not None and (sent[1] == force or (np.isnan(sent[1]) and np.isnan(force)))
+        if self.handle is None or (sent is not None and same_force and abs(goal - sent[0]) <= self.config.deadband_m):
+            return
+        self._sent = (goal, force)
+        c, hand = self.config, self.handle
+        closing = goal < self._last[0] - c.deadband_m
+        if closing and np.isfinite(force) and force > 0:
+            self.guarded(hand.grasp_async, goal, c.speed, force, c.epsilon_inner, c.epsilon_outer)
+        else:
+            self.guarded(hand.move_async, goal, c.speed)
+
+    def handle_request(self, request: dict[str, Any]) -> None:
+        self.check_ready()
+        super().handle_request(request)

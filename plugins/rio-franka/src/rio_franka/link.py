@@ -1,0 +1,138 @@
+"""What both nodes of this plugin do the same way: connect through `backend.py`, notice a fault or a
+dropped link, keep the node alive with the robot held, and recover.
+
+A fault does not end the node: libfranka has aborted the motion and the arm holds by itself; the node
+reports `fault_code`, refuses commands naming the fault, and `clear_faults()` (or `rio franka recover`
+from a shell, or `auto_recover`) runs libfranka's error recovery and enables again holding where the
+arm is. A dropped link (franky's `NetworkException`: the Robot object is unusable) is retried once a
+second with a new connection; meanwhile `connected` is false and commands are refused.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from pydantic import Field
+from rio import clock
+from rio.config import Config
+from rio.errors import InvalidRequest
+from rio.node import remote
+
+from .faults import Fault, FrankaSetupError, fault_of_message
+
+log = logging.getLogger("rio_franka")
+
+RETRY_S = 1.0
+
+
+class LinkConfig(Config):
+    """Station fields every node on a Franka control box takes (mixed into each driver's Config)."""
+
+    ip: str = Field(description="the robot's FCI address (Desk's IP; the control box's FCI port), e.g. 172.16.0.2")
+    backend: str = Field("franky", description='"franky" (the robot), "fake" (a modelled robot, no hardware) or '
+                                               '"sim" / "sim:ARM@WORLD" (an arm of a running rio-sim world)')
+
+
+class FrankaLink:
+    """Mixed into a commanded node whose config is a `LinkConfig`; the node defines `connect()`."""
+
+    config: Any
+    name: str
+    enabled: bool
+    handle: Any = None  # the franky Robot / Gripper (or the fake's)
+    fault: Fault | None = None
+    _was_enabled = False
+    _next_try = 0.0
+
+    def connect(self) -> Any:
+        raise NotImplementedError
+
+    def on_connected(self, handle: Any) -> None:
+        """Once after every (re)connection: settings that do not survive a new connection."""
+
+    def open_link(self) -> None:
+        self.handle = self.connect()
+        self.on_connected(self.handle)
+        self.fault = None
+
+    def close(self) -> None:
+        self.handle = None
+
+    # -- faults and connection ------------------------------------------------------------------
+    def link_status(self) -> dict[str, Any]:
+        """Keys every sample carries; also where a dropped link is retried."""
+        if self.handle is None and clock.now() >= self._next_try:
+            self._next_try = clock.now() + RETRY_S
+            try:
+                self.open_link()
+                log.warning("node '%s': reconnected to the Franka at %s", self.name, self.config.ip)
+                if self._was_enabled:
+                    self._was_enabled = False
+                    self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable: holds where it is
+            except FrankaSetupError as e:
+                log.debug("node '%s': still no link: %s", self.name, e)
+        return {"connected": self.handle is not None, "fault_code": self.fault.code if self.fault else 0}
+
+    def on_lost(self) -> None:
+        if self.handle is not None:
+            log.error("node '%s': lost the Franka at %s; holding, reconnecting", self.name, self.config.ip)
+        self.handle = None
+        self._next_try = clock.now() + RETRY_S
+        if self.enabled:
+            self.enabled = False
+            self._was_enabled = True
+
+    def on_fault(self, fault: Fault) -> None:
+        if self.fault != fault:
+            log.error("node '%s': Franka at %s stopped: %s", self.name, self.config.ip, fault)
+        self.fault = fault
+        self.enabled = False  # libfranka holds the arm; the commander must not replay old goals later
+
+    def classify(self, e: Exception) -> None:
+        """franky's exceptions -> the held, named-fault state or the reconnecting one; others propagate."""
+        kind = type(e).__name__
+        if kind == "NetworkException":
+            self.on_lost()
+        elif kind in ("ControlException", "CommandException"):
+            self.on_fault(self.fault_now() or fault_of_message(str(e)))
+        else:
+            raise e
+
+    def fault_now(self) -> Fault | None:
+        """The fault the device reports now (asked), or None."""
+        return None
+
+    def guarded(self, fn, *args: Any) -> Any:
+        """Run one device call; franky's errors become the held states above."""
+        try:
+            return fn(*args)
+        except Exception as e:
+            self.classify(e)
+            return None
+
+    def check_ready(self) -> None:
+        if self.fault is not None:
+            raise InvalidRequest(self.name, None, f"stopped by a fault: {self.fault}")
+        if self.handle is None:
+            raise InvalidRequest(self.name, None, "the Franka connection is down (reconnecting); nothing was sent")
+
+    def recover(self) -> None:
+        """The device's error recovery (arm: libfranka's automatic error recovery)."""
+
+    @remote
+    def clear_faults(self) -> str:
+        """Run the error recovery, then enable holding where the robot is."""
+        if self.handle is None:
+            raise InvalidRequest(self.name, None, "the Franka connection is down (reconnecting)")
+        self.recover()
+        self.fault = None
+        self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable
+        return "cleared"
+
+    @remote
+    def franka_fault(self) -> dict[str, Any] | None:
+        """The current fault, or None."""
+        f = self.fault
+        return None if f is None else {"code": f.code, "name": f.name, "meaning": f.meaning, "recovery": f.recovery,
+                                       "t": clock.now()}

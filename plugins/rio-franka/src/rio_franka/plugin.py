@@ -1,0 +1,38 @@
+"""rio-franka's plugin module (entry point group `rio`): drivers, packaged stations and requirements.
+Specs only: nothing here imports franky."""
+
+from __future__ import annotations
+
+from rio.hookspecs import hookimpl
+from rio.requirements import Requirement
+from rio.specs import Spec
+
+from .models import ARMS
+
+_P = "rio_franka"
+
+
+@hookimpl
+def rio_drivers() -> list[Spec]:
+    arms = [Spec(f"franka.{m.name}", "arm", f"{_P}.arm.driver:FrankaArm",
+                 f"{m.label} through franky (libfranka's 1 kHz loop; asynchronous joint and Cartesian motions)",
+                 preset={"model": m.name}) for m in ARMS.values()]
+    return arms + [Spec("franka.hand", "gripper", f"{_P}.hand:FrankaHand",
+                        "Franka Hand through franky's Gripper (move, grasp with force)")]
+
+
+_STATIONS = {
+    "fr3-hand": "FR3 + Franka Hand through franky (edit the IP; RealSense cameras commented out)",
+    "fr3-virtual": "FR3 + Franka Hand on the fake franky robot (modelled arm, no hardware)",
+    "panda-sim": "Panda + hand on the fake franky robot driving a rio-sim world (needs rio-sim)",
+}
+
+
+@hookimpl
+def rio_stations() -> list[Spec]:
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+
+
+@hookimpl
+def rio_requirements() -> list[Requirement]:
+    return [Requirement("franky", "pip install franky-control", "every Franka driver (franky, bundling libfranka)")]

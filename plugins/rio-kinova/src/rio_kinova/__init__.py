@@ -1,0 +1,1 @@
+"""rio-kinova plugin."""

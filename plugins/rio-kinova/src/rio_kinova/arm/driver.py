@@ -1,0 +1,173 @@
+"""`kinova.gen3 | gen3_6dof | gen3_lite`: a Kinova arm on its base, through kortex (`session.py`).
+
+Hardware logic only; the arm kind (`rio.interfaces.ArmNode`) owns the cycle and the safety. Each tick
+reads `BaseCyclic.RefreshFeedback` and sends one goal:
+- high level (default): joint speeds (`SendJointSpeedsCommand`), the step to this cycle's goal per
+  cycle plus a proportional correction on the measured position, within the model's speed limits;
+  the base keeps its own safety (limits, collision detection) and its Cartesian control is reached with
+  `eef_control = "controller"` (twists, `SendTwistCommand`);
+- low level (`low_level = true`): `SetServoingMode(LOW_LEVEL_SERVOING)` and one position per actuator
+  per cycle through `BaseCyclic.Refresh(command)`; run it at a high rate (the base expects 1 kHz).
+
+Kinova reports actuator angles in [0, 360) degrees: the driver unwraps continuous joints so their
+positions stay continuous, and reports limited joints in (-pi, pi].
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field
+from rio.control import quat_conj, quat_mul, quat_to_rotvec
+from rio.interfaces import FAULT_KEYS, ArmNode
+from rio.node import remote
+
+from ..description import description
+from ..link import KortexLink, LinkConfig
+from ..models import ARMS, get_arm
+from ..pose import from_kinova
+
+Model = Literal["gen3", "gen3_6dof", "gen3_lite"]
+_TWO_PI = 2 * math.pi
+
+
+def wrap(x):
+    """Angles into (-pi, pi]."""
+    return np.pi - np.mod(np.pi - np.asarray(x, dtype=np.float64), _TWO_PI)
+
+
+class KinovaArm(KortexLink, ArmNode):
+    class Config(LinkConfig, ArmNode.Config):
+        model: Model = Field("gen3", description=f"which arm: {', '.join(ARMS)} (checked against the actuator count)")
+        rate_hz: float = Field(100.0, gt=0, le=1000, description="cycles per second (1000 in low-level mode)")
+        max_step_rad: float = Field(0.01, gt=0, description="largest joint goal change per cycle (rad): 1 rad/s "
+                                                            "at 100 Hz")
+        low_level: bool = Field(False, description="low-level servoing: positions to the actuators at the cycle "
+                                                   "rate, bypassing the base's trajectory control (expert use)")
+        gain: float = Field(8.0, ge=0, description="high level: joint speed per rad of tracking error (1/s)")
+        eef_control: Literal["ik", "controller"] = Field(
+            "ik", description='end-effector targets by RIO\'s IK on the arm model ("ik") or the base\'s Cartesian '
+                              'twist control ("controller", high level only; its tool configuration applies)')
+        tcp_offset: tuple[float, float, float, float, float, float] | None = Field(
+            None, description="tool centre point from the flange [x, y, z (m), roll, pitch, yaw (rad)] for RIO's model "
+                              "(set the same tool on the base in the web app for eef_control = 'controller')")
+
+    def setup(self) -> None:
+        super().setup()
+        self.kinova = get_arm(self.config.model)
+        if self.config.low_level and self.config.eef_control == "controller":
+            raise ValueError("eef_control = 'controller' needs the base's high-level control: set low_level = false")
+        self.example_data = {**self.example_data, **FAULT_KEYS}
+        self._q: np.ndarray | None = None
+        self._goal: np.ndarray | None = None
+        self._frame = 0
+
+    def default_joint_names(self) -> list[str]:
+        return get_arm(self.config.model).joint_names
+
+    def default_home(self) -> list[float]:
+        return list(self.kinova.home)
+
+    def hardware_limits(self) -> Any:
+        lim = np.array(self.kinova.limits)
+        return lim[:, 0], lim[:, 1]
+
+    @property
+    def streams_poses(self) -> bool:
+        return self.config.eef_control == "controller"
+
+    @remote
+    def robot_description(self) -> dict[str, Any] | None:
+        return description(self.kinova.name, tcp_offset=self.config.tcp_offset)
+
+    # -- hardware -----------------------------------------------------------------------------------
+    def open(self) -> None:
+        s = self.open_session()
+        n = len(s.cyclic.RefreshFeedback().actuators)
+        if n != self.kinova.dof:
+            self.close()
+            raise ValueError(f"the base at {self.config.ip} reports {n} actuators; model '{self.kinova.name}' has "
+                             f"{self.kinova.dof}: set model")
+
+    def set_enabled(self, enabled: bool) -> None:
+        s = self.session
+        assert s is not None
+        mode = s.pb.Base_pb2.ServoingModeInformation()
+        if enabled:
+            self.check_device_fault()
+            mode.servoing_mode = (s.pb.Base_pb2.LOW_LEVEL_SERVOING if self.config.low_level
+                                  else s.pb.Base_pb2.SINGLE_LEVEL_SERVOING)
+            s.base.SetServoingMode(mode)
+            self._goal = None
+        else:
+            if self.config.low_level:  # hand control back to the base, which holds the arm
+                mode.servoing_mode = s.pb.Base_pb2.SINGLE_LEVEL_SERVOING
+                self.guarded(s.base.SetServoingMode, mode)
+            self.guarded(s.base.Stop)
+
+    def read_joints(self) -> dict[str, Any]:
+        s = self.session
+        assert s is not None
+        fb = s.cyclic.RefreshFeedback()
+        status = self.link_status()
+        raw = np.radians([a.position for a in fb.actuators])
+        q = wrap(raw)
+        if self._q is not None:  # continuous joints: the turn nearest the last reading
+            cont = np.array(self.kinova.continuous)
+            q = np.where(cont, self._q + wrap(q - self._q), q)
+        self._q = q
+        sample: dict[str, Any] = {"joint_pos": q, "joint_vel": np.radians([a.velocity for a in fb.actuators]),
+                                  **status}
+        if self.streams_poses:
+            b = fb.base
+            sample["eef_pose"] = from_kinova([b.tool_pose_x, b.tool_pose_y, b.tool_pose_z, b.tool_pose_theta_x,
+                                              b.tool_pose_theta_y, b.tool_pose_theta_z])
+        if self.fault is None and self.enabled:
+            state = s._name(s.pb.Common_pb2.ArmState, fb.base.active_state)
+            if state == "ARMSTATE_IN_FAULT":  # a missed notification: the cyclic feedback says so too
+                fault = self.device_fault()
+                if fault is not None:
+                    self.on_fault(fault)
+                    sample["fault_code"] = fault.code
+        return sample
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        s = self.session
+        assert s is not None and self._q is not None
+        if self.config.low_level:
+            cmd = s.pb.BaseCyclic_pb2.Command()
+            self._frame = (self._frame + 1) & 0xFFFF
+            cmd.frame_id = self._frame
+            for qi in joint_pos:
+                a = cmd.actuators.add()
+                a.command_id, a.flags, a.position = self._frame, 1, math.degrees(float(qi)) % 360.0
+            self.guarded(s.cyclic.Refresh, cmd)
+            return
+        prev = joint_pos if self._goal is None else self._goal
+        self._goal = joint_pos.copy()
+        vmax = np.array(self.kinova.max_joint_speed)
+        speed = (joint_pos - prev) * self.config.rate_hz + self.config.gain * (joint_pos - self._q)
+        speed = np.clip(speed, -vmax, vmax)
+        msg = s.pb.Base_pb2.JointSpeeds()
+        for i, v in enumerate(speed):
+            js = msg.joint_speeds.add()
+            js.joint_identifier, js.value, js.duration = i, math.degrees(float(v)), 0
+        self.guarded(s.base.SendJointSpeedsCommand, msg)
+
+    def write_pose(self, eef_pose: np.ndarray) -> None:
+        s = self.session
+        assert s is not None
+        now = self._eef
+        lin = self.config.gain * (eef_pose[:3] - now[:3])
+        dq = quat_mul(eef_pose[3:], quat_conj(now[3:]))
+        ang = self.config.gain * quat_to_rotvec(dq if dq[0] >= 0 else -dq)
+        cmd = s.pb.Base_pb2.TwistCommand()
+        cmd.reference_frame = s.pb.Base_pb2.CARTESIAN_REFERENCE_FRAME_BASE
+        cmd.duration = 0
+        t = cmd.twist
+        t.linear_x, t.linear_y, t.linear_z = (float(v) for v in lin)
+        t.angular_x, t.angular_y, t.angular_z = (math.degrees(float(v)) for v in ang)
+        self.guarded(s.base.SendTwistCommand, cmd)
+

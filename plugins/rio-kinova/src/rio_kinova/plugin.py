@@ -1,0 +1,39 @@
+"""rio-kinova's plugin module (entry point group `rio`): drivers, packaged stations and the kortex_api
+requirement. Specs only: nothing here imports kortex."""
+
+from __future__ import annotations
+
+from rio.hookspecs import hookimpl
+from rio.requirements import Requirement
+from rio.specs import Spec
+
+from .kortex import INSTALL
+from .models import ARMS
+
+_P = "rio_kinova"
+
+
+@hookimpl
+def rio_drivers() -> list[Spec]:
+    arms = [Spec(f"kinova.{m.name}", "arm", f"{_P}.arm.driver:KinovaArm",
+                 f"Kinova {m.label} on its base (kortex_api: joint speeds, twists, or 1 kHz low-level servoing)",
+                 preset={"model": m.name}) for m in ARMS.values()]
+    grip = Spec("kinova.robotiq_2f85", "gripper", f"{_P}.gripper.robotiq:KinovaRobotiq",
+                "Robotiq 2F-85 on a Gen3's interface module, through the base (kortex_api)")
+    return [*arms, grip]
+
+
+_STATIONS = {
+    "gen3-robotiq": "Kinova Gen3 7-DOF + Robotiq 2F-85 on its base (edit the IP, user, password; cameras commented)",
+    "gen3-virtual": "Kinova Gen3 7-DOF + Robotiq 2F-85 on the fake kortex backend (no hardware, no kortex_api)",
+}
+
+
+@hookimpl
+def rio_stations() -> list[Spec]:
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+
+
+@hookimpl
+def rio_requirements() -> list[Requirement]:
+    return [Requirement("kortex_api", INSTALL, "every Kinova driver with backend = \"kortex\" (Kinova's kortex_api)")]
