@@ -52,8 +52,9 @@ def _connect(ip: str, make) -> Any:
         raise FrankaError(ip, "connect", f"{type(e).__name__}: {e}") from e
 
 
-def connect_robot(ip: str, backend: str, model: str, relative_dynamics_factor: float, realtime: bool = True) -> Any:
-    """A franky `Robot` (or the fake's) connected to `ip`."""
+def connect_robot(ip: str, backend: str, model: str | None, relative_dynamics_factor: float,
+                  realtime: bool = True) -> Any:
+    """A franky `Robot` (or the fake's) connected to `ip` (`model` None: the fake box's as it is)."""
     if backend == "franky":
         import franky
 

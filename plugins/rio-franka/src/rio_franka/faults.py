@@ -11,42 +11,36 @@ libfranka's (`franka::Errors`); the meanings and the recovery text are ours.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
 
 from rio.errors import RioError
+from rio.interfaces import Fault
 
 RECOVER = "clear it with `rio franka recover --ip IP` (or the node's clear_faults()); the arm then holds where it is"
 
 
-@dataclass(frozen=True)
-class Fault:
-    code: int
-    name: str
-    meaning: str
-    recovery: str = RECOVER
-
-    def __str__(self) -> str:
-        return f"{self.name}: {self.meaning}; {self.recovery}"
+def _fault(code: int, name: str, meaning: str, recovery: str = RECOVER) -> Fault:
+    """A libfranka fault as core's `Fault` (recovery: libfranka's error recovery unless said otherwise)."""
+    return Fault(code, name, meaning, recovery)
 
 
-JOINT_REFLEX = Fault(1, "joint_reflex", "a joint torque or velocity reflex stopped the arm (a joint was pushed "
+JOINT_REFLEX = _fault(1, "joint_reflex", "a joint torque or velocity reflex stopped the arm (a joint was pushed "
                                         "harder or moved faster than the collision thresholds allow)")
-CARTESIAN_REFLEX = Fault(2, "cartesian_reflex", "a Cartesian force or velocity reflex stopped the arm (the "
+CARTESIAN_REFLEX = _fault(2, "cartesian_reflex", "a Cartesian force or velocity reflex stopped the arm (the "
                                                 "end effector met a force above the collision thresholds)")
-COLLISION = Fault(3, "collision", "the arm hit something (libfranka's collision flags are set)",
+COLLISION = _fault(3, "collision", "the arm hit something (libfranka's collision flags are set)",
                   "move the obstacle away (or guide the arm off it with the pilot buttons), then " + RECOVER)
-COMMUNICATION = Fault(4, "communication", "the 1 kHz control link missed packets (communication_constraints_"
+COMMUNICATION = _fault(4, "communication", "the 1 kHz control link missed packets (communication_constraints_"
                                           "violation): the PC did not answer in time",
                       "use a real-time kernel and a direct cable without switches, stop other load, then " + RECOVER)
-POWER = Fault(5, "power", "the arm's power limit was exceeded (power_limit_violation): motion too fast with load",
+POWER = _fault(5, "power", "the arm's power limit was exceeded (power_limit_violation): motion too fast with load",
               "lower relative_dynamics_factor, then " + RECOVER)
-LIMIT = Fault(6, "limit", "a joint, Cartesian or self-collision limit was violated by the commanded motion",
+LIMIT = _fault(6, "limit", "a joint, Cartesian or self-collision limit was violated by the commanded motion",
               "command targets inside the limits, then " + RECOVER)
-USER_STOPPED = Fault(7, "user_stopped", "the external enabling device or the user stop is pressed (robot mode "
+USER_STOPPED = _fault(7, "user_stopped", "the external enabling device or the user stop is pressed (robot mode "
                                         "'User stopped')", "release the stop button, then " + RECOVER)
-LOCKED = Fault(8, "locked", "the robot refuses motion in its current mode: the joints are locked or Desk holds "
+LOCKED = _fault(8, "locked", "the robot refuses motion in its current mode: the joints are locked or Desk holds "
                             "control", "open Desk in a browser, unlock the joints and activate FCI, then enable")
-LINK_LOST = Fault(4, "communication", "the connection to the robot dropped (no state for a while); RIO reconnects "
+LINK_LOST = _fault(4, "communication", "the connection to the robot dropped (no state for a while); RIO reconnects "
                                       "once a second and holds where the arm is once it is back",
                   "check the cable and that the robot is powered; nothing to clear")
 
@@ -96,7 +90,23 @@ def fault_of(flags: list[str], collided: bool = False) -> Fault | None:
         return CARTESIAN_REFLEX
     if any("limit" in f or f == "self_collision_avoidance_violation" for f in s):
         return LIMIT
-    return Fault(9, "controller_error", f"libfranka reported {', '.join(sorted(s))}")
+    return _fault(9, "controller_error", f"libfranka reported {', '.join(sorted(s))}")
+
+
+def robot_mode(state) -> str:
+    """The state's robot mode as one lower-case word ("userstopped", "reflex", "idle")."""
+    m = state.robot_mode
+    return str(getattr(m, "name", m)).replace(" ", "").lower()
+
+
+def fault_of_state(state) -> Fault | None:
+    """The named fault a `franka::RobotState` reports (error flags, or the user stop), or None."""
+    flags = active_flags(state.current_errors)
+    if flags:
+        return fault_of(flags, collided=bool(any(state.joint_collision) or any(state.cartesian_collision)))
+    if robot_mode(state) == "userstopped":
+        return USER_STOPPED
+    return None
 
 
 _FLAGS_IN_TEXT = re.compile(r'"([a-z_]+)"')
@@ -107,7 +117,7 @@ def fault_of_message(text: str) -> Fault:
     if "current mode" in text:
         return USER_STOPPED if "User stopped" in text else LOCKED
     flags = [f for f in _FLAGS_IN_TEXT.findall(text) if f in ERROR_FLAGS]
-    return fault_of(flags) or Fault(9, "controller_error", text.strip().splitlines()[0])
+    return fault_of(flags) or _fault(9, "controller_error", text.strip().splitlines()[0])
 
 
 class FrankaError(RioError):

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
-from rio.interfaces import GripperNode
+from rio.interfaces import FAULT_KEYS, GripperNode
 
 from .backend import connect_gripper
 from .link import FrankaLink, LinkConfig
@@ -36,7 +36,7 @@ class FrankaHand(FrankaLink, GripperNode):
 
     def setup(self) -> None:
         super().setup()
-        self.example_data = {**self.example_data, "object_detected": False, "connected": True, "fault_code": 0}
+        self.example_data = {**self.example_data, **FAULT_KEYS, "object_detected": False, "connected": True}
         self._sent: tuple[float, float] | None = None
         self._last = (float(self.config.max_width), False)
 
@@ -50,7 +50,7 @@ class FrankaHand(FrankaLink, GripperNode):
         self._sent = None
 
     def read_width(self) -> dict[str, Any]:
-        status = self.link_status()
+        self.link_status()  # retries a dropped link
         hand = self.handle
         if hand is not None:
             got = self.guarded(lambda: (float(hand.width), bool(hand.is_grasped)))
@@ -58,7 +58,7 @@ class FrankaHand(FrankaLink, GripperNode):
                 self._last = got
         width, obj = self._last
         return {"position": width, "object_detected": obj, "connected": self.handle is not None,
-                "fault_code": status["fault_code"]}
+                **self.fault_status()}
 
     def write_width(self, width: float, force: float) -> None:
         goal = float(width)  # the kind's goal this cycle (clipped, step-limited, held by the watchdog)
@@ -73,7 +73,3 @@ class FrankaHand(FrankaLink, GripperNode):
             self.guarded(hand.grasp_async, goal, c.speed, force, c.epsilon_inner, c.epsilon_outer)
         else:
             self.guarded(hand.move_async, goal, c.speed)
-
-    def handle_request(self, request: dict[str, Any]) -> None:
-        self.check_ready()
-        super().handle_request(request)

@@ -17,9 +17,9 @@ from pydantic import Field
 from rio import clock
 from rio.config import Config
 from rio.errors import InvalidRequest
-from rio.node import remote
+from rio.interfaces import FaultHolding
 
-from .faults import Fault, FrankaSetupError, fault_of_message
+from .faults import FrankaSetupError, fault_of_message
 
 log = logging.getLogger("rio_franka")
 
@@ -34,14 +34,13 @@ class LinkConfig(Config):
                                                '"sim" / "sim:ARM@WORLD" (an arm of a running rio-sim world)')
 
 
-class FrankaLink:
-    """Mixed into a commanded node whose config is a `LinkConfig`; the node defines `connect()`."""
+class FrankaLink(FaultHolding):
+    """Mixed in ahead of a commanded kind whose config is a `LinkConfig`; the node defines `connect()`.
+    Faults are held the core way (`rio.interfaces.FaultHolding`: `on_fault`, `fault_status()`,
+    `clear_faults()`, `fault_info()`); this adds the franky connection, its drops and its exceptions."""
 
     config: Any
-    name: str
-    enabled: bool
     handle: Any = None  # the franky Robot / Gripper (or the fake's)
-    fault: Fault | None = None
     _was_enabled = False
     _next_try = 0.0
 
@@ -52,6 +51,7 @@ class FrankaLink:
         """Once after every (re)connection: settings that do not survive a new connection."""
 
     def open_link(self) -> None:
+        self.device_label = f"Franka at {self.config.ip}"
         self.handle = self.connect()
         self.on_connected(self.handle)
         self.fault = None
@@ -59,7 +59,7 @@ class FrankaLink:
     def close(self) -> None:
         self.handle = None
 
-    # -- faults and connection ------------------------------------------------------------------
+    # -- connection -----------------------------------------------------------------------------
     def link_status(self) -> dict[str, Any]:
         """Keys every sample carries; also where a dropped link is retried."""
         if self.handle is None and clock.now() >= self._next_try:
@@ -72,7 +72,7 @@ class FrankaLink:
                     self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable: holds where it is
             except FrankaSetupError as e:
                 log.debug("node '%s': still no link: %s", self.name, e)
-        return {"connected": self.handle is not None, "fault_code": self.fault.code if self.fault else 0}
+        return {"connected": self.handle is not None, **self.fault_status()}
 
     def on_lost(self) -> None:
         if self.handle is not None:
@@ -83,25 +83,15 @@ class FrankaLink:
             self.enabled = False
             self._was_enabled = True
 
-    def on_fault(self, fault: Fault) -> None:
-        if self.fault != fault:
-            log.error("node '%s': Franka at %s stopped: %s", self.name, self.config.ip, fault)
-        self.fault = fault
-        self.enabled = False  # libfranka holds the arm; the commander must not replay old goals later
-
     def classify(self, e: Exception) -> None:
         """franky's exceptions -> the held, named-fault state or the reconnecting one; others propagate."""
         kind = type(e).__name__
         if kind == "NetworkException":
             self.on_lost()
         elif kind in ("ControlException", "CommandException"):
-            self.on_fault(self.fault_now() or fault_of_message(str(e)))
+            self.on_fault(self.device_fault() or fault_of_message(str(e)))
         else:
             raise e
-
-    def fault_now(self) -> Fault | None:
-        """The fault the device reports now (asked), or None."""
-        return None
 
     def guarded(self, fn, *args: Any) -> Any:
         """Run one device call; franky's errors become the held states above."""
@@ -111,28 +101,12 @@ class FrankaLink:
             self.classify(e)
             return None
 
-    def check_ready(self) -> None:
-        if self.fault is not None:
-            raise InvalidRequest(self.name, None, f"stopped by a fault: {self.fault}")
-        if self.handle is None:
-            raise InvalidRequest(self.name, None, "the Franka connection is down (reconnecting); nothing was sent")
-
-    def recover(self) -> None:
-        """The device's error recovery (arm: libfranka's automatic error recovery)."""
-
-    @remote
-    def clear_faults(self) -> str:
-        """Run the error recovery, then enable holding where the robot is."""
+    def clear_device_faults(self) -> None:
+        """Core's `clear_faults()` runs this first: refused while the link is down (nothing to clear on)."""
         if self.handle is None:
             raise InvalidRequest(self.name, None, "the Franka connection is down (reconnecting)")
-        self.recover()
-        self.fault = None
-        self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable
-        return "cleared"
 
-    @remote
-    def franka_fault(self) -> dict[str, Any] | None:
-        """The current fault, or None."""
-        f = self.fault
-        return None if f is None else {"code": f.code, "name": f.name, "meaning": f.meaning, "recovery": f.recovery,
-                                       "t": clock.now()}
+    def check_ready(self) -> None:
+        super().check_ready()
+        if self.handle is None:
+            raise InvalidRequest(self.name, None, "the Franka connection is down (reconnecting); nothing was sent")

@@ -1,7 +1,9 @@
-"""rio-franka's plugin module (entry point group `rio`): drivers, packaged stations and requirements.
-Specs only: nothing here imports franky."""
+"""rio-franka's plugin module (entry point group `rio`): drivers, packaged stations, requirements and the
+`rio franka ...` commands. Specs only: nothing here imports franky."""
 
 from __future__ import annotations
+
+from typing import Any
 
 from rio.hookspecs import hookimpl
 from rio.requirements import Requirement
@@ -36,3 +38,10 @@ def rio_stations() -> list[Spec]:
 @hookimpl
 def rio_requirements() -> list[Requirement]:
     return [Requirement("franky", "pip install franky-control", "every Franka driver (franky, bundling libfranka)")]
+
+
+@hookimpl
+def rio_cli(app: Any) -> None:
+    from .cli import app as franka
+
+    app.add_typer(franka, name="franka")

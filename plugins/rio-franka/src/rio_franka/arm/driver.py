@@ -16,22 +16,17 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 from rio import clock
-from rio.interfaces import ArmNode
+from rio.interfaces import FAULT_KEYS, ArmNode, Fault
 from rio.node import remote
 
 from ..backend import connect_robot
 from ..description import description
-from ..faults import USER_STOPPED, Fault, active_flags, fault_of
+from ..faults import USER_STOPPED, fault_of, fault_of_state
 from ..link import FrankaLink, LinkConfig, log
 from ..models import ARMS, get_arm
 from ..pose import ee_target, offset_pose, to_affine, tool_pose
 
 Model = Literal["fr3", "panda"]
-
-
-def _mode(state) -> str:
-    m = state.robot_mode
-    return str(getattr(m, "name", m)).replace(" ", "").lower()
 
 
 class FrankaArm(FrankaLink, ArmNode):
@@ -69,7 +64,7 @@ class FrankaArm(FrankaLink, ArmNode):
         super().setup()
         self.arm = get_arm(self.config.model)
         self.offset = offset_pose(self.config.tcp_offset)
-        self.example_data = {**self.example_data, "connected": True, "fault_code": 0}
+        self.example_data = {**self.example_data, **FAULT_KEYS, "connected": True}
         self._q, self._dq = np.array(self.arm.home), np.zeros(7)
         self._f_t_ee: Any = None
         self._sent: tuple[str, np.ndarray] | None = None  # the goal the running motion holds
@@ -111,39 +106,33 @@ class FrankaArm(FrankaLink, ArmNode):
     def open(self) -> None:
         self.open_link()
 
-    def fault_now(self) -> Fault | None:
+    # -- FaultHolding hooks ---------------------------------------------------------------------
+    def device_fault(self) -> Fault | None:
+        """The robot's fault now (its state's error flags and mode); the last one while the link is down."""
+        if self.handle is None:
+            return self.fault
         try:
             st = self.handle.state
         except Exception:
             return None
-        return self._fault_of_state(st)
+        return fault_of_state(st)
 
-    def _fault_of_state(self, st) -> Fault | None:
-        flags = active_flags(st.current_errors)
-        if flags:
-            return fault_of(flags, collided=bool(np.any(st.joint_collision) or np.any(st.cartesian_collision)))
-        if _mode(st) == "userstopped":
-            return USER_STOPPED
-        return None
-
-    def recover(self) -> None:
-        self.handle.recover_from_errors()
+    def clear_device_faults(self) -> None:
+        super().clear_device_faults()  # refused while the link is down
+        self.handle.recover_from_errors()  # libfranka's automatic error recovery
 
     def set_enabled(self, enabled: bool) -> None:
         self._sent = None
         if self.handle is None:
             return
         if enabled:
-            fault = self.fault_now()
-            if fault is not None:
-                self.fault = fault
-                self.check_ready()  # raises, naming the fault
+            self.check_device_fault()  # raises, naming the fault, while the robot still reports one
         else:
             self.guarded(self.handle.stop)  # the running motion ends; the arm holds where it is
 
     # -- the cycle ------------------------------------------------------------------------------
     def read_joints(self) -> dict[str, Any]:
-        status = self.link_status()
+        self.link_status()  # retries a dropped link
         sample: dict[str, Any] = {"joint_pos": self._q, "joint_vel": self._dq}
         robot = self.handle
         if robot is not None:
@@ -158,13 +147,12 @@ class FrankaArm(FrankaLink, ArmNode):
                 sample = {"joint_pos": self._q, "joint_vel": self._dq}
                 if self.streams_poses:
                     sample["eef_pose"] = tool_pose(st.O_T_EE, st.F_T_EE, self.offset)
-                fault = self._fault_of_state(st)
+                fault = fault_of_state(st)
                 if fault is not None and self.fault is None and (self.enabled or fault is not USER_STOPPED):
                     self.on_fault(fault)
                     self._fault_t = clock.now()
                 self._auto_recover()
-        status = {"connected": self.handle is not None, "fault_code": self.fault.code if self.fault else 0}
-        return {**sample, **status}
+        return {**sample, "connected": self.handle is not None, **self.fault_status()}
 
     def _auto_recover(self) -> None:
         if (self.fault is not None and self.config.auto_recover and self.fault is not USER_STOPPED
@@ -201,7 +189,3 @@ class FrankaArm(FrankaLink, ArmNode):
 
     def _same(self, kind: str, goal: np.ndarray) -> bool:
         return self._sent is not None and self._sent[0] == kind and float(np.abs(goal - self._sent[1]).max()) < 1e-9
-
-    def handle_request(self, request: dict[str, Any]) -> None:
-        self.check_ready()
-        super().handle_request(request)
