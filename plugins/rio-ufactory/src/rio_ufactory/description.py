@@ -13,10 +13,9 @@ from functools import cache
 from typing import Any
 
 from rio.control import euler_to_quat
+from rio.kinematics import mjcf_description
 
 from .models import get_arm
-
-_TCP_SITE = '<site name="tcp"'
 
 
 @cache
@@ -28,13 +27,7 @@ def description(name: str, tcp_offset: Sequence[float] | None = None) -> dict[st
     """RIO's robot description of the UFACTORY model `name` (a key of `rio_ufactory.models.ARMS`);
     `tcp_offset` = [x, y, z (m), roll, pitch, yaw (rad)] from the flange."""
     arm = get_arm(name)
-    xml, frame = _xml(arm.name), "tcp"
+    tool = None
     if tcp_offset is not None and any(tcp_offset):
-        x, y, z, roll, pitch, yaw = (float(v) for v in tcp_offset)
-        q = euler_to_quat(roll, pitch, yaw)
-        tool = f'<site name="tool" pos="{x!r} {y!r} {z!r}" quat="{" ".join(repr(float(v)) for v in q)}"/>'
-        at = xml.index(_TCP_SITE)
-        end = xml.index("/>", at) + 2
-        xml, frame = xml[:end] + tool + xml[end:], "tool"
-    return {"format": "mjcf", "xml": xml, "frame": frame, "frame_type": "site",
-            "joints": arm.joint_names, "home": list(arm.home)}
+        tool = [*(float(v) for v in tcp_offset[:3]), *euler_to_quat(*(float(v) for v in tcp_offset[3:6]))]
+    return mjcf_description(_xml(arm.name), arm.joint_names, arm.home, tool_pose=tool)

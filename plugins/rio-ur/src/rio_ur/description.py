@@ -10,22 +10,17 @@ from collections.abc import Sequence
 from typing import Any
 
 from rio.control import rotvec_to_quat
+from rio.kinematics import mjcf_description
 
 from .mjcf import arm_mjcf
 from .models import get_arm
-
-_TCP_SITE = '<site name="tcp" size="0.005"/>'
 
 
 def description(name: str, tcp_offset: Sequence[float] | None = None) -> dict[str, Any]:
     """RIO's robot description of UR model `name`; `tcp_offset` = [x, y, z (m), rx, ry, rz (rotation
     vector, rad)] from the flange, as the teach pendant's TCP setting writes it."""
     arm = get_arm(name)
-    xml, frame = arm_mjcf(arm), "tcp"
+    tool = None
     if tcp_offset is not None and any(tcp_offset):
-        x, y, z = (float(v) for v in tcp_offset[:3])
-        q = rotvec_to_quat(tcp_offset[3:])
-        tool = f'<site name="tool" pos="{x!r} {y!r} {z!r}" quat="{" ".join(repr(float(v)) for v in q)}"/>'
-        xml, frame = xml.replace(_TCP_SITE, _TCP_SITE + tool), "tool"
-    return {"format": "mjcf", "xml": xml, "frame": frame, "frame_type": "site",
-            "joints": arm.joint_names, "home": list(arm.home)}
+        tool = [*(float(v) for v in tcp_offset[:3]), *rotvec_to_quat(tcp_offset[3:])]
+    return mjcf_description(arm_mjcf(arm), arm.joint_names, arm.home, tool_pose=tool)

@@ -7,9 +7,30 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from .base import IKSolver
+
+
+def mjcf_description(xml: str, joints: Sequence[str], home: Sequence[float] | None = None, *,
+                     site: str = "tcp", tool_pose: Sequence[float] | None = None) -> dict[str, Any]:
+    """The description of an arm whose MJCF has a flange site `site`. With `tool_pose` (the tool's centre
+    point in the flange frame, `[x, y, z, qw, qx, qy, qz]`, e.g. a controller's TCP offset converted by the
+    driver) the frame is a site `tool` added at that pose, so RIO's model and the controller agree on the
+    end effector; vendors differ only in how they write the rotation."""
+    frame = site
+    if tool_pose is not None:
+        pos = " ".join(repr(float(v)) for v in tool_pose[:3])
+        quat = " ".join(repr(float(v)) for v in tool_pose[3:7])
+        start = xml.index(f'<site name="{site}"')
+        end = xml.index("/>", start) + 2
+        xml, frame = f'{xml[:end]}<site name="tool" pos="{pos}" quat="{quat}"/>{xml[end:]}', "tool"
+    desc: dict[str, Any] = {"format": "mjcf", "xml": xml, "frame": frame, "frame_type": "site",
+                            "joints": list(joints)}
+    if home is not None:
+        desc["home"] = list(home)
+    return desc
 
 
 def solver_from_description(desc: dict[str, Any], **options: Any) -> IKSolver:
