@@ -35,7 +35,7 @@ from .protocol import COMMAND_PORT, REPORT_NORMAL_PORT, REPORT_REAL_PORT, REPORT
 from .registers import CommandHandler, FeedbackTag
 from .report import encode_normal, encode_real, encode_rich
 from .servers import CommandServer, ReportServer
-from .sim import SimFingers, SimJoints, attach, parse_backend
+from .sim import SimJoints, attach, parse_backend
 from .tool import ToolBoard
 
 log = logging.getLogger("rio_ufactory.emulator")
@@ -112,7 +112,11 @@ class XArmEmulator:
             return None
         if kind not in GRIPPERS:
             raise ValueError(f"unknown gripper '{kind}'; known: {', '.join(GRIPPERS)} or None")
-        fingers = SimFingers(world_arm) if world_arm is not None else None
+        fingers = None
+        if world_arm is not None:
+            from rio_sim.world_fingers import SimFingers
+
+            fingers = SimFingers(world_arm)
         if kind == "xarm":
             return grippers.XArmGripper(fingers)
         if kind == "xarm_g2":

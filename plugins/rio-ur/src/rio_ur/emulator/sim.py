@@ -11,12 +11,10 @@ the URCap reports an object as a real 2F-85 does.
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import numpy as np
 from rio import clock
-from rio.emulation import FingerModel
 
 LEAD_S = 0.02  # a setpoint reaches the world this far ahead (s): the joints' servo lag
 
@@ -36,44 +34,6 @@ class SimJoints:
     def close(self) -> None:
         self.arm.close()
 
-
-class SimFingers(FingerModel):
-    """The Robotiq model's fingers as the world's: a command is a width target reached at the commanded
-    speed, the opening is read back; closing that stalls short of its goal is an object."""
-
-    def __init__(self, world_arm: Any, speed: float = 0.15):
-        self.arm = world_arm
-        super().__init__(world_arm.max_width, speed=speed)
-        self.position = self.goal = self.arm.finger_width()
-        self._last = (time.monotonic(), self.position)
-        self._t_arrive = 0.0
-        self._speed_seen = 0.0
-
-    def command(self, goal: float, speed: float | None = None, force: float | None = None) -> None:
-        super().command(goal, speed, force)
-        travel = abs(self.goal - self.arm.finger_width()) / max(self.speed, 1e-6)
-        self._t_arrive = time.monotonic() + travel
-        self.arm.command_width(self.goal, clock.now() + max(travel, LEAD_S))
-
-    def update(self) -> float:
-        now, width = time.monotonic(), self.arm.finger_width()
-        t0, w0 = self._last
-        if now - t0 > 0.05:
-            self._speed_seen = abs(width - w0) / (now - t0)
-            self._last = (now, width)
-        self.position = width
-        return width
-
-    @property
-    def moving(self) -> bool:
-        self.update()
-        return abs(self.goal - self.position) > 1e-3 and not self.object_detected
-
-    @property
-    def object_detected(self) -> bool:
-        self.update()
-        stalled = time.monotonic() > self._t_arrive + 0.1 and self._speed_seen < 0.002
-        return self.goal < self.position - 2e-3 and stalled
 
 
 def attach(backend: str, timeout: float = 120.0) -> tuple[Any, SimJoints]:
@@ -102,5 +62,7 @@ def urcap_server(host: str, world_arm: Any = None) -> Any:
         raise ImportError("the URCap socket needs rio-robotiq: install rio-ur[robotiq]") from e
     registers = RobotiqRegisters("2f85")
     if world_arm is not None:
+        from rio_sim.world_fingers import SimFingers
+
         registers.fingers = SimFingers(world_arm)
     return UrcapServer(registers, host=host, port=63352)
