@@ -106,7 +106,9 @@ class Controller:
         self.api = api
         self.model = model_of(int(api.axis), int(api.device_type))
         api.register_report_location_callback(self._on_report, report_cartesian=True, report_joints=True)
-        if not self.wait_report(2.0):
+        # The SDK connects the report socket with a 1 s timeout and, if that misses, retries it every 2 s
+        # from its report thread: on a loaded machine the first report can take a retry or two.
+        if not self.wait_report(max(6.0, deadline - time.monotonic())):
             api.disconnect()
             raise XArmError(self.ip, "connect", "the controller accepted the command socket but sends no real-time "
                             "report on port 30003 (is another program holding it, or a firewall?)")
