@@ -178,3 +178,21 @@ def test_another_program_stopping_the_arm_is_a_named_stop_and_enable_resumes(mak
         assert s["fault_code"] == -1 and not s["enabled"] and arm.fault.name == "stopped"
         assert arm.enable() and spin(arm, 0.1)["enabled"]
         assert arm.fault is None and emu.state in (1, 2)
+
+
+def test_after_a_drop_every_node_on_the_controller_comes_back(make_emulator):
+    """The arm and its gripper share one SDK connection: whichever node reconnects it, the other one
+    must come back enabled too (holding), not stay disabled waiting for a drop it no longer sees."""
+    from rio_ufactory.gripper.xarm_gripper import XArmGripper
+
+    emu = make_emulator("xarm7")
+    with lifecycle(XArm(ip=emu.host, model="xarm7")) as arm, lifecycle(XArmGripper(ip=emu.host)) as grip:
+        spin(arm, 0.1)
+        Loop(grip).run(cycles=2)
+        emu.drop_connections()
+        g = Loop(grip).run(until=lambda s: not s["enabled"], timeout=5)
+        assert not g["enabled"]  # the gripper saw the drop first
+        s = run_until(arm, lambda s: s["connected"] and s["enabled"], timeout=15)  # the arm reconnects
+        assert s["connected"] and s["enabled"]
+        g = Loop(grip).run(until=lambda s: s["connected"] and s["enabled"], timeout=5)
+        assert g["connected"] and g["enabled"]

@@ -36,7 +36,7 @@ class FrankaHand(FrankaLink, GripperNode):
 
     def setup(self) -> None:
         super().setup()
-        self.example_data = {**self.example_data, **FAULT_KEYS, "object_detected": False, "connected": True}
+        self.example_data = {**self.example_data, **FAULT_KEYS, "object_detected": False}
         self._sent: tuple[float, float] | None = None
         self._last = (float(self.config.max_width), False)
 

@@ -16,7 +16,6 @@ from typing import Any
 from pydantic import Field
 from rio import clock
 from rio.config import Config
-from rio.errors import InvalidRequest
 from rio.interfaces import FaultHolding
 
 from .faults import FrankaSetupError, fault_of_message
@@ -41,7 +40,6 @@ class FrankaLink(FaultHolding):
 
     config: Any
     handle: Any = None  # the franky Robot / Gripper (or the fake's)
-    _was_enabled = False
     _next_try = 0.0
 
     def connect(self) -> Any:
@@ -59,29 +57,27 @@ class FrankaLink(FaultHolding):
     def close(self) -> None:
         self.handle = None
 
-    # -- connection -----------------------------------------------------------------------------
+    # -- connection (a drop is held the core way: on_lost / on_restored) ---------------------------
+    def link_up(self) -> bool:
+        return self.handle is not None
+
     def link_status(self) -> dict[str, Any]:
         """Keys every sample carries; also where a dropped link is retried."""
         if self.handle is None and clock.now() >= self._next_try:
             self._next_try = clock.now() + RETRY_S
             try:
                 self.open_link()
-                log.warning("node '%s': reconnected to the Franka at %s", self.name, self.config.ip)
-                if self._was_enabled:
-                    self._was_enabled = False
-                    self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable: holds where it is
             except FrankaSetupError as e:
                 log.debug("node '%s': still no link: %s", self.name, e)
-        return {"connected": self.handle is not None, **self.fault_status()}
+            else:
+                self.on_restored()
+        return self.fault_status()
 
     def on_lost(self) -> None:
-        if self.handle is not None:
-            log.error("node '%s': lost the Franka at %s; holding, reconnecting", self.name, self.config.ip)
+        """franky's Robot is unusable after a network error: drop it, retry with a new one."""
+        super().on_lost()
         self.handle = None
         self._next_try = clock.now() + RETRY_S
-        if self.enabled:
-            self.enabled = False
-            self._was_enabled = True
 
     def classify(self, e: Exception) -> None:
         """franky's exceptions -> the held, named-fault state or the reconnecting one; others propagate."""
@@ -100,13 +96,3 @@ class FrankaLink(FaultHolding):
         except Exception as e:
             self.classify(e)
             return None
-
-    def clear_device_faults(self) -> None:
-        """Core's `clear_faults()` runs this first: refused while the link is down (nothing to clear on)."""
-        if self.handle is None:
-            raise InvalidRequest(self.name, None, "the Franka connection is down (reconnecting)")
-
-    def check_ready(self) -> None:
-        super().check_ready()
-        if self.handle is None:
-            raise InvalidRequest(self.name, None, "the Franka connection is down (reconnecting); nothing was sent")

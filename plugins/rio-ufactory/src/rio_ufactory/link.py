@@ -15,7 +15,6 @@ from typing import Any
 
 from pydantic import Field, field_validator
 from rio.config import Config
-from rio.errors import InvalidRequest
 from rio.interfaces import Fault, FaultHolding
 
 from .controller import Controller
@@ -51,7 +50,6 @@ class ControllerLink(FaultHolding):
     config: Any
     ctl: Controller | None = None
     model_name: str | None = None  # checked against the controller's identity when set
-    _was_enabled = False  # enabled when the link dropped: enable again (holding) once it is back
 
     def open_controller(self) -> Controller:
         c = self.config
@@ -74,24 +72,20 @@ class ControllerLink(FaultHolding):
         assert self.ctl is not None
         self.ctl.clear_faults()
 
-    # -- connection -------------------------------------------------------------------------------------
+    # -- connection (a drop is held the core way too: on_lost / on_restored) --------------------------------
+    def link_up(self) -> bool:
+        return self.ctl is not None and self.ctl.connected
+
     def link_status(self) -> dict[str, Any]:
         """Keys every sample carries; also where a dropped socket is noticed and retried."""
         ctl = self.ctl
         assert ctl is not None  # opened
         if not ctl.connected:
             self.on_lost()
-            if ctl.reconnect() and self._was_enabled:
-                self._was_enabled = False
-                self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable: holds where it is
-        return {"connected": ctl.connected, **self.fault_status()}
-
-    def on_lost(self) -> None:
-        if self.enabled:
-            log.error("node '%s': lost the xArm at %s; holding, reconnecting", self.name,
-                      self.ctl.ip if self.ctl else "?")
-            self.enabled = False
-            self._was_enabled = True
+            ctl.reconnect()
+        if ctl.connected:  # the other node on this controller may have reconnected it
+            self.on_restored()
+        return self.fault_status()
 
     def guarded(self, fn, *args: Any) -> None:
         """Run one device command; a controller fault turns into the held, named-fault state, a lost link
@@ -102,8 +96,3 @@ class ControllerLink(FaultHolding):
             self.on_fault(e.fault)
         except XArmLost:
             self.on_lost()
-
-    def check_ready(self) -> None:
-        super().check_ready()
-        if self.ctl is None or not self.ctl.connected:
-            raise InvalidRequest(self.name, None, "the xArm connection is down (reconnecting); nothing was sent")

@@ -12,6 +12,12 @@ policy run; carrying on would replay old goals the moment the fault clears. So a
   device is; `enable()` refuses while the hardware still reports a fault (`check_device_fault()`);
 - `fault_info()` (remote) asks the hardware now.
 
+A dropped link (a cable, a controller reboot) is the other way a device stops answering without the
+node ending: the driver calls `on_lost()` (held, disabled, samples say `connected = False`, requests
+refused) and retries its connection, and calls `on_restored()` each cycle the link is up, which enables
+the node again holding where the device is if it was enabled when the link dropped. `link_up()` is the
+driver's hook saying whether it is connected.
+
 Vendors name their faults in their own tables (`Fault.tag` carries their code as they print it:
 "C31", "0x0E", "PROTECTIVE_STOP").
 """
@@ -28,7 +34,7 @@ from ..node import remote
 log = logging.getLogger("rio.interfaces")
 
 #: Keys every sample of a fault-holding node carries (merge into `example_data` in `setup()`).
-FAULT_KEYS: dict[str, Any] = {"fault_code": 0}
+FAULT_KEYS: dict[str, Any] = {"fault_code": 0, "connected": True}
 
 
 @dataclass(frozen=True)
@@ -57,6 +63,7 @@ class FaultHolding:
     name: str
     enabled: bool
     fault: Fault | None = None
+    _enable_when_restored = False
     #: What the log says the device is ("xArm at 192.168.1.185"); set it in setup() or open().
     device_label: str = "the device"
 
@@ -68,6 +75,10 @@ class FaultHolding:
     def clear_device_faults(self) -> None:
         """Clear the fault on the hardware (raise naming what still blocks, e.g. a pressed e-stop)."""
 
+    def link_up(self) -> bool:
+        """Whether the link to the device is up (a driver with a connection that can drop says so)."""
+        return True
+
     # -- shared -----------------------------------------------------------------------------------------
     def on_fault(self, fault: Fault) -> None:
         """The hardware reported `fault` (it stopped the device itself): hold, disabled, until cleared."""
@@ -77,11 +88,36 @@ class FaultHolding:
         self.enabled = False
 
     def fault_status(self) -> dict[str, Any]:
-        return {"fault_code": self.fault.code if self.fault else 0}
+        """The `FAULT_KEYS` of a sample."""
+        return {"fault_code": self.fault.code if self.fault else 0, "connected": self.link_up()}
+
+    def on_lost(self) -> None:
+        """The link dropped (the driver keeps retrying it): hold, disabled, until `on_restored()`."""
+        if self.enabled:
+            log.error("node '%s': lost %s; holding, reconnecting", self.name, self.device_label)
+            self.enabled = False
+            self._enable_when_restored = True
+
+    def on_restored(self) -> None:
+        """The link is up (call it every cycle it is: nodes sharing one connection see it come back at
+        different times). After a drop: enable again, holding where the device is now, if the node was
+        enabled when it dropped; a fault the device reports now is held instead, for `clear_faults()`."""
+        if not self._enable_when_restored:
+            return
+        self._enable_when_restored = False
+        fault = self.device_fault()
+        if fault is not None:
+            self.on_fault(fault)
+            return
+        log.warning("node '%s': %s is back; holding where it is", self.name, self.device_label)
+        self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable
 
     def check_ready(self) -> None:
         if self.fault is not None:
             raise InvalidRequest(self.name, None, f"stopped by a fault: {self.fault}")
+        if not self.link_up():
+            raise InvalidRequest(self.name, None, f"the link to {self.device_label} is down (reconnecting); "
+                                 "nothing was sent")
 
     def check_device_fault(self) -> None:
         """Before enabling: the hardware's fault, if it still has one, must be cleared first (named)."""
@@ -95,6 +131,9 @@ class FaultHolding:
     @remote
     def clear_faults(self) -> str:
         """Clear the device's fault, then enable holding where it is."""
+        if not self.link_up():
+            raise InvalidRequest(self.name, None, f"the link to {self.device_label} is down (reconnecting): "
+                                 "nothing to clear yet")
         self.clear_device_faults()
         self.fault = None
         self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable

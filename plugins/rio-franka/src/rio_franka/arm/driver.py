@@ -64,7 +64,7 @@ class FrankaArm(FrankaLink, ArmNode):
         super().setup()
         self.arm = get_arm(self.config.model)
         self.offset = offset_pose(self.config.tcp_offset)
-        self.example_data = {**self.example_data, **FAULT_KEYS, "connected": True}
+        self.example_data = {**self.example_data, **FAULT_KEYS}
         self._q, self._dq = np.array(self.arm.home), np.zeros(7)
         self._f_t_ee: Any = None
         self._sent: tuple[str, np.ndarray] | None = None  # the goal the running motion holds
@@ -118,7 +118,6 @@ class FrankaArm(FrankaLink, ArmNode):
         return fault_of_state(st)
 
     def clear_device_faults(self) -> None:
-        super().clear_device_faults()  # refused while the link is down
         self.handle.recover_from_errors()  # libfranka's automatic error recovery
 
     def set_enabled(self, enabled: bool) -> None:

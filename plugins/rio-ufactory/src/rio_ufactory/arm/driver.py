@@ -49,7 +49,7 @@ class XArm(ControllerLink, ArmNode):
         super().setup()
         self.arm = get_arm(self.config.model)
         self.model_name = self.arm.name
-        self.example_data = {**self.example_data, **FAULT_KEYS, "connected": True, "report_age": 0.0}
+        self.example_data = {**self.example_data, **FAULT_KEYS, "report_age": 0.0}
 
     def default_joint_names(self) -> list[str]:
         return get_arm(self.config.model).joint_names

@@ -42,7 +42,7 @@ class ToolGripper(ControllerLink, GripperNode):
     # -- shared -------------------------------------------------------------------------------------
     def setup(self) -> None:
         super().setup()
-        self.example_data = {**self.example_data, **FAULT_KEYS, "object_detected": False, "connected": True}
+        self.example_data = {**self.example_data, **FAULT_KEYS, "object_detected": False}
         self._sent: tuple[float, float] | None = None
         self._last = (float(self.config.max_width), False)
 

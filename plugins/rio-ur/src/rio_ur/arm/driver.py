@@ -20,7 +20,6 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, field_validator
 from rio.control import quat_to_rotvec, rotvec_to_quat
-from rio.errors import InvalidRequest
 from rio.interfaces import FAULT_KEYS, ArmNode, Fault, FaultHolding
 from rio.node import remote
 
@@ -83,8 +82,7 @@ class URArm(FaultHolding, ArmNode):
         self.fault = None
         self.device_label = f"UR at {self.config.ip}"
         self._scaling_warned = False
-        self._was_enabled = False
-        self.example_data = {**self.example_data, **FAULT_KEYS, "connected": True, "speed_scaling": 1.0,
+        self.example_data = {**self.example_data, **FAULT_KEYS, "speed_scaling": 1.0,
                              "safety_mode": 1, "robot_mode": 7}
 
     def default_joint_names(self) -> list[str]:
@@ -129,6 +127,9 @@ class URArm(FaultHolding, ArmNode):
                 log.warning("node '%s': servoStop failed: %s", self.name, e)
 
     # -- FaultHolding hooks -----------------------------------------------------------------------------
+    def link_up(self) -> bool:
+        return self.link is not None and self.link.connected
+
     def device_fault(self) -> Fault | None:
         assert self.link is not None
         r = self.link.recv
@@ -164,10 +165,10 @@ class URArm(FaultHolding, ArmNode):
         link = self.link
         assert link is not None
         if not link.connected:
-            self._on_lost()
-            if link.reconnect() and self._was_enabled and self.device_fault() is None:
-                self._was_enabled = False
-                self.enable()
+            self.on_lost()
+            link.reconnect()
+        if link.connected:
+            self.on_restored()
         r = link.recv
         safety, mode, scaling = int(r.getSafetyMode()), int(r.getRobotMode()), float(r.getSpeedScaling())
         fault = fault_of(safety, mode)
@@ -179,23 +180,17 @@ class URArm(FaultHolding, ArmNode):
             self._scaling_warned = True
         sample = {"joint_pos": np.asarray(r.getActualQ(), dtype=np.float64),
                   "joint_vel": np.asarray(r.getActualQd(), dtype=np.float64),
-                  "connected": link.connected, **self.fault_status(),
+                  **self.fault_status(),
                   "speed_scaling": scaling, "safety_mode": safety, "robot_mode": mode}
         if self.streams_poses:
             sample["eef_pose"] = from_ur(r.getActualTCPPose())
         return sample
 
-    def _on_lost(self) -> None:
-        if self.enabled:
-            log.error("node '%s': lost the UR at %s; holding, reconnecting", self.name, self.config.ip)
-            self.enabled = False
-            self._was_enabled = True
-
     def _guarded(self, fn, *args: Any) -> None:
         try:
             ok = fn(*args)
         except (OSError, RuntimeError):
-            self._on_lost()
+            self.on_lost()
             return
         if ok is False and self.link is not None:
             fault = self.device_fault()
@@ -211,8 +206,3 @@ class URArm(FaultHolding, ArmNode):
         assert self.link is not None
         c = self.config
         self._guarded(self.link.ctl.servoL, to_ur(eef_pose), 0.0, 0.0, 1.0 / c.rate_hz, c.lookahead_time, c.gain)
-
-    def check_ready(self) -> None:
-        super().check_ready()
-        if self.link is None or not self.link.connected:
-            raise InvalidRequest(self.name, None, "the UR connection is down (reconnecting); nothing was sent")
