@@ -62,3 +62,58 @@ def test_a_fault_holds_names_itself_and_clears():
         assert s["enabled"] and s["fault_code"] == 0 and arm.fault_info() is None
         np.testing.assert_allclose(s["joint_pos"], held)
         arm.handle_request(request([0.1, 0.0, 0.0]))  # accepted again
+
+
+class LinkedArm(HoldingArm):
+    """The holding arm behind a link that can drop: `up` is whether it answers; it reconnects itself as
+    soon as `up` is true again (a driver would retry once a second)."""
+
+    up = True
+    seen_up = True
+
+    def link_up(self) -> bool:
+        return self.seen_up
+
+    def read_joints(self):
+        if not self.up:
+            self.seen_up = False
+            self.on_lost()
+        else:
+            self.seen_up = True
+            self.on_restored()
+        return super().read_joints()
+
+
+def test_a_dropped_link_holds_refuses_and_comes_back_holding():
+    with lifecycle(LinkedArm(dof=3)) as arm:
+        assert arm.read_state()["connected"]
+        arm.up = False
+        s = arm.read_state()
+        assert not s["connected"] and not s["enabled"] and s["fault_code"] == 0
+        with pytest.raises(InvalidRequest, match="is down"):
+            arm.handle_request(request([0.1, 0.0, 0.0]))
+        with pytest.raises(InvalidRequest, match="nothing to clear"):
+            arm.clear_faults()
+        arm.up = True
+        s = arm.read_state()
+        assert s["connected"] and arm.enabled
+        arm.handle_request(request([0.1, 0.0, 0.0]))  # accepted again
+
+
+def test_a_link_that_comes_back_with_a_fault_holds_the_fault():
+    with lifecycle(LinkedArm(dof=3)) as arm:
+        arm.up = False
+        arm.read_state()
+        arm.hw_fault = COLLISION  # what the device reports once it answers again
+        arm.up = True
+        s = arm.read_state()
+        assert s["connected"] and not arm.enabled and s["fault_code"] == 31
+        assert arm.clear_faults() == "cleared" and arm.enabled
+
+
+def test_a_node_disabled_when_the_link_dropped_stays_disabled():
+    with lifecycle(LinkedArm(dof=3, enable_on_open=False)) as arm:
+        arm.up = False
+        arm.read_state()
+        arm.up = True
+        assert arm.read_state()["connected"] and not arm.enabled

@@ -32,7 +32,8 @@ from .faults import FAULT_KEYS, Fault, FaultHolding
 from .gripper import GripperNode
 from .hand import HandNode, HumanoidNode
 from .joints import JointNode
+from .model_table import ModelTableArm
 from .teleop import TeleopNode
 
 __all__ = ["ArmNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "JointNode",
-           "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolding", "FAULT_KEYS"]
+           "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolding", "FAULT_KEYS", "ModelTableArm"]

@@ -16,8 +16,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 from rio import clock
-from rio.interfaces import FAULT_KEYS, ArmNode, Fault
-from rio.node import remote
+from rio.interfaces import FAULT_KEYS, ArmNode, Fault, ModelTableArm
 
 from ..backend import connect_robot
 from ..description import description
@@ -29,7 +28,10 @@ from ..pose import ee_target, offset_pose, to_affine, tool_pose
 Model = Literal["fr3", "panda"]
 
 
-class FrankaArm(FrankaLink, ArmNode):
+class FrankaArm(FrankaLink, ModelTableArm, ArmNode):
+    lookup_model = staticmethod(get_arm)
+    describe_model = staticmethod(description)
+
     class Config(LinkConfig, ArmNode.Config):
         model: Model = Field("fr3", description=f"which arm: {', '.join(ARMS)}")
         rate_hz: float = Field(100.0, gt=0, le=1000, description="node cycles per second (goals handed to franky; "
@@ -70,23 +72,9 @@ class FrankaArm(FrankaLink, ArmNode):
         self._sent: tuple[str, np.ndarray] | None = None  # the goal the running motion holds
         self._fault_t = 0.0
 
-    def default_joint_names(self) -> list[str]:
-        return get_arm(self.config.model).joint_names
-
-    def default_home(self) -> list[float]:
-        return list(self.arm.home)
-
-    def hardware_limits(self) -> Any:
-        lim = np.array(self.arm.limits)
-        return lim[:, 0], lim[:, 1]
-
     @property
     def streams_poses(self) -> bool:
         return self.config.eef_control == "franka"
-
-    @remote
-    def robot_description(self) -> dict[str, Any] | None:
-        return description(self.arm.name, tcp_offset=self.config.tcp_offset)
 
     # -- connection -----------------------------------------------------------------------------
     def connect(self) -> Any:

@@ -13,8 +13,7 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
-from rio.interfaces import FAULT_KEYS, ArmNode
-from rio.node import remote
+from rio.interfaces import FAULT_KEYS, ArmNode, ModelTableArm
 
 from ..controller import STOPPED as STOPPED_STATE
 from ..description import description
@@ -26,7 +25,10 @@ from ..pose import from_xarm, to_xarm
 Model = Literal["xarm5", "xarm6", "xarm7", "xarm850", "lite6"]
 
 
-class XArm(ControllerLink, ArmNode):
+class XArm(ControllerLink, ModelTableArm, ArmNode):
+    lookup_model = staticmethod(get_arm)
+    describe_model = staticmethod(description)
+
     class Config(LinkConfig, ArmNode.Config):
         model: Model = Field("xarm7", description=f"which arm: {', '.join(ARMS)} (checked against the controller)")
         rate_hz: float = Field(250.0, gt=0, le=500, description="servo targets per second (the controller's "
@@ -51,23 +53,9 @@ class XArm(ControllerLink, ArmNode):
         self.model_name = self.arm.name
         self.example_data = {**self.example_data, **FAULT_KEYS, "report_age": 0.0}
 
-    def default_joint_names(self) -> list[str]:
-        return get_arm(self.config.model).joint_names
-
-    def default_home(self) -> list[float]:
-        return list(self.arm.home)
-
-    def hardware_limits(self) -> Any:
-        lim = np.array(self.arm.limits)
-        return lim[:, 0], lim[:, 1]
-
     @property
     def streams_poses(self) -> bool:
         return self.config.eef_control == "controller"
-
-    @remote
-    def robot_description(self) -> dict[str, Any] | None:
-        return description(self.arm.name, tcp_offset=self.config.tcp_offset)
 
     # -- hardware -----------------------------------------------------------------------------------
     def open(self) -> None:

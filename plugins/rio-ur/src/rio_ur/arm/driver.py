@@ -20,8 +20,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, field_validator
 from rio.control import quat_to_rotvec, rotvec_to_quat
-from rio.interfaces import FAULT_KEYS, ArmNode, Fault, FaultHolding
-from rio.node import remote
+from rio.interfaces import FAULT_KEYS, ArmNode, Fault, FaultHolding, ModelTableArm
 
 from ..description import description
 from ..faults import fault_of
@@ -42,7 +41,10 @@ def to_ur(pose: np.ndarray) -> list[float]:
     return [*map(float, pose[:3]), *map(float, quat_to_rotvec(pose[3:]))]
 
 
-class URArm(FaultHolding, ArmNode):
+class URArm(FaultHolding, ModelTableArm, ArmNode):
+    lookup_model = staticmethod(get_arm)
+    describe_model = staticmethod(description)
+
     class Config(ArmNode.Config):
         ip: str = Field(description="controller IP address (pendant: Settings > System > Network)")
         model: Model = Field("ur5e", description=f"which arm: {', '.join(ARMS)}")
@@ -85,23 +87,9 @@ class URArm(FaultHolding, ArmNode):
         self.example_data = {**self.example_data, **FAULT_KEYS, "speed_scaling": 1.0,
                              "safety_mode": 1, "robot_mode": 7}
 
-    def default_joint_names(self) -> list[str]:
-        return get_arm(self.config.model).joint_names
-
-    def default_home(self) -> list[float]:
-        return list(self.arm.home)
-
-    def hardware_limits(self) -> Any:
-        lim = np.array(self.arm.limits)
-        return lim[:, 0], lim[:, 1]
-
     @property
     def streams_poses(self) -> bool:
         return self.config.eef_control == "controller"
-
-    @remote
-    def robot_description(self) -> dict[str, Any] | None:
-        return description(self.arm.name, tcp_offset=self.config.tcp_offset)
 
     # -- hardware -----------------------------------------------------------------------------------
     def open(self) -> None:
