@@ -122,3 +122,22 @@ def test_watchdog_holds_a_silent_stream_still_stepping_towards_a_far_target():
     held = c.step(0.36)[0]  # 0.31 s without a command
     assert c.holding and held < 0.25
     assert c.step(1.0)[0] == held
+
+
+@pytest.mark.parametrize("node_hz", [10.0, 20.0, 30.0, 100.0])
+def test_a_command_stream_faster_than_the_cycle_does_not_slow_the_motion(node_hz):
+    """A 30 Hz stream of targets moving at 0.1 /s, each due one stream period ahead, into a node that
+    cycles at `node_hz` and steps right after taking the latest command (the worst phase): the goal
+    follows the stream, instead of restarting each move from a goal that has barely moved."""
+    c = _cmd(max_step=10.0, watchdog=1.0)
+    stream_dt, speed = 1 / 30, 0.1
+    t_cmds = np.arange(0.0, 2.0, stream_dt)
+    goal = None
+    for t_step in np.arange(0.0, 2.0, 1 / node_hz):
+        taken = t_cmds[t_cmds <= t_step]
+        for t in taken[-3:]:  # the commands that arrived since the last cycle, oldest first
+            if t > t_step - 1 / node_hz:
+                c.command([speed * (t + stream_dt), 0.0], t_target=t + stream_dt, now=t_step)
+        goal = c.step(t_step)
+    expected = speed * 2.0
+    assert goal[0] > expected - speed * (2 / node_hz + 2 * stream_dt)  # behind by about a cycle, no more

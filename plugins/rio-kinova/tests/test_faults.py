@@ -88,3 +88,34 @@ def test_eef_targets_through_the_bases_twist_control():
         s = Loop(arm).run(until=lambda s: np.linalg.norm(s["eef_pose"][:3] - goal[:3]) < 2e-3, timeout=6)
         assert np.linalg.norm(s["eef_pose"][:3] - goal[:3]) < 2e-3
         assert session.fake_robot(IP, "gen3").calls.get("SendTwistCommand", 0) > 20
+
+
+def test_a_lost_session_holds_refuses_and_reconnects_holding_where_the_arm_is():
+    """The fake base's link is dropped (every call fails in transport, as kortex's KClientException) and
+    restored: the node stays alive, says `connected = False`, refuses commands, and after the session is
+    reopened it is enabled again holding where the arm stopped; the gripper shares the reopened session."""
+    with lifecycle(arm_node()) as arm, lifecycle(KinovaRobotiq(backend="fake", ip=IP)) as grip:
+        robot = session.fake_robot(IP, "gen3")
+        q0 = Loop(arm).run(cycles=3)["joint_pos"]
+        arm.command_joints(q0 + 0.3, clock.now() + 1.0)
+        Loop(arm).run(seconds=0.2)
+        robot.drop_link()
+        s = Loop(arm).run(until=lambda s: not s["connected"], timeout=3)
+        assert not s["connected"] and not s["enabled"] and s["fault_code"] == 0
+        assert not Loop(grip).run(cycles=2)["connected"]
+        with pytest.raises(InvalidRequest, match="Kinova base at 127.0.0.3 is down"):
+            arm.handle_request({**arm.example_request, "joint_pos": q0, "t_cmd_target": clock.now()})
+        with pytest.raises(InvalidRequest, match="is down"):
+            arm.clear_faults()
+        robot.restore_link()
+        s = Loop(arm).run(until=lambda s: s["connected"] and s["enabled"], timeout=5)
+        assert s["connected"] and s["enabled"] and s["fault_code"] == 0
+        held = Loop(arm).run(seconds=0.3)["joint_pos"]  # the base stopped the arm when the link went quiet
+        s = Loop(arm).run(seconds=0.4)
+        np.testing.assert_allclose(s["joint_pos"], held, atol=2e-3)  # it holds there: the old goal is not replayed
+        assert np.all(np.abs(s["joint_pos"] - (q0 + 0.3)) > 0.1)
+        g = Loop(grip).run(until=lambda s: s["connected"] and s["enabled"], timeout=5)
+        assert g["connected"] and g["enabled"]
+        grip.command("position", [0.02], clock.now() + 0.5)
+        g = Loop(grip).run(until=lambda s: abs(s["position"] - 0.02) < 2e-3, timeout=5)
+        assert abs(g["position"] - 0.02) < 2e-3

@@ -15,7 +15,7 @@ from rio.testing import lifecycle
 from rio_kinova.arm.driver import KinovaArm
 from rio_kinova.models import ARMS
 
-STATIONS = ["gen3-robotiq", "gen3-virtual"]
+STATIONS = ["gen3-robotiq", "gen3-sim", "gen3-virtual"]
 
 
 def test_drivers_stations_and_requirement_are_registered():

@@ -20,7 +20,7 @@ _ESTOP = "release the emergency stop (turn the red button), then clear_faults()"
 
 
 #: Numeric codes published as `fault_code` (0 = none).
-IN_FAULT_CODE, ESTOP_CODE, ABORTED_CODE, MAINTENANCE_CODE, SESSION_LOST_CODE, REFUSED_CODE = 1, 2, 3, 4, 5, 6
+IN_FAULT_CODE, ESTOP_CODE, ABORTED_CODE, MAINTENANCE_CODE, REFUSED_CODE = 1, 2, 3, 4, 6
 
 
 IN_FAULT = "ARMSTATE_IN_FAULT"
@@ -47,10 +47,6 @@ def from_action_abort(sub_error: str) -> Fault:
         return Fault(ESTOP_CODE, "emergency_stop", f"the emergency stop aborted the motion ({sub_error})", _ESTOP)
     return Fault(ABORTED_CODE, "action_aborted", f"the base aborted the motion ({sub_error or 'no detail'})",
                  RECOVER)
-
-
-SESSION_LOST = Fault(SESSION_LOST_CODE, "session_lost", "the kortex session to the base closed (cable, power or "
-                     "the base restarted)", "check the Ethernet link and the base's power, then restart the node")
 
 
 class KinovaError(RioError):

@@ -29,7 +29,9 @@ def import_kortex() -> types.SimpleNamespace:
         from kortex_api.autogen.client_stubs.BaseClientRpc import BaseClient
         from kortex_api.autogen.client_stubs.BaseCyclicClientRpc import BaseCyclicClient
         from kortex_api.autogen.messages import Base_pb2, BaseCyclic_pb2, Common_pb2, Errors_pb2, Session_pb2
+        from kortex_api.Exceptions.KClientException import KClientException
         from kortex_api.Exceptions.KException import KException
+        from kortex_api.Exceptions.KServerException import KServerException
         from kortex_api.RouterClient import RouterClient
         from kortex_api.SessionManager import SessionManager
         from kortex_api.TCPTransport import TCPTransport
@@ -40,6 +42,7 @@ def import_kortex() -> types.SimpleNamespace:
     return types.SimpleNamespace(
         BaseClient=BaseClient, BaseCyclicClient=BaseCyclicClient, Base_pb2=Base_pb2, BaseCyclic_pb2=BaseCyclic_pb2,
         Common_pb2=Common_pb2, Errors_pb2=Errors_pb2, Session_pb2=Session_pb2, KException=KException,
+        KServerException=KServerException, KClientException=KClientException,
         RouterClient=RouterClient, SessionManager=SessionManager, TCPTransport=TCPTransport, UDPTransport=UDPTransport)
 
 
@@ -87,4 +90,6 @@ def open_kortex(key, ip: str, username: str, password: str, timeout_s: float) ->
         raise
     pb = types.SimpleNamespace(Base_pb2=k.Base_pb2, BaseCyclic_pb2=k.BaseCyclic_pb2, Common_pb2=k.Common_pb2,
                                Errors_pb2=k.Errors_pb2)
-    return Session(key, ip, base, cyclic, pb, (k.KException,), closer=close)
+    # the base answering "no" (a server exception) is a refusal; no answer at all (a client exception: timeout,
+    # connection gone) is a lost session
+    return Session(key, ip, base, cyclic, pb, (k.KServerException,), (k.KClientException, OSError), closer=close)

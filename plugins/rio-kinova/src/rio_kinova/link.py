@@ -4,6 +4,8 @@ notice a fault, keep the node alive with the arm held, and recover.
 A fault does not end the node: the base stops the arm by itself, the node reports `fault_code` and
 `fault`, refuses commands naming the fault, and `clear_faults()` (Base.ClearFaults) brings it back
 holding where the arm is. Old goals are never replayed: the node is disabled while in fault.
+A lost session (a call without an answer) is held the same core way (`on_lost`, `connected = False`):
+the session is reopened once a second, and the node enables again holding where the arm is.
 """
 
 from __future__ import annotations
@@ -71,19 +73,43 @@ class KortexLink(FaultHolding):
             self.session = None
 
     # -- faults (held the core way: rio.interfaces.FaultHolding) ------------------------------------------
+    def link_up(self) -> bool:
+        return self.session is not None and self.session.alive
+
     def link_status(self) -> dict[str, Any]:
-        """Keys every sample carries; also where a fault the base reported is taken up."""
+        """Keys every sample carries; also where a fault the base reported is taken up and a lost session
+        reopened."""
         s = self.session
         assert s is not None  # opened
+        if not s.alive:
+            self.on_lost()
+            s.reconnect()
+        if s.alive:  # the other node on this base may have reopened the session
+            self.on_restored()
         if s.fault is not None and self.fault is None:
             self.on_fault(s.fault)
         return self.fault_status()
 
-    def device_fault(self) -> Fault | None:
-        """The base's fault now: the notified one, else the arm state asked now."""
+    def lose_session(self, e: BaseException) -> None:
         s = self.session
         assert s is not None
-        return s.fault or from_arm_state(s.arm_state())
+        if s.alive:
+            log.error("Kinova base at %s: no answer (%s); reconnecting", self.config.ip, e)
+            s.alive = False
+        self.on_lost()
+
+    def device_fault(self) -> Fault | None:
+        """The base's fault now: the notified one, else the arm state asked now (while the session is lost:
+        the last one known)."""
+        s = self.session
+        assert s is not None
+        if not s.alive:
+            return s.fault or self.fault
+        try:
+            return s.fault or from_arm_state(s.arm_state())
+        except s.lost_errors as e:
+            self.lose_session(e)
+            return s.fault or self.fault
 
     def clear_device_faults(self) -> None:
         s = self.session
@@ -95,11 +121,15 @@ class KortexLink(FaultHolding):
         s.fault = None
 
     def guarded(self, fn, *args: Any) -> Any:
-        """Run one kortex call; a refusal turns into the held, named-fault state."""
+        """Run one kortex call; a refusal turns into the held, named-fault state, no answer into the held,
+        reconnecting one."""
         s = self.session
         assert s is not None
         try:
             return fn(*args)
+        except s.lost_errors as e:
+            self.lose_session(e)
+            return None
         except s.errors as e:
             fault = self.device_fault() or Fault(
                 REFUSED_CODE, "command_refused", f"the base refused {getattr(fn, '__name__', fn)}: {e}")

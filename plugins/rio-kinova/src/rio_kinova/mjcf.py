@@ -2,7 +2,8 @@
 the DH frame before it, turning about its own z axis; the next body at Rz(offset) Tz(d) Tx(a) Rx(alpha).
 Capsules between joint origins (no meshes), position actuators, and the site `tcp` at the last DH frame
 (the flange, z out of it). Run `python -m rio_kinova.mjcf` after changing a table; a test checks the
-shipped files are what this writes and that MuJoCo's kinematics equal `dh.fk`.
+shipped files are what this writes and that MuJoCo's kinematics equal `dh.fk`. `arm_body` (the bodies
+alone, a gripper inside the flange) also wrote rio-sim's `assets/gen3.xml`, once.
 """
 
 from __future__ import annotations
@@ -39,8 +40,40 @@ def _range(lo: float, hi: float) -> str:
     return "" if math.isinf(lo) else f' range="{lo:.6f} {hi:.6f}"'
 
 
-def render(arm: ArmModel) -> str:
+def arm_body(arm: ArmModel, depth: int = 2, tool: tuple[str, ...] = (), continuous_range: float | None = None,
+             link_attrs: str = "") -> list[str]:
+    """The arm's bodies as MJCF lines, from `<body name="base">` (indented `depth` levels, class `arm.name`)
+    to the flange, whose site "tcp" is followed by the `tool` lines (a gripper). Continuous joints get
+    `range="-r r"` with `continuous_range` (a simulator's hard stop; None: unlimited, as in `assets/`);
+    `link_attrs` goes on every moving body (e.g. ' gravcomp="1"'). Shared by `render` and by the arms
+    other packages write from Kinova's tables (rio-sim's gen3.xml), so both have these kinematics."""
     radius = 0.03 if arm.name == "gen3_lite" else 0.04
+    lines = [f'{"  " * depth}<body name="base" childclass="{arm.name}">',
+             f'{"  " * (depth + 1)}<geom name="base" type="cylinder" size="0.045 0.05" pos="0 0 0.05"/>']
+    first = depth + 1
+    if arm.dh_base is not None:
+        lines.append(f'{"  " * first}<body name="dh_base" {_placement(arm.dh_base)}>')
+        first += 1
+    lines.append(f'{"  " * first}<body name="link_1"{link_attrs}>')
+    for i, (p, name, (lo, hi)) in enumerate(zip(arm.dh, arm.joint_names, arm.limits, strict=True)):
+        inner = "  " * (first + i + 1)
+        cont = math.isinf(lo) and continuous_range is not None
+        span = f' range="{-continuous_range:.6f} {continuous_range:.6f}"' if cont else _range(lo, hi)
+        lines.append(f'{inner}<joint name="{name}" axis="0 0 1"{span}/>')
+        lines.append(f'{inner}<geom type="sphere" size="{radius * 1.1:.3g}"/>')
+        end = (p.a * math.cos(p.offset), p.a * math.sin(p.offset), p.d)
+        if np.linalg.norm(end) > 1e-3:
+            lines.append(f'{inner}<geom type="capsule" fromto="0 0 0 {_vec(end)}" size="{radius}"/>')
+        child = f"link_{i + 2}" if i + 1 < arm.dof else "flange"
+        lines.append(f'{inner}<body name="{child}" {_placement(p)}{link_attrs}>')
+    pad = "  " * (first + arm.dof + 1)
+    lines.append(f'{pad}<site name="tcp" size="0.01" rgba="1 0.3 0.3 0.6" group="4"/>')
+    lines += [pad + t for t in tool]
+    lines += ["  " * k + "</body>" for k in range(first + arm.dof, depth - 1, -1)]
+    return lines
+
+
+def render(arm: ArmModel) -> str:
     lines = [f"<!-- Kinova {arm.label}, arm only, written by rio_kinova.mjcf from Kinova's published DH table",
              "     (rio_kinova.dh). Joints turn about their body's z axis, 0 rad at the arm's zero; continuous",
              "     joints are unlimited. The site \"tcp\" is the flange frame (z out of it). Do not edit: regenerate",
@@ -56,33 +89,9 @@ def render(arm: ArmModel) -> str:
              "    </default>",
              "  </default>",
              "  <worldbody>",
-             f'    <body name="base" childclass="{arm.name}">',
-             '      <geom name="base" type="cylinder" size="0.045 0.05" pos="0 0 0.05"/>']
-    depth = 3
-    pad = "  " * depth
-    if arm.dh_base is not None:
-        lines.append(f'{pad}<body name="dh_base" {_placement(arm.dh_base)}>')
-        depth += 1
-    pad = "  " * depth
-    lines.append(f'{pad}<body name="link_1">')
-    closes = depth
-    for i, (p, name, (lo, hi)) in enumerate(zip(arm.dh, arm.joint_names, arm.limits, strict=True)):
-        pad = "  " * (depth + i)
-        inner = pad + "  "
-        lines.append(f'{inner}<joint name="{name}" axis="0 0 1"{_range(lo, hi)}/>')
-        lines.append(f'{inner}<geom type="sphere" size="{radius * 1.1:.3g}"/>')
-        end = (p.a * math.cos(p.offset), p.a * math.sin(p.offset), p.d)
-        if np.linalg.norm(end) > 1e-3:
-            lines.append(f'{inner}<geom type="capsule" fromto="0 0 0 {_vec(end)}" size="{radius}"/>')
-        child = f"link_{i + 2}" if i + 1 < arm.dof else "flange"
-        lines.append(f'{inner}<body name="{child}" {_placement(p)}>')
-    pad = "  " * (depth + arm.dof + 1)
-    lines.append(f'{pad}<site name="tcp" size="0.01" rgba="1 0.3 0.3 0.6" group="4"/>')
-    for k in range(depth + arm.dof, closes - 1, -1):
-        lines.append("  " * k + "</body>")
-    if arm.dh_base is not None:
-        lines.append("  " * (closes - 1) + "</body>")
-    lines += ["    </body>", "  </worldbody>", "  <actuator>"]
+             *arm_body(arm),
+             "  </worldbody>",
+             "  <actuator>"]
     for name, (lo, hi) in zip(arm.joint_names, arm.limits, strict=True):
         ctrl = "" if math.isinf(lo) else f' ctrlrange="{lo:.6f} {hi:.6f}"'
         lines.append(f'    <position name="{name}" joint="{name}" class="{arm.name}"{ctrl}/>')

@@ -28,7 +28,9 @@ class ArmModel:
     label: str
     #: Joint limits (rad), from the user guide; (-inf, inf) for continuous joints.
     limits: tuple[tuple[float, float], ...]
-    #: Kinova's "Home" pose (rad), the web app's and the kortex examples' ready pose.
+    #: Kinova's "Home" pose (rad), the web app's and the kortex examples' ready pose (the Gen3's and the lite's
+    #: agree with ros_kortex's MoveIt "home" states, except the lite's joint 6 there, 2.67 rad, which is beyond
+    #: its own URDF's 2.59 rad limit: 0 here).
     home: tuple[float, ...]
     dh: tuple[dh.DH, ...]
     dh_base: dh.DH | None

@@ -3,6 +3,10 @@ message modules to build commands with, the exceptions a refused call raises, an
 fault (from its arm state and action notifications). Nodes of one process on one base share it (the arm
 and the gripper), counted, so the connection closes with the last.
 
+A call that fails in transport (kortex's client-side exceptions: no answer, the connection gone) marks
+the session lost; `reconnect()` opens fresh clients into the same `Session` object (at most once a
+second), so every node holding it carries on with them.
+
 `backend` picks where the clients come from: "kortex" (a real base, `kortex.py`), "fake" (stand-ins with
 Gen3-like behaviour, `fake/`), or "sim" / "sim:ARM@WORLD" (the stand-ins driving a rio-sim world's arm).
 The driver code is the same for all three.
@@ -12,6 +16,8 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -28,8 +34,12 @@ class Session:
     base: Any
     cyclic: Any
     pb: Any  # namespace with Base_pb2, BaseCyclic_pb2, Common_pb2, Errors_pb2
-    errors: tuple[type[BaseException], ...]
+    errors: tuple[type[BaseException], ...]  # the base refused the call
+    lost_errors: tuple[type[BaseException], ...] = (OSError,)  # the call never got an answer
     closer: Any = None
+    opener: Callable[[], Session] | None = None  # fresh clients to the same base (reconnect)
+    alive: bool = True
+    last_try: float = 0.0
     robot: Any = None  # the FakeRobot behind a fake session (tests inject faults through it)
     fault: Fault | None = None
     users: int = 0
@@ -65,6 +75,35 @@ class Session:
     def arm_state(self) -> str:
         return self._name(self.pb.Common_pb2.ArmState, self.base.GetArmState().active_state)
 
+    def close(self) -> None:
+        if self.closer is not None:
+            try:
+                self.closer()
+            except Exception as e:  # a lost session may not close cleanly; the new one replaces it anyway
+                log.debug("Kinova base at %s: closing: %s", self.ip, e)
+            self.closer = None
+
+    def reconnect(self, period_s: float = 1.0) -> bool:
+        """Fresh clients after a lost session (tried at most every `period_s`); True when alive."""
+        with _lock:
+            if self.alive:
+                return True
+            now = time.monotonic()
+            if self.opener is None or now - self.last_try < period_s:
+                return False
+            self.last_try = now
+            self.close()
+            try:
+                fresh = self.opener()
+            except Exception as e:
+                log.warning("Kinova base at %s: reconnect failed: %s", self.ip, e)
+                return False
+            self.base, self.cyclic, self.closer, self.robot = fresh.base, fresh.cyclic, fresh.closer, fresh.robot
+            self.fault, self.alive = None, True
+            self.subscribe()
+        log.warning("Kinova base at %s: session reopened", self.ip)
+        return True
+
 
 _lock = threading.Lock()
 _sessions: dict[tuple[str, str, str], Session] = {}
@@ -77,6 +116,7 @@ def acquire(backend: str, ip: str, model: ArmModel, username: str, password: str
         s = _sessions.get(key)
         if s is None:
             s = _open(backend, key, ip, model, username, password, timeout_s)
+            s.opener = _opener(s, backend, model, username, password, timeout_s)
             s.subscribe()
             _sessions[key] = s
         s.users += 1
@@ -89,8 +129,14 @@ def release(session: Session) -> None:
         if session.users > 0:
             return
         _sessions.pop(session.key, None)
-    if session.closer is not None:
-        session.closer()
+    session.close()
+    if session.robot is not None:
+        session.robot.close()
+
+
+def _opener(s: Session, backend: str, model: ArmModel, username: str, password: str,
+            timeout_s: float) -> Callable[[], Session]:
+    return lambda: _open(backend, s.key, s.ip, model, username, password, timeout_s, robot=s.robot)
 
 
 def fake_robot(ip: str, model: str, backend: str = "fake") -> Any:
@@ -98,20 +144,26 @@ def fake_robot(ip: str, model: str, backend: str = "fake") -> Any:
     return _sessions[(backend, ip, model)].robot
 
 
-def _open(backend: str, key, ip: str, model: ArmModel, username: str, password: str, timeout_s: float) -> Session:
+def _open(backend: str, key, ip: str, model: ArmModel, username: str, password: str, timeout_s: float,
+          robot: Any = None) -> Session:
+    """A new session; for the fake backends, `robot` is the base a reconnect finds again."""
     if backend == "kortex":
         from .kortex import open_kortex
 
         return open_kortex(key, ip, username, password, timeout_s)
     from .fake import messages
     from .fake.clients import FakeBase, FakeCyclic
-    from .fake.robot import FakeRobot, FakeServerError
+    from .fake.robot import FakeLinkError, FakeRobot, FakeServerError
 
+    if robot is not None:  # the same fake base again, if its link is up
+        robot.check_link("connect")
+        return Session(key, ip, FakeBase(robot), FakeCyclic(robot), messages, (FakeServerError,), (FakeLinkError,),
+                       robot=robot)
     plant = None
     if backend.startswith("sim"):
         from .fake.sim import attach
 
         plant = attach(backend, model, timeout_s)
     robot = FakeRobot(model, plant)
-    return Session(key, ip, FakeBase(robot), FakeCyclic(robot), messages, (FakeServerError,),
-                   closer=plant.close if plant is not None else None, robot=robot)
+    return Session(key, ip, FakeBase(robot), FakeCyclic(robot), messages, (FakeServerError,), (FakeLinkError,),
+                   robot=robot)

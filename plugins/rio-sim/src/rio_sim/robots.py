@@ -81,6 +81,13 @@ ROBOTS: dict[str, RobotModel] = {
         finger_joints=("finger_a", "finger_b"),
         home=(2.8018, -1.2766, 1.7239, 1.1235, 1.5708, 1.231), home_tool=(0.40, 0.0, 0.10),
         max_width=0.085, description="UR5e (UR's DH table, via rio-ur) with a 2F-85-stroke parallel gripper"),
+    "gen3": RobotModel(
+        name="gen3", file="gen3.xml",
+        arm_joints=tuple(f"joint_{i}" for i in range(1, 8)),
+        finger_joints=("finger_a", "finger_b"),
+        home=(0.002222, 0.623837, 3.141593, -1.810623, 0.0, -0.707133, 1.570796), home_tool=(0.45, 0.0, 0.10),
+        max_width=0.085, description="Kinova Gen3 7-DOF (Kinova's DH table, via rio-kinova) with a 2F-85-stroke "
+                                     "parallel gripper"),
 }
 
 

@@ -165,8 +165,17 @@ def _ur5e() -> Scene:
                  table=(0.55, 0.55), table_center=(0.3, 0.0))
 
 
+def _gen3() -> Scene:
+    arm = ArmMount("arm", "gen3")
+    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
+    objs += [SceneObject("can", "cylinder", (0.02, 0.04), (0.55, -0.2, 0.04), (0.2, 0.7, 0.3, 1), mass=0.08)]
+    return Scene("gen3", "Kinova Gen3 on a table: a red cube to pick, a blue pad, a can",
+                 (arm,), tuple(objs), (_look((1.0, 0.0, 0.6), (0.45, 0.0, 0.05), 55),),
+                 table=(0.55, 0.5), table_center=(0.35, 0.0))
+
+
 SCENES = {"so100": _so100, "so100_bimanual": _bimanual, "xarm7": _xarm7, "xarm6": _xarm6, "lite6": _lite6,
-          "panda": _panda, "ur5e": _ur5e}
+          "panda": _panda, "ur5e": _ur5e, "gen3": _gen3}
 
 
 @cache

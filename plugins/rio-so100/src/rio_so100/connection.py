@@ -19,6 +19,10 @@ from .servo_group import ServoGroup
 VIRTUAL = "virtual"
 
 
+#: Status-packet timeout on an emulated bus (virtual or sim-backed): generous, nothing real waits on it.
+EMULATED_TIMEOUT_MS = 500.0
+
+
 def is_virtual(port: str) -> bool:
     return port == VIRTUAL
 
@@ -51,7 +55,10 @@ class ArmConnection:
             cal = load_calibration(self.calibration, self.model, self.device, virtual=self.virtual is not None)
         joints = {name: cal.joint(name) for name in joint_names}
         names = {j.id: n for n, j in joints.items()}
-        self.bus = FeetechBus(path, baudrate=self.baudrate, retries=self.retries, names=names).open()
+        # an emulated bus answers from a thread that a loaded machine may not schedule for a while
+        slack_ms = EMULATED_TIMEOUT_MS if self.virtual is not None else 0.0
+        self.bus = FeetechBus(path, baudrate=self.baudrate, retries=self.retries, names=names,
+                              min_timeout_ms=slack_ms).open()
         check_present(self.bus, names, self.port)
         apply_calibration(self.bus, joints)
         return ServoGroup(self.bus, joints)

@@ -2,9 +2,9 @@
 
 A commander turns sparse timed targets (`t_cmd_target`) into one goal per driver cycle:
 
-- interpolation: a target to be reached at `t_cmd_target` is approached from the goal in force when it
-  arrived (a line in joint space; a line plus slerp for poses), so commands sent slower than the driver
-  rate still give smooth motion;
+- interpolation: a target to be reached at `t_cmd_target` is approached from where the move under way
+  was when it arrived (a line in joint space; a line plus slerp for poses), so commands sent slower than
+  the driver rate give smooth motion, and commands sent faster do not slow it down;
 - limits: every goal is clipped to the joint limits (or the workspace box for poses);
 - maximum step: a goal moves at most `max_step` per cycle (rad; m and rad for poses), so a wild target
   (a policy glitch, a leader arm far from the follower) becomes a bounded-speed motion, never a jump;
@@ -60,8 +60,10 @@ class _Commander:
         return self.goal.copy()
 
     def command(self, target, t_target: float, now: float) -> None:
-        """Head for `target` (clipped to the limits), arriving at `t_target`."""
-        self._interp = self._interp_cls(self.goal, now)
+        """Head for `target` (clipped to the limits), arriving at `t_target`, from where the move under way
+        is now (not from the last cycle's goal: a stream of commands faster than the driver's cycle would
+        otherwise restart each move from a goal that has barely moved, and crawl)."""
+        self._interp = self._interp_cls(self._interp.sample(now), now)
         self._interp.set_target(self._clip(target), t_target, now)
         self._streamed = now - self._t_cmd <= self.watchdog_s
         self._t_cmd = now

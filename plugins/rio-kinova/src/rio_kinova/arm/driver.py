@@ -21,8 +21,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 from rio.control import quat_conj, quat_mul, quat_to_rotvec
-from rio.interfaces import FAULT_KEYS, ArmNode
-from rio.node import remote
+from rio.interfaces import FAULT_KEYS, ArmNode, ModelTableArm
 
 from ..description import description
 from ..link import KortexLink, LinkConfig
@@ -38,7 +37,10 @@ def wrap(x):
     return np.pi - np.mod(np.pi - np.asarray(x, dtype=np.float64), _TWO_PI)
 
 
-class KinovaArm(KortexLink, ArmNode):
+class KinovaArm(KortexLink, ModelTableArm, ArmNode):
+    lookup_model = staticmethod(get_arm)
+    describe_model = staticmethod(description)
+
     class Config(LinkConfig, ArmNode.Config):
         model: Model = Field("gen3", description=f"which arm: {', '.join(ARMS)} (checked against the actuator count)")
         rate_hz: float = Field(100.0, gt=0, le=1000, description="cycles per second (1000 in low-level mode)")
@@ -61,26 +63,13 @@ class KinovaArm(KortexLink, ArmNode):
             raise ValueError("eef_control = 'controller' needs the base's high-level control: set low_level = false")
         self.example_data = {**self.example_data, **FAULT_KEYS}
         self._q: np.ndarray | None = None
+        self._last: dict[str, Any] = {}  # the last sample read (stands while the session is lost)
         self._goal: np.ndarray | None = None
         self._frame = 0
-
-    def default_joint_names(self) -> list[str]:
-        return get_arm(self.config.model).joint_names
-
-    def default_home(self) -> list[float]:
-        return list(self.kinova.home)
-
-    def hardware_limits(self) -> Any:
-        lim = np.array(self.kinova.limits)
-        return lim[:, 0], lim[:, 1]
 
     @property
     def streams_poses(self) -> bool:
         return self.config.eef_control == "controller"
-
-    @remote
-    def robot_description(self) -> dict[str, Any] | None:
-        return description(self.kinova.name, tcp_offset=self.config.tcp_offset)
 
     # -- hardware -----------------------------------------------------------------------------------
     def open(self) -> None:
@@ -90,6 +79,7 @@ class KinovaArm(KortexLink, ArmNode):
             self.close()
             raise ValueError(f"the base at {self.config.ip} reports {n} actuators; model '{self.kinova.name}' has "
                              f"{self.kinova.dof}: set model")
+        self._last = self.read_joints()
 
     def set_enabled(self, enabled: bool) -> None:
         s = self.session
@@ -110,8 +100,10 @@ class KinovaArm(KortexLink, ArmNode):
     def read_joints(self) -> dict[str, Any]:
         s = self.session
         assert s is not None
-        fb = s.cyclic.RefreshFeedback()
         status = self.link_status()
+        fb = self.guarded(s.cyclic.RefreshFeedback) if s.alive else None
+        if fb is None:  # no answer: the last reading stands, the sample says the link is down
+            return {**self._last, "joint_vel": np.zeros(self.kinova.dof), **self.fault_status()}
         raw = np.radians([a.position for a in fb.actuators])
         q = wrap(raw)
         if self._q is not None:  # continuous joints: the turn nearest the last reading
@@ -131,6 +123,7 @@ class KinovaArm(KortexLink, ArmNode):
                 if fault is not None:
                     self.on_fault(fault)
                     sample["fault_code"] = fault.code
+        self._last = sample
         return sample
 
     def write_joints(self, joint_pos: np.ndarray) -> None:

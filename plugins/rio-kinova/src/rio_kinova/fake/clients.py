@@ -1,6 +1,7 @@
 """Stand-ins for kortex's `BaseClient` and `BaseCyclicClient` over a `FakeRobot`: the calls the driver
 makes, with kortex's names, units (degrees, degrees/s, m; actuator positions reported in [0, 360)) and
-refusals (`FakeServerError` where kortex raises `KServerException`)."""
+refusals (`FakeServerError` where kortex raises `KServerException`); with the robot's link dropped
+every call fails in transport (`FakeLinkError`, kortex's `KClientException`)."""
 
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ class FakeBase:
 
     # -- state and modes -------------------------------------------------------------------------------
     def GetArmState(self) -> Any:  # noqa: N802
+        self.robot.check_link("GetArmState")
         self.robot.advance()
         return pb.Message(active_state=self.robot.state)
 
@@ -47,10 +49,12 @@ class FakeBase:
         r.speed_cmd[:] = 0.0
 
     def ClearFaults(self) -> None:  # noqa: N802
+        self.robot.check_link("ClearFaults")
         self.robot.advance()
         self.robot.clear()
 
     def Stop(self) -> None:  # noqa: N802
+        self.robot.check_link("Stop")
         self.robot.advance()
         self.robot.speed_cmd[:] = 0.0
 
@@ -77,6 +81,7 @@ class FakeBase:
 
     def GetMeasuredGripperMovement(self, request) -> Any:  # noqa: N802
         r = self.robot
+        r.check_link("GetMeasuredGripperMovement")
         r.advance()
         g = pb.Base_pb2.Gripper()
         g.finger.add(finger_identifier=1, value=r.grip)
@@ -102,6 +107,7 @@ class FakeCyclic:
         return fb
 
     def RefreshFeedback(self) -> Any:  # noqa: N802
+        self.robot.check_link("RefreshFeedback")
         self.robot.advance()
         return self._feedback()
 

@@ -11,7 +11,11 @@ behaviour as the driver sees it, integrated lazily (each call advances time; no 
 - the Robotiq 2F-85's finger position (0 open .. 1 closed) follows its goal at 1.7 /s.
 
 What it leaves out: dynamics under load, the real base's timing and its protocol (see `fake/__init__.py`).
-With a `plant` (rio-sim's `WorldArm`), positions go to the simulated arm and are read back from it.
+With a `plant` (rio-sim's `WorldArm`), positions go to the simulated arm and are read back from it, and
+the 2F-85's goal goes to the world's fingers (`fake/sim.py`), whose opening comes back as its finger
+position (a cube between them stops it short of 1). Only a fake that was sent a motion commands the
+world's joints: with each node in its own process, the gripper node's session has a fake of its own,
+which must not hold the arm where it found it.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import numpy as np
 from .. import dh
 from ..models import ArmModel
 from . import messages as pb
+from .sim import sim_fingers
 
 ACCEL = 10.0  # rad/s^2
 LAG_HIGH, LAG_LOW = 0.015, 0.005  # s
@@ -36,6 +41,10 @@ _STEP = 0.002
 
 class FakeServerError(RuntimeError):
     """What the fake base raises where kortex raises `KServerException` (the base refused the call)."""
+
+
+class FakeLinkError(ConnectionError):
+    """What the fake raises where kortex raises `KClientException` (no answer: the link is gone)."""
 
 
 class FakeRobot:
@@ -51,11 +60,16 @@ class FakeRobot:
         self.fault_detail = ""
         self.estop_held = False
         self.grip, self.grip_goal = 0.0, 0.0
+        self.fingers = None if plant is None else sim_fingers(plant, GRIPPER_SPEED * plant.max_width)
+        if self.fingers is not None:
+            self.grip = self.grip_goal = self._finger_position()
+        self.steering = plant is None  # with a plant: set by the first motion command (see advance)
         self.t = time.monotonic()
         self.lock = threading.RLock()
         self.arm_state_callbacks: list[Callable[[Any], None]] = []
         self.action_callbacks: list[Callable[[Any], None]] = []
         self.calls: dict[str, int] = {}
+        self.link_up = True  # drop_link() / restore_link(): a cable pulled and plugged back
         self.lo = np.array([lo for lo, _ in model.limits])
         self.hi = np.array([hi for _, hi in model.limits])
         self.vmax = np.array(model.max_joint_speed)
@@ -69,7 +83,22 @@ class FakeRobot:
             for _ in range(steps):
                 self._step(dt_all / steps)
             if self.plant is not None:
-                self.plant.command_joints(self.q, now + 0.02)
+                self.steering = self.steering or bool(self.speed_cmd.any()) or self.low_target is not None
+                if self.steering:
+                    self.plant.command_joints(self.q, now + 0.02)
+                self._follow_fingers()
+
+    def _follow_fingers(self) -> None:
+        """The 2F-85's goal to the world's fingers when it changed; their opening back as its position."""
+        f = self.fingers
+        width = (1.0 - self.grip_goal) * f.max_width
+        if abs(width - f.goal) > 1e-6:
+            f.command(width)
+        self.grip = self._finger_position()
+
+    def _finger_position(self) -> float:
+        """The world's opening as the 2F-85's finger position (0 open .. 1 closed)."""
+        return float(np.clip(1.0 - self.fingers.update() / self.fingers.max_width, 0.0, 1.0))
 
     def _step(self, dt: float) -> None:
         g = float(np.clip((self.grip_goal - self.grip), -GRIPPER_SPEED * dt, GRIPPER_SPEED * dt))
@@ -123,7 +152,28 @@ class FakeRobot:
         for cb in list(self.arm_state_callbacks):
             cb(note)
 
+    def drop_link(self) -> None:
+        """Every call fails in transport (and a new session cannot connect) until `restore_link()`. The
+        base stops the arm when its connection goes quiet (the session's connection inactivity timeout)."""
+        with self.lock:
+            self.link_up = False
+            self.speed_cmd[:] = 0.0
+            self.low_target = None
+
+    def restore_link(self) -> None:
+        self.link_up = True
+
+    def check_link(self, what: str) -> None:
+        if not self.link_up:
+            raise FakeLinkError(f"{what}: no answer from the base (link down)")
+
+    def close(self) -> None:
+        """The session that owns this fake ended: let go of the simulated arm."""
+        if self.plant is not None:
+            self.plant.close()
+
     def check(self, what: str) -> None:
+        self.check_link(what)
         self.calls[what] = self.calls.get(what, 0) + 1
         if self.state == pb.ARMSTATE_IN_FAULT:
             raise FakeServerError(f"{what}: the arm is in fault ({self.fault_detail})")

@@ -36,7 +36,7 @@ def _sdk():
     return scservo_sdk
 
 
-def _port_handler(port: str):
+def _port_handler(port: str, min_timeout_ms: float = 0.0):
     scs = _sdk()
 
     class PortHandler(scs.PortHandler):
@@ -44,6 +44,10 @@ def _port_handler(port: str):
             ok = super().setupPort(cflag_baud)
             self.ser.timeout = READ_SLICE_S
             return ok
+
+        def setPacketTimeout(self, packet_length):  # noqa: N802 (SDK name)
+            super().setPacketTimeout(packet_length)
+            self.packet_timeout = max(self.packet_timeout, min_timeout_ms)
 
     return PortHandler(port)
 
@@ -70,8 +74,11 @@ class FeetechBus:
     """One serial bus. `names` maps servo ids to joint names for error messages."""
 
     def __init__(self, port: str, *, baudrate: int = 1_000_000, retries: int = 2,
-                 names: Mapping[int, str] | None = None):
+                 names: Mapping[int, str] | None = None, min_timeout_ms: float = 0.0):
+        """`min_timeout_ms`: wait at least this long for a status packet (the SDK's own timeout, ~34 ms,
+        suits a real bus; an emulated servo answering from a thread on a loaded machine needs more)."""
         self.port, self.baudrate, self.retries = port, int(baudrate), int(retries)
+        self.min_timeout_ms = float(min_timeout_ms)
         self.names = dict(names or {})
         self._ph = self._pk = None
         self._lock: PortLock | None = None
@@ -84,7 +91,7 @@ class FeetechBus:
     def open(self) -> FeetechBus:
         scs = _sdk()
         self._lock = PortLock(self.port)
-        ph = _port_handler(self.port)
+        ph = _port_handler(self.port, self.min_timeout_ms)
         try:
             with self._lock:  # opening flushes the tty's input: not in the middle of someone's exchange
                 ok = ph.openPort() and ph.setBaudRate(self.baudrate)

@@ -1,0 +1,127 @@
+"""The packaged stations end to end through the real loop (thread middleware): on `gen3-virtual` the fake
+base traces the scripted square; on `gen3-sim` it drives rio-sim's Gen3 (joints through physics, the
+2F-85's goal to the simulated fingers) through the scripted pick-and-place, and the world's ground truth
+says the cube was carried to the pad. The sim station also records a run (the code of `rio teleop
+--record`) that `run_deploy` replays, putting the cube down where it was taught. The sim arm must be the
+driver's arm for any of this to work: its kinematics are checked against Kinova's DH table."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from rio.teleop import run_teleop
+from rio_kinova import dh
+from rio_kinova.models import get_arm
+
+SIM = "gen3-sim"
+
+
+def needs_sim() -> None:
+    pytest.importorskip("rio_sim")
+    pytest.importorskip("mujoco")
+
+
+def test_virtual_station_traces_the_scripted_square():
+    summary = run_teleop("gen3-virtual", "scripted", device_config={"script": "square", "side": 0.05, "speed": 0.15},
+                         middleware="thread", log=None)
+    assert summary.reason == "the device finished", summary.format()
+    arm = next(a for a in summary.arms if a.role == "arm")
+    assert 0.18 < arm.path_m < 0.23, summary.format()  # four 5 cm edges
+    assert np.linalg.norm(arm.end[:3] - arm.start[:3]) < 0.003, summary.format()
+
+
+def test_the_sim_gen3_is_the_drivers_arm_with_the_stations_tool():
+    """rio-sim's Gen3 (grasp site) = Kinova's DH flange + the station's tcp_offset, its limited joints have
+    Kinova's limits, and the station homes the arm to rio-sim's home."""
+    needs_sim()
+    import mujoco
+    from rio.station.load import load_station
+    from rio_sim.robots import get_robot
+
+    robot, arm = get_robot("gen3"), get_arm("gen3")
+    cfg = load_station(SIM).components["arm"].config
+    assert cfg.tcp_offset[:2] == (0.0, 0.0) and cfg.tcp_offset[3:] == (0.0, 0.0, 0.0)
+    np.testing.assert_allclose(cfg.home, robot.home)
+    model = mujoco.MjModel.from_xml_path(str(robot.path))
+    data = mujoco.MjData(model)
+    adr = [model.joint(n).qposadr[0] for n in robot.arm_joints]
+    rng = np.random.default_rng(7)
+    lo = np.array([max(lo, -math.pi) for lo, _ in arm.limits])
+    hi = np.array([min(hi, math.pi) for _, hi in arm.limits])
+    for q in [np.array(robot.home), *rng.uniform(lo, hi, (20, arm.dof))]:
+        data.qpos[adr] = q
+        mujoco.mj_kinematics(model, data)
+        t = dh.fk(arm.dh, q, arm.dh_base)
+        np.testing.assert_allclose(data.site("grasp").xpos, t[:3, 3] + cfg.tcp_offset[2] * t[:3, 2], atol=1e-6)
+        np.testing.assert_allclose(data.site("grasp").xmat.reshape(3, 3), t[:3, :3], atol=1e-6)
+    for name, (low, high) in zip(robot.arm_joints, arm.limits, strict=True):
+        span = model.joint(name).range
+        if math.isinf(low):  # continuous on the robot: a stop no session reaches
+            assert span[0] <= -2 * math.pi and span[1] >= 2 * math.pi, (name, span)
+        else:
+            np.testing.assert_allclose(span, (low, high), atol=1e-6)
+
+
+def test_sim_station_picks_the_cube_and_places_it_on_the_pad():
+    needs_sim()
+    from rio_sim.robots import get_robot
+    from rio_sim.scenes import CUBE, PLACE_OFFSET
+
+    widths: list[float] = []
+    summary = run_teleop(SIM, "scripted", middleware="thread", log=None,
+                         on_step=lambda tick: widths.append(float(tick.step.observation.gripper_position)))
+    assert summary.reason == "the device finished", summary.format()
+    cube = next(o for o in summary.objects if o.name == "cube")  # the world's ground truth
+    pad = np.asarray(get_robot("gen3").home_tool) + PLACE_OFFSET
+    assert np.linalg.norm(cube.end[:2] - pad[:2]) < 0.015, summary.format()  # on the pad ...
+    assert cube.max_z > cube.start[2] + 0.04, summary.format()  # ... lifted on the way ...
+    assert abs(cube.end[2] - CUBE / 2) < 0.004, summary.format()  # ... and put down on the table
+    # the gripper node reports the simulated fingers: stopped by the cube while carrying it, open at the end
+    assert abs(min(widths) - CUBE) < 0.006, (min(widths), summary.format())
+    arm = next(a for a in summary.arms if a.role == "arm")
+    assert arm.gripper is not None and arm.gripper > 0.08, summary.format()
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    """One scripted pick-and-place recorded by the code of `rio teleop gen3-sim --teleop scripted --record`."""
+    needs_sim()
+    from rio.teleop.command import teleop
+
+    root = tmp_path_factory.mktemp("data") / "pick"
+    teleop(SIM, device="scripted", instruction="put the red cube on the blue pad", duration=30.0,
+           middleware="thread", record=str(root), on_end="keep")
+    return root
+
+
+def cube_path(root) -> np.ndarray:
+    """The cube's position at every step of episode 0, from the world's ground truth (object 0 is the cube)."""
+    from rio.recording.dataset import Dataset
+
+    return Dataset(root).episode(0).column("meta.sensors.world.object_poses")[:, 0, :3]
+
+
+def test_the_recording_holds_the_pick_arm_gripper_and_cameras(recorded):
+    from rio.recording.dataset import Dataset
+
+    ep = Dataset(recorded).episode(0)
+    assert set(ep.cameras) >= {"front", "wrist"}
+    assert len(ep.column("t")) > 10 * ep.fps
+    cube = cube_path(recorded)
+    assert np.linalg.norm(cube[-1, :2] - cube[0, :2]) > 0.10  # carried over to the pad (12 cm away) ...
+    assert cube[:, 2].max() > cube[0, 2] + 0.04  # ... lifted on the way ...
+    assert abs(cube[-1, 2] - cube[0, 2]) < 0.005  # ... and put down
+    assert not ep.verify()
+
+
+def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
+    from rio.policy.deploy import run_deploy
+
+    rollout = tmp_path / "rollout"
+    summary = run_deploy(SIM, f"replay.episode,episode={recorded}", record=str(rollout), duration=20.0,
+                         middleware="thread", log=None)
+    taught, replayed = cube_path(recorded), cube_path(rollout)
+    assert np.linalg.norm(replayed[-1, :2] - replayed[0, :2]) > 0.10, summary.format()
+    assert np.linalg.norm(replayed[-1, :2] - taught[-1, :2]) < 0.02, summary.format()  # where it was taught
