@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 from rio.teleop import run_teleop
+from rio.testing import run_scripted_square
 from rio_kinova import dh
 from rio_kinova.models import get_arm
 
@@ -24,12 +25,7 @@ def needs_sim() -> None:
 
 
 def test_virtual_station_traces_the_scripted_square():
-    summary = run_teleop("gen3-virtual", "scripted", device_config={"script": "square", "side": 0.05, "speed": 0.15},
-                         middleware="thread", log=None)
-    assert summary.reason == "the device finished", summary.format()
-    arm = next(a for a in summary.arms if a.role == "arm")
-    assert 0.18 < arm.path_m < 0.23, summary.format()  # four 5 cm edges
-    assert np.linalg.norm(arm.end[:3] - arm.start[:3]) < 0.003, summary.format()
+    run_scripted_square("gen3-virtual")
 
 
 def test_the_sim_gen3_is_the_drivers_arm_with_the_stations_tool():
@@ -66,18 +62,13 @@ def test_the_sim_gen3_is_the_drivers_arm_with_the_stations_tool():
 
 def test_sim_station_picks_the_cube_and_places_it_on_the_pad():
     needs_sim()
-    from rio_sim.robots import get_robot
-    from rio_sim.scenes import CUBE, PLACE_OFFSET
+    from rio_sim.scenes import CUBE
+    from rio_sim.testing import check_cube_on_pad
 
     widths: list[float] = []
     summary = run_teleop(SIM, "scripted", middleware="thread", log=None,
                          on_step=lambda tick: widths.append(float(tick.step.observation.gripper_position)))
-    assert summary.reason == "the device finished", summary.format()
-    cube = next(o for o in summary.objects if o.name == "cube")  # the world's ground truth
-    pad = np.asarray(get_robot("gen3").home_tool) + PLACE_OFFSET
-    assert np.linalg.norm(cube.end[:2] - pad[:2]) < 0.015, summary.format()  # on the pad ...
-    assert cube.max_z > cube.start[2] + 0.04, summary.format()  # ... lifted on the way ...
-    assert abs(cube.end[2] - CUBE / 2) < 0.004, summary.format()  # ... and put down on the table
+    check_cube_on_pad(summary, "gen3")  # the world's ground truth
     # the gripper node reports the simulated fingers: stopped by the cube while carrying it, open at the end
     assert abs(min(widths) - CUBE) < 0.006, (min(widths), summary.format())
     arm = next(a for a in summary.arms if a.role == "arm")

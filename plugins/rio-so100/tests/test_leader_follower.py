@@ -86,17 +86,14 @@ def test_rio_teleop_command_mirrors_with_a_leader_device(tmp_path):
     """`rio teleop STATION --teleop so100.leader --record DIR` (the core command) runs leader-follower,
     ALOHA-style with two pairs, over virtual buses, and records the run as an episode."""
     import os
-    import subprocess
-    import sys
 
     from rio.recording.dataset import Dataset
+    from rio.testing import run_rio
 
     env = {**os.environ, "XDG_CONFIG_HOME": str(tmp_path)}
     data = tmp_path / "aloha"
-    out = subprocess.run([sys.executable, "-m", "rio", "teleop", "so100-bimanual-virtual", "--teleop", "so100.leader",
-                          "--duration", "2.5", "--record", str(data), "--on-end", "keep"],
-                         capture_output=True, text=True, timeout=180, env=env, stdin=subprocess.DEVNULL)
-    assert out.returncode == 0, out.stderr[-2000:]
+    out = run_rio("teleop", "so100-bimanual-virtual", "--teleop", "so100.leader", "--duration", "2.5",
+                  "--record", str(data), "--on-end", "keep", timeout=180, env=env)
     assert "arm <- teleop:" in out.stdout and "arm2 <- teleop2:" in out.stdout
     assert out.stdout.count("aligned after") == 2, out.stdout
     ep = Dataset(data).episode(0)

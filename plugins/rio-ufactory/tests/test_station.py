@@ -5,13 +5,11 @@ recorded episode on the same station. The world's ground truth says the cube was
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 from rio.recording.dataset import Dataset
-from rio.teleop import run_teleop
+from rio.testing import run_rio as rio
+from rio.testing import run_scripted_square
 from rio_ufactory.loopback import PORT_502_HINT, can_listen_on_502
 
 pytestmark = pytest.mark.skipif(not can_listen_on_502(), reason=PORT_502_HINT)
@@ -19,21 +17,9 @@ pytestmark = pytest.mark.skipif(not can_listen_on_502(), reason=PORT_502_HINT)
 STATION = "xarm7-emulator"
 
 
-def rio(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
-    out = subprocess.run([sys.executable, "-m", "rio", *args], capture_output=True, text=True, timeout=timeout,
-                         stdin=subprocess.DEVNULL)
-    assert out.returncode == 0, (out.stdout[-3000:], out.stderr[-3000:])
-    return out
-
-
 @pytest.mark.parametrize("station", ["xarm7-virtual", "lite6-virtual"])
 def test_virtual_stations_trace_the_scripted_square(station):
-    summary = run_teleop(station, "scripted", device_config={"script": "square", "side": 0.05, "speed": 0.15},
-                         middleware="thread", log=None)
-    assert summary.reason == "the device finished", summary.format()
-    arm = next(a for a in summary.arms if a.role == "arm")
-    assert 0.18 < arm.path_m < 0.23, summary.format()  # four 5 cm edges
-    assert np.linalg.norm(arm.end[:3] - arm.start[:3]) < 0.003, summary.format()
+    run_scripted_square(station)
 
 
 @pytest.fixture(scope="module")

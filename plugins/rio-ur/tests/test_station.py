@@ -6,28 +6,14 @@ command against an emulator, through the real command line."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
-import numpy as np
 import pytest
 from rio.teleop import run_teleop
-
-
-def rio(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
-    out = subprocess.run([sys.executable, "-m", "rio", *args], capture_output=True, text=True, timeout=timeout,
-                         stdin=subprocess.DEVNULL)
-    assert out.returncode == 0, (out.stdout[-3000:], out.stderr[-3000:])
-    return out
+from rio.testing import run_rio as rio
+from rio.testing import run_scripted_square
 
 
 def test_the_virtual_station_traces_the_scripted_square():
-    summary = run_teleop("ur5e-virtual", "scripted", device_config={"script": "square", "side": 0.05, "speed": 0.15},
-                         middleware="thread", log=None)
-    assert summary.reason == "the device finished", summary.format()
-    arm = next(a for a in summary.arms if a.role == "arm")
-    assert 0.18 < arm.path_m < 0.23, summary.format()  # four 5 cm edges
-    assert np.linalg.norm(arm.end[:3] - arm.start[:3]) < 0.003, summary.format()
+    run_scripted_square("ur5e-virtual")
 
 
 def test_rio_ur_status_reads_the_emulated_controller(emulator):
@@ -42,9 +28,7 @@ def test_scripted_pick_and_place_on_the_sim_station_carries_the_cube_to_the_pad(
     pytest.importorskip("mujoco")
     pytest.importorskip("rio_sim")
     pytest.importorskip("rio_robotiq")
+    from rio_sim.testing import check_cube_on_pad
+
     summary = run_teleop("ur5e-sim", "scripted", middleware="thread", log=None)  # the emulator: its own process
-    assert summary.reason == "the device finished", summary.format()
-    cube = next(o for o in summary.objects if o.name == "cube")  # the world's ground truth
-    assert np.linalg.norm(cube.end[:2] - cube.start[:2]) > 0.10, summary.format()  # carried to the pad (12 cm) ...
-    assert cube.max_z > cube.start[2] + 0.04, summary.format()  # ... lifted on the way ...
-    assert abs(cube.end[2] - cube.start[2]) < 0.005, summary.format()  # ... and put down
+    check_cube_on_pad(summary, "ur5e")

@@ -32,6 +32,33 @@ def wait_until(pred: Any, timeout: float = 3.0, period: float = 0.005) -> bool:
     return bool(pred())
 
 
+def run_rio(*args: str, timeout: float = 300, env: dict[str, str] | None = None) -> Any:
+    """`python -m rio ARGS` in a fresh process (a command as a user types it), checked to succeed; returns
+    the `subprocess.CompletedProcess` (stdout and stderr as text)."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-m", "rio", *args], capture_output=True, text=True, timeout=timeout,
+                         stdin=subprocess.DEVNULL, env=env)
+    assert out.returncode == 0, (out.stdout[-3000:], out.stderr[-3000:])
+    return out
+
+
+def run_scripted_square(station: str, side: float = 0.05, speed: float = 0.15) -> Any:
+    """Run `station` through the real teleop loop (thread middleware) with the scripted square and check
+    that its arm traced the four `side` edges and came back where it started. Returns the run's summary.
+    Every arm plugin's virtual station test is this one call."""
+    from .teleop import run_teleop
+
+    summary = run_teleop(station, "scripted", device_config={"script": "square", "side": side, "speed": speed},
+                         middleware="thread", log=None)
+    assert summary.reason == "the device finished", summary.format()
+    arm = next(a for a in summary.arms if a.role == "arm")
+    assert 3.6 * side < arm.path_m < 4.6 * side, summary.format()  # four edges, a little rounding either way
+    assert np.linalg.norm(arm.end[:3] - arm.start[:3]) < 0.003, summary.format()
+    return summary
+
+
 @contextmanager
 def lifecycle(node: Node) -> Iterator[Node]:
     """A node's server lifecycle in the caller's thread, without a middleware: `open()`, `opened()` (the
