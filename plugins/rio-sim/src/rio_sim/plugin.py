@@ -7,6 +7,8 @@ from rio.hookspecs import hookimpl
 from rio.requirements import Requirement
 from rio.specs import Spec
 
+from .robots import ROBOTS  # a table of names and files: no MuJoCo
+
 _S = "rio_sim"
 
 
@@ -16,7 +18,7 @@ def rio_drivers() -> list[Spec]:
         Spec("sim.world", "sensor", f"{_S}.world:SimWorld",
              "MuJoCo physics of a sim station (scene, objects' ground-truth poses)"),
         Spec("sim.arm", "arm", f"{_S}.arm:SimArm",
-             "simulated arm (so100, xarm7, xarm6, lite6): joint and end-effector control, IK"),
+             f"simulated arm ({', '.join(ROBOTS)}): joint and end-effector control, IK"),
         Spec("sim.gripper", "gripper", f"{_S}.gripper:SimGripper",
              "simulated parallel gripper"),
         Spec("sim.camera", "camera", f"{_S}.camera:SimCamera",

@@ -120,58 +120,47 @@ def _bimanual() -> Scene:
                  table=(0.35, 0.5), table_center=(0.15, 0.0))
 
 
-def _xarm7() -> Scene:
-    arm = ArmMount("arm", "xarm7")
+def _one_arm(robot: str, label: str, can: tuple[float, float, float, float, float], camera: tuple,
+             table: tuple[float, float], table_center: tuple[float, float]) -> Scene:
+    """An industrial arm's table scene: the pick-and-place cube and pad in front of its home tool
+    position, a can (`can` = radius, half height, x, y, mass) and a front camera (`camera` = position,
+    look-at point)."""
+    arm = ArmMount("arm", robot)
     objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
-    objs += [SceneObject("can", "cylinder", (0.02, 0.04), (0.45, -0.18, 0.04), (0.2, 0.7, 0.3, 1), mass=0.08)]
-    return Scene("xarm7", "xArm7 on a table: a red cube to pick, a blue pad, a can",
-                 (arm,), tuple(objs), (_look((0.9, 0.0, 0.55), (0.35, 0.0, 0.05), 55),),
-                 table=(0.5, 0.5), table_center=(0.3, 0.0))
+    r, h, x, y, mass = can
+    objs += [SceneObject("can", "cylinder", (r, h), (x, y, h), (0.2, 0.7, 0.3, 1), mass=mass)]
+    return Scene(robot, f"{label} on a table: a red cube to pick, a blue pad, a can", (arm,), tuple(objs),
+                 (_look(*camera, 55),), table=table, table_center=table_center)
+
+
+def _xarm7() -> Scene:
+    return _one_arm("xarm7", "xArm7", (0.02, 0.04, 0.45, -0.18, 0.08), ((0.9, 0.0, 0.55), (0.35, 0.0, 0.05)),
+                    (0.5, 0.5), (0.3, 0.0))
 
 
 def _xarm6() -> Scene:
-    arm = ArmMount("arm", "xarm6")
-    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
-    objs += [SceneObject("can", "cylinder", (0.02, 0.04), (0.45, -0.18, 0.04), (0.2, 0.7, 0.3, 1), mass=0.08)]
-    return Scene("xarm6", "xArm6 on a table: a red cube to pick, a blue pad, a can",
-                 (arm,), tuple(objs), (_look((0.9, 0.0, 0.55), (0.35, 0.0, 0.05), 55),),
-                 table=(0.5, 0.5), table_center=(0.3, 0.0))
+    return _one_arm("xarm6", "xArm6", (0.02, 0.04, 0.45, -0.18, 0.08), ((0.9, 0.0, 0.55), (0.35, 0.0, 0.05)),
+                    (0.5, 0.5), (0.3, 0.0))
 
 
 def _lite6() -> Scene:
-    arm = ArmMount("arm", "lite6")
-    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
-    objs += [SceneObject("can", "cylinder", (0.018, 0.035), (0.33, -0.16, 0.035), (0.2, 0.7, 0.3, 1), mass=0.06)]
-    return Scene("lite6", "Lite 6 on a table: a red cube to pick, a blue pad, a can",
-                 (arm,), tuple(objs), (_look((0.7, 0.0, 0.45), (0.25, 0.0, 0.05), 55),),
-                 table=(0.4, 0.45), table_center=(0.2, 0.0))
+    return _one_arm("lite6", "Lite 6", (0.018, 0.035, 0.33, -0.16, 0.06), ((0.7, 0.0, 0.45), (0.25, 0.0, 0.05)),
+                    (0.4, 0.45), (0.2, 0.0))
 
 
 def _panda() -> Scene:
-    arm = ArmMount("arm", "panda")
-    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
-    objs += [SceneObject("can", "cylinder", (0.02, 0.04), (0.55, -0.2, 0.04), (0.2, 0.7, 0.3, 1), mass=0.08)]
-    return Scene("panda", "Panda on a table: a red cube to pick, a blue pad, a can",
-                 (arm,), tuple(objs), (_look((1.0, 0.0, 0.6), (0.45, 0.0, 0.05), 55),),
-                 table=(0.55, 0.5), table_center=(0.35, 0.0))
+    return _one_arm("panda", "Panda", (0.02, 0.04, 0.55, -0.2, 0.08), ((1.0, 0.0, 0.6), (0.45, 0.0, 0.05)),
+                    (0.55, 0.5), (0.35, 0.0))
 
 
 def _ur5e() -> Scene:
-    arm = ArmMount("arm", "ur5e")
-    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
-    objs += [SceneObject("can", "cylinder", (0.02, 0.04), (0.5, -0.2, 0.04), (0.2, 0.7, 0.3, 1), mass=0.08)]
-    return Scene("ur5e", "UR5e on a table: a red cube to pick, a blue pad, a can",
-                 (arm,), tuple(objs), (_look((0.95, 0.0, 0.6), (0.4, 0.0, 0.05), 55),),
-                 table=(0.55, 0.55), table_center=(0.3, 0.0))
+    return _one_arm("ur5e", "UR5e", (0.02, 0.04, 0.5, -0.2, 0.08), ((0.95, 0.0, 0.6), (0.4, 0.0, 0.05)),
+                    (0.55, 0.55), (0.3, 0.0))
 
 
 def _gen3() -> Scene:
-    arm = ArmMount("arm", "gen3")
-    objs = _pick_place_objects(arm, "", ((0.85, 0.2, 0.2, 1), (0.2, 0.4, 0.9, 1)))
-    objs += [SceneObject("can", "cylinder", (0.02, 0.04), (0.55, -0.2, 0.04), (0.2, 0.7, 0.3, 1), mass=0.08)]
-    return Scene("gen3", "Kinova Gen3 on a table: a red cube to pick, a blue pad, a can",
-                 (arm,), tuple(objs), (_look((1.0, 0.0, 0.6), (0.45, 0.0, 0.05), 55),),
-                 table=(0.55, 0.5), table_center=(0.35, 0.0))
+    return _one_arm("gen3", "Kinova Gen3", (0.02, 0.04, 0.55, -0.2, 0.08), ((1.0, 0.0, 0.6), (0.45, 0.0, 0.05)),
+                    (0.55, 0.5), (0.35, 0.0))
 
 
 SCENES = {"so100": _so100, "so100_bimanual": _bimanual, "xarm7": _xarm7, "xarm6": _xarm6, "lite6": _lite6,

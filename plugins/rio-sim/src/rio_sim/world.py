@@ -25,12 +25,12 @@ from rio.node import Node, NodeConfig, client_side, remote
 from .bus import WorldBus
 from .indices import arm_indices
 from .robots import get_robot
-from .scenes import get_scene
+from .scenes import SCENES, get_scene
 
 
 class SimWorld(Node):
     class Config(NodeConfig):
-        scene: str = Field("so100", description="packaged scene: so100, so100_bimanual, xarm7, xarm6, lite6")
+        scene: str = Field("so100", description=f"packaged scene: {', '.join(SCENES)}")
         world: str = Field("sim", description="name the station's sim nodes use to find this world")
         rate_hz: float = Field(250.0, gt=0, description="physics batches per second (state published at this rate)")
         max_steps_per_tick: int = Field(20, ge=1, description="physics steps per tick at most (then time slows)")
