@@ -21,3 +21,25 @@ def test_sim_station_picks_the_cube_and_places_it_on_the_pad():
     summary = run_teleop("panda-sim", "scripted", device_config={"script": "pick_place", "speed": 0.15,
                                                                  "grasp_s": 1.5}, middleware="thread", log=None)
     check_cube_on_pad(summary, "panda")
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    """One scripted pick-and-place recorded by the code of `rio teleop panda-sim --teleop scripted --record`."""
+    pytest.importorskip("rio_sim")
+    pytest.importorskip("mujoco")
+    from rio_sim.testing import record_pick_and_place
+
+    return record_pick_and_place("panda-sim", tmp_path_factory.mktemp("data") / "pick")
+
+
+def test_the_sim_station_records_the_pick_and_place(recorded):
+    from rio_sim.testing import check_recorded_pick_and_place
+
+    check_recorded_pick_and_place(recorded)
+
+
+def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
+    from rio_sim.testing import check_replay_repeats_the_task
+
+    check_replay_repeats_the_task("panda-sim", recorded, tmp_path / "rollout")

@@ -79,40 +79,18 @@ def test_sim_station_picks_the_cube_and_places_it_on_the_pad():
 def recorded(tmp_path_factory):
     """One scripted pick-and-place recorded by the code of `rio teleop gen3-sim --teleop scripted --record`."""
     needs_sim()
-    from rio.teleop.command import teleop
+    from rio_sim.testing import record_pick_and_place
 
-    root = tmp_path_factory.mktemp("data") / "pick"
-    teleop(SIM, device="scripted", instruction="put the red cube on the blue pad", duration=30.0,
-           middleware="thread", record=str(root), on_end="keep")
-    return root
-
-
-def cube_path(root) -> np.ndarray:
-    """The cube's position at every step of episode 0, from the world's ground truth (object 0 is the cube)."""
-    from rio.recording.dataset import Dataset
-
-    return Dataset(root).episode(0).column("meta.sensors.world.object_poses")[:, 0, :3]
+    return record_pick_and_place(SIM, tmp_path_factory.mktemp("data") / "pick")
 
 
 def test_the_recording_holds_the_pick_arm_gripper_and_cameras(recorded):
-    from rio.recording.dataset import Dataset
+    from rio_sim.testing import check_recorded_pick_and_place
 
-    ep = Dataset(recorded).episode(0)
-    assert set(ep.cameras) >= {"front", "wrist"}
-    assert len(ep.column("t")) > 10 * ep.fps
-    cube = cube_path(recorded)
-    assert np.linalg.norm(cube[-1, :2] - cube[0, :2]) > 0.10  # carried over to the pad (12 cm away) ...
-    assert cube[:, 2].max() > cube[0, 2] + 0.04  # ... lifted on the way ...
-    assert abs(cube[-1, 2] - cube[0, 2]) < 0.005  # ... and put down
-    assert not ep.verify()
+    check_recorded_pick_and_place(recorded)
 
 
 def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
-    from rio.policy.deploy import run_deploy
+    from rio_sim.testing import check_replay_repeats_the_task
 
-    rollout = tmp_path / "rollout"
-    summary = run_deploy(SIM, f"replay.episode,episode={recorded}", record=str(rollout), duration=20.0,
-                         middleware="thread", log=None)
-    taught, replayed = cube_path(recorded), cube_path(rollout)
-    assert np.linalg.norm(replayed[-1, :2] - replayed[0, :2]) > 0.10, summary.format()
-    assert np.linalg.norm(replayed[-1, :2] - taught[-1, :2]) < 0.02, summary.format()  # where it was taught
+    check_replay_repeats_the_task(SIM, recorded, tmp_path / "rollout")

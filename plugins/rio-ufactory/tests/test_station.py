@@ -34,33 +34,26 @@ def recorded(tmp_path_factory):
     return root, out.stdout
 
 
-def cube_path(root) -> np.ndarray:
-    """The cube's position at every step of episode 0, from the world's ground truth (object 0 is the cube)."""
-    return Dataset(root).episode(0).column("meta.sensors.world.object_poses")[:, 0, :3]
+def test_scripted_pick_and_place_through_the_sdk_moves_the_cube_to_the_pad_and_records_it(recorded):
+    from rio_sim.testing import check_recorded_pick_and_place
 
-
-def test_scripted_pick_and_place_through_the_sdk_moves_the_cube_to_the_pad(recorded):
     root, _ = recorded
-    cube = cube_path(root)
-    assert np.linalg.norm(cube[-1, :2] - cube[0, :2]) > 0.10  # carried over to the pad (12 cm away) ...
-    assert cube[:, 2].max() > cube[0, 2] + 0.04  # ... lifted on the way ...
-    assert abs(cube[-1, 2] - cube[0, 2]) < 0.005  # ... and put down
+    check_recorded_pick_and_place(root)
 
 
-def test_the_recording_holds_arm_gripper_cameras_and_the_emulator_truth(recorded):
+def test_the_recording_holds_the_emulator_truth(recorded):
     root, _ = recorded
     ep = Dataset(root).episode(0)
-    assert set(ep.cameras) >= {"front", "wrist"}
-    assert len(ep.column("t")) > 10 * ep.fps
     names = ep.columns.dtype.names
     assert "meta.sensors.emulator.joint_pos" in names, names
     truth, measured = ep.column("meta.sensors.emulator.joint_pos"), ep.column("obs.proprio")
     assert truth.shape[1] == 7 and np.isfinite(truth).all()
     assert np.ptp(truth, axis=0).max() > 0.2 and measured.shape[0] == truth.shape[0]  # the arm really moved
-    assert not ep.verify()
 
 
 def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
+    from rio_sim.testing import cube_path
+
     root, _ = recorded
     rollout = tmp_path / "rollout"
     rio("deploy", STATION, "--policy", f"replay.episode,episode={root}", "--duration", "20", "--record",

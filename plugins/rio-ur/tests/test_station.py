@@ -32,3 +32,25 @@ def test_scripted_pick_and_place_on_the_sim_station_carries_the_cube_to_the_pad(
 
     summary = run_teleop("ur5e-sim", "scripted", middleware="thread", log=None)  # the emulator: its own process
     check_cube_on_pad(summary, "ur5e")
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    """One scripted pick-and-place recorded by the code of `rio teleop ur5e-sim --teleop scripted --record`."""
+    pytest.importorskip("rio_sim")
+    pytest.importorskip("mujoco")
+    from rio_sim.testing import record_pick_and_place
+
+    return record_pick_and_place("ur5e-sim", tmp_path_factory.mktemp("data") / "pick")
+
+
+def test_the_sim_station_records_the_pick_and_place(recorded):
+    from rio_sim.testing import check_recorded_pick_and_place
+
+    check_recorded_pick_and_place(recorded)
+
+
+def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
+    from rio_sim.testing import check_replay_repeats_the_task
+
+    check_replay_repeats_the_task("ur5e-sim", recorded, tmp_path / "rollout")

@@ -232,6 +232,16 @@ class FakeController:
             self.world.close()
             self.world = None
 
+    def serves(self, world: tuple[str, str] | None) -> bool:
+        """Whether this box can serve a station asking for `world`: the same kind, and its world running."""
+        if world is None or self.world is None:
+            return world is None and self.world is None
+        try:
+            self.world.check_alive()
+        except Exception:
+            return False
+        return (self.world.arm, self.world.world) == tuple(world)  # (arm, world), as controller() takes it
+
 
 def _xyzw(wxyz) -> list[float]:
     return [float(wxyz[1]), float(wxyz[2]), float(wxyz[3]), float(wxyz[0])]
@@ -370,6 +380,9 @@ def controller(ip: str, model: str | None = None, world: tuple[str, str] | None 
     arm's node names the model; a gripper node that comes first makes an FR3 box the arm then renames."""
     with _LOCK:
         ctl = _CONTROLLERS.get(ip)
+        if ctl is not None and not ctl.serves(world):  # a box left by an earlier station whose world is gone
+            ctl.close()
+            ctl = None
         if ctl is None:
             ctl = _CONTROLLERS[ip] = FakeController(ip, get_arm(model or "fr3"), world)
         elif model is not None and ctl.model.name != model:

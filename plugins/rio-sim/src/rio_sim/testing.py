@@ -37,3 +37,50 @@ def check_cube_on_pad(summary: Any, robot: str, tolerance_m: float = 0.015) -> N
     assert np.linalg.norm(cube.end[:2] - pad[:2]) < tolerance_m, summary.format()  # on the pad ...
     assert cube.max_z > cube.start[2] + 0.04, summary.format()  # ... lifted on the way ...
     assert abs(cube.end[2] - CUBE / 2) < 0.004, summary.format()  # ... and put down on the table
+
+
+def record_pick_and_place(station: str, root: Any, duration: float = 30.0) -> Any:
+    """Record one scripted pick-and-place on sim `station` into dataset `root`, by the code of
+    `rio teleop STATION --teleop scripted --record ROOT` (thread middleware). Returns `root`."""
+    from rio.teleop.command import teleop
+
+    teleop(station, device="scripted", instruction="put the red cube on the blue pad", duration=duration,
+           middleware="thread", record=str(root), on_end="keep")
+    return root
+
+
+def cube_path(root: Any) -> Any:
+    """The cube's position at every step of episode 0 of dataset `root`, from the world's ground truth
+    (the world sensor's object 0 is the cube)."""
+    from rio.recording.dataset import Dataset
+
+    return Dataset(root).episode(0).column("meta.sensors.world.object_poses")[:, 0, :3]
+
+
+def check_recorded_pick_and_place(root: Any) -> None:
+    """Episode 0 of `root` holds the cameras and enough steps, verifies, and its ground truth shows the
+    cube carried over to the pad (12 cm away), lifted on the way and put down."""
+    import numpy as np
+    from rio.recording.dataset import Dataset
+
+    ep = Dataset(root).episode(0)
+    assert set(ep.cameras) >= {"front", "wrist"}, ep.cameras
+    assert len(ep.column("t")) > 10 * ep.fps
+    cube = cube_path(root)
+    assert np.linalg.norm(cube[-1, :2] - cube[0, :2]) > 0.10, cube[[0, -1]]
+    assert cube[:, 2].max() > cube[0, 2] + 0.04, cube[:, 2].max()
+    assert abs(cube[-1, 2] - cube[0, 2]) < 0.005, cube[[0, -1]]
+    assert not ep.verify()
+
+
+def check_replay_repeats_the_task(station: str, root: Any, rollout: Any, duration: float = 20.0) -> None:
+    """`rio deploy STATION --policy replay.episode,episode=ROOT --record ROLLOUT` (its code, thread
+    middleware) carries the cube again and puts it down within 2 cm of where the recording did."""
+    import numpy as np
+    from rio.policy.deploy import run_deploy
+
+    summary = run_deploy(station, f"replay.episode,episode={root}", record=str(rollout), duration=duration,
+                         middleware="thread", log=None)
+    taught, replayed = cube_path(root), cube_path(rollout)
+    assert np.linalg.norm(replayed[-1, :2] - replayed[0, :2]) > 0.10, summary.format()
+    assert np.linalg.norm(replayed[-1, :2] - taught[-1, :2]) < 0.02, summary.format()
