@@ -108,3 +108,24 @@ def test_record_synthetic_helper_and_info(tmp_path):
     assert [m["length"] for m in metas] == [10, 10]
     s = Dataset(tmp_path / "ds").summary()
     assert s["streams"] == ["front.depth", "front.rgb", "wrist.rgb"] and s["steps"] == 20
+
+
+def test_a_station_with_cameras_is_not_recorded_without_its_encoder(tmp_path, monkeypatch):
+    """Without PyAV (its import made to fail) a recording with cameras refuses to start, naming the fix,
+    instead of keeping episodes without their video; one without cameras still records."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "av", None)  # `import av` raises ImportError
+    with pytest.raises(RecordingError, match="needs PyAV: pip install"):
+        Recorder(tmp_path / "cams", fps=30, cameras=True).open()
+    assert not (tmp_path / "cams").exists()
+    with Recorder(tmp_path / "nocams", fps=30, cameras=False) as rec:
+        assert rec.encoder is not None
+
+
+def test_the_encoder_check_passes_with_pyav():
+    from rio.recording.video import VideoOptions, video_problem
+
+    pytest.importorskip("av")
+    assert video_problem(VideoOptions()) is None
+    assert video_problem(VideoOptions(codec="av1")) is None

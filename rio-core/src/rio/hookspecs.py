@@ -66,3 +66,10 @@ def rio_requirements() -> list[Requirement]:
 def rio_cli(app: Any) -> Any:
     """Extra `rio` subcommands. Receives the root typer app: call `app.add_typer(sub, name="so100")`
     (so `rio so100 calibrate` works), or return a dict {name: typer.Typer} to mount."""
+
+
+@hookspec
+def rio_camera_listers() -> list[str]:
+    """Import paths ('package.module:function') of functions that enumerate the plugin's connected
+    cameras, each returning a list of `rio.cameras.CameraDevice`. Called only by `rio cameras list`
+    (they may import the vendor SDK); one that raises is reported with its plugin's name."""

@@ -31,7 +31,7 @@ GROUP = "rio"
 CORE = "rio-core"
 ENV_ONLY = "RIO_LOAD_PLUGINS"
 #: Hooks that return something other than specs (so `specs()` does not handle them).
-OTHER_HOOKS = frozenset({"rio_cli", "rio_requirements"})
+OTHER_HOOKS = frozenset({"rio_cli", "rio_requirements", "rio_camera_listers"})
 
 
 @dataclass
@@ -199,6 +199,18 @@ class Registry:
                     self.report(Problem(plugin, f"rio_requirements: {why}; skipped"))
                     continue
                 out.setdefault(dist, []).append(req)
+        return out
+
+    def camera_listers(self) -> list[tuple[str, str]]:
+        """(plugin distribution, 'module:function') for every camera lister the plugins declare."""
+        out = []
+        for plugin, result in self._each_list("rio_camera_listers", "import path"):
+            dist = self.plugins[plugin].dist if plugin in self.plugins else plugin
+            for path in result:
+                if not isinstance(path, str) or ":" not in path:
+                    self.report(Problem(plugin, f"rio_camera_listers: {path!r} is not 'module:function'; skipped"))
+                    continue
+                out.append((dist, path))
         return out
 
     def extend_cli(self, app: Any) -> None:

@@ -19,6 +19,7 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
     from ..teleop import command as teleop_cmd
     from . import (
         bench_cmd,
+        cameras_cmd,
         datasets_cmd,
         deploy_cmd,
         doctor_cmd,
@@ -42,6 +43,7 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
     app.add_typer(plugins_cmd.app, name="plugins")
     app.add_typer(drivers_cmd.app, name="drivers")
     app.add_typer(stations_cmd.app, name="stations")
+    app.add_typer(cameras_cmd.app, name="cameras")
     app.add_typer(new_cmd.app, name="new")
     app.add_typer(bench_cmd.app, name="bench")
     app.command("doctor")(doctor_cmd.doctor)

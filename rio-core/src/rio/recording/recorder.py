@@ -25,7 +25,7 @@ from . import index as I
 from . import paths as L
 from .encoder import EncoderProcess
 from .episode_writer import EpisodeWriter
-from .video import VideoOptions
+from .video import VideoOptions, video_problem
 
 
 class RecordingError(RioError):
@@ -37,7 +37,7 @@ class Recorder:
                  video: VideoOptions | dict | str | None = None, camera_fps: float | dict[str, float] | None = None,
                  episodes: int | None = None, instruction: str | None = None, metadata: dict | None = None,
                  station: str | None = None, on_exit: str = "keep", keep_discarded: bool = True,
-                 buffer_frames: int = 60, encoder_nice: int = 10):
+                 buffer_frames: int = 60, encoder_nice: int = 10, cameras: bool | None = None):
         """
         root:        dataset directory (created if missing; new episodes are appended)
         fps:         the control rate the steps arrive at (default: `env.rate_hz`)
@@ -46,6 +46,8 @@ class Recorder:
         camera_fps:  nominal camera rate(s) (default: estimated from the frames' timestamps)
         episodes:    how many episodes to keep this session (`done`/`remaining` count towards it)
         on_exit:     what leaving the `with` block does to an episode in progress: "keep" or "discard"
+        cameras:     whether camera streams will be recorded (default: whether `env` has cameras); when
+                     true, `open()` refuses if they could not be encoded (PyAV or its encoder missing)
         """
         self.root = Path(root)
         if fps is None and env is not None:
@@ -62,6 +64,9 @@ class Recorder:
         self.buffer_frames, self.encoder_nice = buffer_frames, encoder_nice
         self.info: dict[str, Any] = {"station": station}
         self.action_dim: int | None = None
+        if cameras is None and env is not None:
+            cameras = bool(getattr(env, "camera_clients", None))
+        self.cameras = bool(cameras)
         if env is not None:
             self.describe_env(env)
         self.kept: list[dict[str, Any]] = []
@@ -90,6 +95,8 @@ class Recorder:
     def open(self) -> Recorder:
         if self.encoder is not None:
             return self
+        if self.cameras and (why := video_problem(self.video)) is not None:
+            raise RecordingError(f"cannot record the station's cameras: {why}")
         self.root.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.root / L.LOCK, os.O_RDWR | os.O_CREAT, 0o644)
         try:

@@ -63,6 +63,24 @@ class VideoOptions:
         return name, {"crf": str(self.crf), "preset": self.preset, "g": g, "threads": str(self.threads)}
 
 
+def video_problem(options: VideoOptions, depth: bool = True) -> str | None:
+    """Why camera streams could not be encoded here (PyAV missing, or its FFmpeg lacking the encoder), or
+    None. Asked before the first episode: finding out in the encoder process would keep episodes
+    without their video."""
+    try:
+        import av
+    except ImportError:
+        return "recording cameras needs PyAV: pip install 'rio-core[record]' (or pip install av)"
+    wanted = [CODECS[options.codec]] + (["ffv1"] if depth else [])
+    for name in wanted:
+        try:
+            av.codec.Codec(name, "w")
+        except Exception:  # av.codec.codec.UnknownCodecError, or no encoder of that name in this FFmpeg
+            return (f"this PyAV's FFmpeg has no '{name}' encoder (codec '{options.codec}'): install the PyAV wheel "
+                    "from PyPI (pip install --force-reinstall av) or choose another codec")
+    return None
+
+
 def _rate(rate: float) -> Fraction:
     return Fraction(rate).limit_denominator(1001)
 

@@ -73,3 +73,9 @@ class Station:
 
     def roles(self) -> set[str]:
         return set(self.components)
+
+    @property
+    def has_cameras(self) -> bool:
+        from .roles import kind_of
+
+        return any(kind_of(r) == "camera" for r in self.components)

@@ -67,7 +67,7 @@ def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, i
         raise typer.BadParameter("--on-end must be ask, keep or discard")
     ask = on_end == "ask" or (on_end == "auto" and sys.stdin.isatty())
     st = prepare_station(station)
-    with Recorder(root, fps=rate or st.rate_hz, station=st.name, instruction=instruction,
+    with Recorder(root, fps=rate or st.rate_hz, station=st.name, instruction=instruction, cameras=st.has_cameras,
                   episodes=episodes) as rec:
         while not rec.done:
             summary = run(on_step=lambda tick: _record_tick(rec, tick))
