@@ -91,6 +91,22 @@ class EncoderProcess:
     def alive(self) -> bool:
         return self.proc.poll() is None
 
+    def exit_reason(self) -> str:
+        """How the process ended, for error messages: a signal (killed: memory? someone's kill?) or an exit
+        code (0: it saw its command pipe close, i.e. this process lost its end of it)."""
+        code = self.proc.poll()
+        if code is None:
+            return "still running"
+        if code < 0:
+            import signal
+
+            try:
+                name = signal.Signals(-code).name
+            except ValueError:
+                name = f"signal {-code}"
+            return f"killed by {name}"
+        return "exit code 0: its command pipe closed under it" if code == 0 else f"exit code {code}"
+
     def poll(self) -> None:
         """Collect asynchronous error reports (never blocks)."""
         try:

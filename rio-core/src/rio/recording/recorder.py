@@ -155,7 +155,8 @@ class Recorder:
             if self.done:
                 raise RecordingError(f"all {self.target} episodes of this session are recorded")
             if not self.encoder.alive():
-                raise RecordingError("the encoder process died; close this recorder and start a new one")
+                raise RecordingError(f"the encoder process died ({self.encoder.exit_reason()}); close this recorder "
+                                     "and start a new one")
             self.writer = EpisodeWriter(
                 self.root, self.next_index(), self.encoder, fps=self.fps, video=self.video,
                 camera_fps=self.camera_fps, instruction=instruction or self.instruction, info=self.info,
