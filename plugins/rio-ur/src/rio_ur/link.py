@@ -68,6 +68,8 @@ class URLink:
         if self.connected:
             return True
         now = time.monotonic()
+        if self._last_try == -np.inf:  # just noticed: the first try comes a period later, like the next ones
+            self._last_try = now
         if now - self._last_try < period_s:
             return False
         self._last_try = now
@@ -82,6 +84,7 @@ class URLink:
             log.warning("UR at %s: reconnect failed: %s", self.ip, e)
             return False
         log.warning("UR at %s: reconnected", self.ip)
+        self._last_try = -np.inf
         return True
 
     def dashboard(self) -> Any:
