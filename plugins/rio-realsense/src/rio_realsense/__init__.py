@@ -1,0 +1,1 @@
+"""RIO plugin for Intel RealSense cameras: see README.md. Importing it imports no camera SDK."""
