@@ -118,7 +118,8 @@ class Node(Configurable):
     def close(self) -> None:
         """Release the device. Always runs once the loop ends, including after an error."""
 
-    def read_state(self) -> Mapping[str, Any]:
+    def read_state(self) -> Mapping[str, Any] | None:
+        """This cycle's sample, or None to publish nothing this cycle (a camera with no new frame)."""
         raise NotImplementedError(f"{type(self).__name__} publishes but does not define read_state()")
 
     def handle_request(self, request: dict[str, Any]) -> None:

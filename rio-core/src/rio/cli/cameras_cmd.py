@@ -27,5 +27,8 @@ def list_cameras(as_json: Annotated[bool, typer.Option("--json", help="Machine-r
         table("Connected cameras", ("driver", "select with", "model", "firmware", "modes"), rows)
     else:
         console().print("No camera found by the installed camera plugins.", markup=False)
+    for d in devices:
+        if d.note:
+            console().print(f"{d.driver} {d.select_field} = {d.id}: {d.note}", markup=False)
     for line in problems:
         console().print(f"could not list: {line}", markup=False)
