@@ -121,3 +121,49 @@ def test_get_state_k_and_out_on_client():
             out = {"i": np.zeros(3, np.int64)}
             c.get_state(k=3, out=out)
             assert np.all(np.diff(out["i"]) == 1)
+
+
+class Arrivals(Node):
+    """Samples made by a thread of its own (like a camera's grab thread), 25 of them, each announced
+    through `arrival_event()`; the node's `rate_hz` is 1, so a paced loop would publish about one a second."""
+
+    def setup(self):
+        self.example_data = {"i": 0}
+        self.arrived = threading.Event()
+        self.made = self.taken = 0
+        self.lock = threading.Lock()
+
+    def open(self):
+        def produce():
+            for _ in range(25):
+                time.sleep(0.02)
+                with self.lock:
+                    self.made += 1
+                self.arrived.set()
+
+        threading.Thread(target=produce, daemon=True).start()
+
+    def arrival_event(self):
+        return self.arrived
+
+    def read_state(self):
+        with self.lock:
+            if self.made == self.taken:
+                return None  # nothing new: publish nothing
+            self.taken = self.made
+            return {"i": self.made}
+
+
+def test_a_node_with_an_arrival_event_publishes_each_sample_as_it_arrives():
+    with ServerManager("thread", [serve(Arrivals, name="a", rate_hz=1)]):
+        with connect(Arrivals, "thread", name="a") as c:
+            seen = set()
+            t_end = time.monotonic() + 10
+            while time.monotonic() < t_end and 25 not in seen:
+                try:
+                    seen.add(int(c.get_state()["i"]))
+                except rio.RioError:  # nothing published before the first arrival
+                    pass
+                time.sleep(0.002)
+            assert 25 in seen
+            assert len(seen) >= 10  # paced at 1 Hz it would have published a handful

@@ -122,6 +122,12 @@ class Node(Configurable):
         """This cycle's sample, or None to publish nothing this cycle (a camera with no new frame)."""
         raise NotImplementedError(f"{type(self).__name__} publishes but does not define read_state()")
 
+    def arrival_event(self) -> threading.Event | None:
+        """For a node whose samples come from a thread of its own (a camera's grab thread): an Event it sets
+        when a new sample is ready, so the runtime publishes it at once instead of at `rate_hz`. None (the
+        default): published at `rate_hz`. Asked once, after `open()`."""
+        return None
+
     def handle_request(self, request: dict[str, Any]) -> None:
         raise NotImplementedError(f"{type(self).__name__} takes requests but does not define handle_request()")
 

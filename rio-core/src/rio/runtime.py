@@ -68,6 +68,10 @@ class NodeRunner:
 
     # -- loops --------------------------------------------------------------------------------------
     def _pub_loop(self, with_requests: bool) -> None:
+        arrived = None if with_requests else self.node.arrival_event()
+        if arrived is not None:
+            self._arrival_loop(arrived)
+            return
         rate = clock.Rate(self.node.rate_hz, spin_s=NODE_SPIN_S)
         ev = self.node.exit_event
         while not ev.is_set():
@@ -76,6 +80,16 @@ class NodeRunner:
             self._publish_once()
             rate.sleep()
         self.overruns = rate.overruns
+
+    def _arrival_loop(self, arrived: threading.Event) -> None:
+        """Publish each sample as it arrives (a camera's grab thread sets `arrived`), not on a clock: a
+        frame polled at the camera's own rate waits half a frame period on average, and is sometimes
+        skipped when the two clocks drift."""
+        ev = self.node.exit_event
+        while not ev.is_set():
+            if arrived.wait(_IDLE_WAIT_S):
+                arrived.clear()  # before reading: a frame landing meanwhile sets it again
+                self._publish_once()
 
     def _req_loop(self) -> None:
         q, ev = self.node.request_queue, self.node.exit_event
