@@ -106,10 +106,10 @@ def test_frames_are_new_each_time_and_stamped_before_they_arrive(serial, collect
         take = cam.grabber.take
 
         def recording_take():
-            frame = take()
-            if frame is not None:
-                taken.append(frame)
-            return frame
+            got = take()
+            if got is not None:
+                taken.append(got[0])
+            return got
 
         cam.grabber.take = recording_take
         samples = []
@@ -155,7 +155,7 @@ def test_settings_reach_the_sensor_options(serial):
 
     cam = software(serial, depth=True, exposure=10000, white_balance=4000, emitter=False, hardware_sync="master")
     with lifecycle(cam):
-        dev = cam.grabber._source.device()
+        dev = cam.stream.source.device()
         color, depth = (next(s for s in dev.query_sensors() if s.get_info(rs.camera_info.name) == n)
                         for n in ("RGB Camera", "Stereo Module"))
         assert color.get_option(rs.option.enable_auto_exposure) == 0

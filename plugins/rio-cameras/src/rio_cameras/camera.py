@@ -1,6 +1,6 @@
 """`ThreadedCamera`: the camera node every driver of this plugin is, over a device opened in `connect()`.
 
-A driver writes only `connect()` (open the device, return a `grabber.Source`), `where()` (the device as
+A driver writes only `connect()` (open the device, return a `rio.interfaces.grabber.Source`), `where()` (the device as
 messages name it) and, if it has any, `details()` (what it negotiated). This class owns the rest: the grab
 thread with its reopen-once-a-second, the first-frame wait, resizing to the configured size, and the
 published sample: the kind's `rgb` / `intrinsics` (/ `depth` / `depth_scale`) plus
@@ -19,12 +19,12 @@ import numpy as np
 from pydantic import Field
 from rio import clock
 from rio.interfaces import CameraNode
+from rio.interfaces.grabber import Grabber, Source
 from rio.node import remote
 
 from .errors import CameraError
 from .fit import fit_frame
 from .frames import Frame
-from .grabber import Grabber, Source
 
 log = logging.getLogger("rio_cameras")
 
@@ -69,6 +69,10 @@ class ThreadedCamera(CameraNode):
         c = self.config
         self.grabber = Grabber(self.label, self.connect, process=self._prepare, reopen_s=c.reopen_s, log=log)
         self.grabber.start(c.open_timeout_s)
+
+    def arrival_event(self) -> Any:
+        """Each grabbed frame is published as it lands (not polled at the frame rate)."""
+        return self.grabber.arrived if self.grabber is not None else None
 
     def close(self) -> None:
         if self.grabber is not None:

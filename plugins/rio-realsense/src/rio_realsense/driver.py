@@ -12,7 +12,7 @@ One driver for the D400 family (D405, D415, D435(i), D455) and, through the spec
   the loop happened to publish it;
 - `frame_age`: seconds from `t_frame` to the publish (how old the picture was when it went out).
 
-Frames are grabbed in a thread of the driver's own (`grabber.py`) from a frame source
+Frames are grabbed in core's grab thread (`rio.interfaces.Grabber`, through `stream.py`) from a frame source
 (`sources/`): the camera's `rs.pipeline` (`source = "device"`) or a software camera
 (`source = "software"`, no hardware). The SDK is imported only in `open()`.
 """
@@ -26,10 +26,11 @@ import numpy as np
 from pydantic import Field, model_validator
 from rio import clock
 from rio.interfaces import CameraNode
+from rio.interfaces.grabber import Grabber
 from rio.node import remote
 
 from .errors import RealSenseError
-from .grabber import Grabber
+from .stream import RealSenseStream
 
 log = logging.getLogger("rio_realsense")
 
@@ -82,6 +83,8 @@ class RealSenseCamera(CameraNode):
         super().setup()
         self.example_data.update(frame_number=np.int64(0), t_frame=0.0, frame_age=0.0, timestamp=0.0)
         self.grabber: Grabber | None = None
+        self.stream: RealSenseStream | None = None
+        self.serial = ""
         self.model = ""
         self.firmware = ""
         self.depth_scale = 0.0
@@ -90,12 +93,16 @@ class RealSenseCamera(CameraNode):
     # -- lifecycle --------------------------------------------------------------------------------------
     def open(self) -> None:
         c = self.config
-        self.grabber = Grabber(self._connect, c.serial, frame_timeout_s=c.frame_timeout_s,
-                               reconnect_s=c.reconnect_s, log=log)
+        self.grabber = Grabber(f"RealSense {c.serial or c.product_line}", self._connect, reopen_s=c.reconnect_s,
+                               log=log)
         self.grabber.start(c.open_timeout_s)
-        log.info("RealSense %s (%s, firmware %s) on node '%s': %dx%d@%g%s, %s", self.grabber.serial, self.model,
+        log.info("RealSense %s (%s, firmware %s) on node '%s': %dx%d@%g%s, %s", self.serial, self.model,
                  self.firmware, self.name, self.width, self.height, self.rate_hz,
                  f" + depth (scale {self.depth_scale:g} m)" if self.has_depth else "", self.settings)
+
+    def arrival_event(self) -> Any:
+        """Each frame is published as it lands (not polled at the frame rate)."""
+        return self.grabber.arrived if self.grabber is not None else None
 
     def close(self) -> None:
         if self.grabber is not None:
@@ -114,7 +121,7 @@ class RealSenseCamera(CameraNode):
 
         return DeviceSource(*args)
 
-    def _connect(self) -> tuple[Any, Any]:
+    def _connect(self) -> RealSenseStream:
         """Open the source, write the config's settings, read what the driver publishes about it (the
         grab thread calls this again after every loss)."""
         import pyrealsense2 as rs
@@ -133,7 +140,12 @@ class RealSenseCamera(CameraNode):
                 self.depth_scale = float(dev.first_depth_sensor().get_depth_scale())
                 if not 0.0 < self.depth_scale <= 0.1:
                     raise RealSenseError(source.serial, f"depth sensor reports depth scale {self.depth_scale}")
-            return source, FrameProcessor(source.serial, self.width, self.height, self.has_depth)
+            self.serial = source.serial
+            self.stream = RealSenseStream(source, FrameProcessor(source.serial, self.width, self.height,
+                                                                 self.has_depth),
+                                          frame_timeout_s=self.config.frame_timeout_s,
+                                          open_timeout_s=self.config.open_timeout_s)
+            return self.stream
         except BaseException:
             source.close()
             raise
@@ -141,9 +153,10 @@ class RealSenseCamera(CameraNode):
     # -- publishing -------------------------------------------------------------------------------------
     def read_state(self) -> dict[str, Any] | None:
         assert self.grabber is not None, "read_state() before open()"
-        frame = self.grabber.take()
-        if frame is None:
+        got = self.grabber.take()
+        if got is None:
             return None
+        frame = got[0]
         out: dict[str, Any] = {"rgb": frame.rgb, "intrinsics": frame.intrinsics, "frame_number": np.int64(frame.number),
                                "t_frame": frame.t_frame, "timestamp": frame.t_frame,
                                "frame_age": clock.now() - frame.t_frame}
@@ -157,7 +170,9 @@ class RealSenseCamera(CameraNode):
         """What this camera is: serial, model, firmware, published mode, depth scale, the settings written,
         and the grab thread's health (connected, frames, lost / reconnect counts, last error)."""
         status = self.grabber.status() if self.grabber is not None else {"connected": False}
-        return {"serial": self.grabber.serial if self.grabber else self.config.serial, "model": self.model,
+        if self.stream is not None:
+            status.update(incomplete_framesets=self.stream.incomplete, clock_offset_s=self.stream.clock_offset)
+        return {"serial": self.serial or self.config.serial, "model": self.model,
                 "firmware": self.firmware, "source": self.config.source,
                 "mode": f"{self.width}x{self.height}@{self.rate_hz:g}", "depth": self.has_depth,
                 "depth_scale": self.depth_scale, "settings": self.settings, **status}

@@ -29,6 +29,11 @@ class Frame:
     t_arrival: float
     intrinsics: np.ndarray
 
+    @property
+    def t(self) -> float:
+        """The capture time (what `rio.interfaces.Grabber` reports a frame's age from)."""
+        return self.t_frame
+
 
 def intrinsics_matrix(intr: Any) -> np.ndarray:
     """The 3x3 pinhole matrix of an `rs.intrinsics` (fx, fy, ppx, ppy in pixels)."""

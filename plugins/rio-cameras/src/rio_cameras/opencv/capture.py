@@ -1,4 +1,4 @@
-"""A `cv2.VideoCapture` as a grab-thread source (`rio_cameras.grabber.Source`).
+"""A `cv2.VideoCapture` as a grab-thread source (`rio.interfaces.grabber.Source`).
 
 Everything after the capture is the same for a webcam, an RTSP stream, a video file and the test pattern:
 read, stamp with `rio.clock.now()`, convert OpenCV's BGR to the contract's RGB. Video files and the pattern
@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 from rio import clock
+from rio.interfaces.grabber import SourceFinished
 
 from ..frames import Frame
-from ..grabber import SourceFinished
 
 #: Station spelling -> OpenCV's constant name.
 BACKENDS = {"any": "CAP_ANY", "v4l2": "CAP_V4L2", "ffmpeg": "CAP_FFMPEG", "gstreamer": "CAP_GSTREAMER",

@@ -1,4 +1,4 @@
-"""The grab thread every driver of this plugin runs its device in.
+"""The grab thread a camera driver runs its device in (`rio.interfaces.Grabber`).
 
 A camera read blocks (a V4L2 `select()`, an RTSP socket, an SDK queue), sometimes for seconds when
 something goes wrong; the node loop must never wait on it. So each camera grabs in its own thread and
@@ -17,10 +17,19 @@ import threading
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from rio import clock
+from .. import clock
+from ..errors import RioError
 
-from .errors import CameraError, SourceLost
-from .frames import Frame
+Frame = Any  # whatever the driver's source returns; a frame with a `t` attribute (its capture time) shows an age
+
+
+class CameraError(RioError):
+    """A camera could not be opened or stopped delivering; the message names the camera and what to try."""
+
+
+class SourceLost(CameraError):
+    """An open camera stopped delivering (unplugged, stream ended, SDK said so). The grab thread closes it
+    and reopens it; the node stays up."""
 
 
 class Source(Protocol):
@@ -39,11 +48,12 @@ class SourceFinished(CameraError):
 
 
 class Grabber:
-    def __init__(self, label: str, connect: Callable[[], Source], *, process: Callable[[Frame], Frame],
+    def __init__(self, label: str, connect: Callable[[], Source], *,
+                 process: Callable[[Frame], Frame] = lambda frame: frame,
                  reopen_s: float = 1.0, max_failed_reads: int = 3, log: logging.Logger | None = None):
         self.label, self._connect, self._process = label, connect, process
         self.reopen_s, self.max_failed_reads = float(reopen_s), int(max_failed_reads)
-        self.log = log or logging.getLogger("rio_cameras")
+        self.log = log or logging.getLogger("rio.camera")
         self._source: Source | None = None
         self._source_lock = threading.Lock()
         self._frame_lock = threading.Lock()
@@ -51,6 +61,8 @@ class Grabber:
         self._index = 0  # frames grabbed since start
         self._taken = 0  # index of the last frame handed out
         self._first = threading.Event()
+        #: set on every new frame: the node's `arrival_event()` (published as it lands)
+        self.arrived = threading.Event()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         #: why the device was lost, and why the last reopen failed (None while it delivers)
@@ -104,7 +116,7 @@ class Grabber:
         with self._frame_lock:
             latest, index = self._latest, self._index
         return {"connected": self._source is not None, "error": self.error, "frames": index,
-                "last_frame_age_s": None if latest is None else clock.now() - latest.t,
+                "last_frame_age_s": None if (t := getattr(latest, "t", None)) is None else clock.now() - t,
                 "lost": self.lost, "reopened": self.reopened, "finished": self.finished}
 
     # -- the thread ------------------------------------------------------------------------------------
@@ -139,6 +151,7 @@ class Grabber:
                     self._latest = frame
                     self._index += 1
                 self._first.set()
+                self.arrived.set()
         finally:
             self._close_source()
 
