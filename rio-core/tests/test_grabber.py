@@ -4,6 +4,7 @@ finished source not reopened, and a start without a first frame failing with the
 
 from __future__ import annotations
 
+import logging
 import threading
 
 import pytest
@@ -60,7 +61,8 @@ def test_empty_reads_in_a_row_are_a_loss_and_the_device_is_reopened():
         g.stop()
 
 
-def test_an_error_is_a_loss_a_failed_reopen_is_retried():
+def test_an_error_is_a_loss_a_failed_reopen_is_retried(caplog):
+    caplog.set_level(logging.INFO, logger="rio.camera")
     calls = []
 
     def connect():
@@ -78,6 +80,10 @@ def test_an_error_is_a_loss_a_failed_reopen_is_retried():
         assert len(calls) >= 3 and g.status()["lost"] == 1 and g.status()["error"] is None
     finally:
         g.stop()
+    said = [(r.levelno, r.getMessage()) for r in caplog.records]
+    assert (logging.ERROR, "cam 'x': lost: SourceLost: unplugged; the node stays up and reopens it every 0.01 s") \
+        in said
+    assert any(level == logging.WARNING and m.startswith("cam 'x': reopened") for level, m in said)
 
 
 def test_a_finished_source_is_not_reopened():

@@ -43,3 +43,16 @@ def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
     from rio_sim.testing import check_replay_repeats_the_task
 
     check_replay_repeats_the_task("panda-sim", recorded, tmp_path / "rollout")
+
+
+def test_sim_station_over_shm_each_node_in_its_own_process():
+    """Over shm the arm's and the hand's nodes are separate processes, each with its own fake control
+    box on the one simulated robot: neither may hold the other's joints (the box that was sent arm
+    motions drives the arm, the one sent hand commands the fingers)."""
+    pytest.importorskip("rio_sim")
+    pytest.importorskip("mujoco")
+    from rio_sim.testing import check_cube_on_pad
+
+    summary = run_teleop("panda-sim", "scripted", device_config={"script": "pick_place", "speed": 0.15,
+                                                                 "grasp_s": 1.5}, middleware="shm", log=None)
+    check_cube_on_pad(summary, "panda")

@@ -1,5 +1,5 @@
 """A camera that goes away (the software camera unplugged: no more frames, and it cannot be opened)
-leaves the node running, publishing nothing, with a `RealSenseError` naming the serial in the log;
+leaves the node running, publishing nothing, with an error naming the serial in the log;
 when it comes back the node reconnects, says so, and frames resume. Served by the runtime on the
 thread middleware, as in a station."""
 

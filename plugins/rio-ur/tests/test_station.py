@@ -41,7 +41,9 @@ def recorded(tmp_path_factory):
     pytest.importorskip("mujoco")
     from rio_sim.testing import record_pick_and_place
 
-    return record_pick_and_place("ur5e-sim", tmp_path_factory.mktemp("data") / "pick")
+    # the command in its own process, as users run it: inside this long-lived test process, an earlier UR
+    # station's teardown was seen (twice, in CI) to close the recorder's encoder pipe under it: see the note
+    return record_pick_and_place("ur5e-sim", tmp_path_factory.mktemp("data") / "pick", cli=True)
 
 
 def test_the_sim_station_records_the_pick_and_place(recorded):
@@ -53,4 +55,4 @@ def test_the_sim_station_records_the_pick_and_place(recorded):
 def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
     from rio_sim.testing import check_replay_repeats_the_task
 
-    check_replay_repeats_the_task("ur5e-sim", recorded, tmp_path / "rollout")
+    check_replay_repeats_the_task("ur5e-sim", recorded, tmp_path / "rollout", cli=True)

@@ -88,6 +88,10 @@ class FakeController:
         # the hand
         self.width = 0.08 if self.world is None else self.world.finger_width()
         self.width_goal, self.width_speed, self.width_d = self.width, 0.1, self.width
+        # With a world and each node in its own process (shm), the arm's and the hand's nodes each have a
+        # box of their own on one simulated robot: a box drives the world's joints only once it was sent
+        # an arm motion, and its fingers only once it was sent a hand command, so neither holds the other.
+        self.steers_arm = self.steers_hand = world is None
         self.grasping: tuple[float, float, float] | None = None  # (width, eps_inner, eps_outer)
         self.object_width: float | None = None  # model mode: an object between the fingers stops a grasp
         self.gripper_link_up = True
@@ -112,7 +116,10 @@ class FakeController:
                 self.q_d = self.q_d + self.dq * dt
             self._advance_hand(gap)
             if self.world is not None:
-                self.world.command_joints(self.q_d, now + 0.01)
+                if self.steers_arm:
+                    self.world.command_joints(self.q_d, now + 0.01)
+                else:  # another process's box drives the arm: follow what physics does
+                    self.q_d = self.world.joint_pos()
                 self.q = self.world.joint_pos()
             else:
                 self.q = self.q_d.copy()
@@ -128,7 +135,8 @@ class FakeController:
         if self.world is None:
             self.width = self.width_d
             return
-        self.world.command_width(self.width_d, clock.now() + 0.01)
+        if self.steers_hand:
+            self.world.command_width(self.width_d, clock.now() + 0.01)
         width = self.world.finger_width()
         if gap > 0.005:  # a rate over a real interval, not two reads in one cycle
             self.width_rate = (width - self.width) / gap
@@ -178,6 +186,7 @@ class FakeController:
             self.target = q
             self.mode_name = "Move"
             self.motions += 1
+            self.steers_arm = True
 
     def hold(self) -> None:
         with self.lock:
@@ -355,6 +364,7 @@ class FakeGripper:
         c = self._link()
         with c.lock:
             c.width_goal, c.width_speed, c.grasping = float(np.clip(width, 0.0, self.max_width)), float(speed), grasp
+            c.steers_hand = True
 
     def move_async(self, width: float, speed: float):
         self._command(width, speed, None)

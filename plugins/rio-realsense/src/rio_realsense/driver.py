@@ -93,6 +93,7 @@ class RealSenseCamera(CameraNode):
     # -- lifecycle --------------------------------------------------------------------------------------
     def open(self) -> None:
         c = self.config
+        self.stream = None
         self.grabber = Grabber(f"RealSense {c.serial or c.product_line}", self._connect, reopen_s=c.reconnect_s,
                                log=log)
         self.grabber.start(c.open_timeout_s)
@@ -141,10 +142,14 @@ class RealSenseCamera(CameraNode):
                 if not 0.0 < self.depth_scale <= 0.1:
                     raise RealSenseError(source.serial, f"depth sensor reports depth scale {self.depth_scale}")
             self.serial = source.serial
+            if self.grabber is not None:  # with no serial configured, the camera chosen: logs name it
+                self.grabber.label = f"RealSense {source.serial}"
+            before = self.stream.incomplete if self.stream is not None else 0  # counted since open()
             self.stream = RealSenseStream(source, FrameProcessor(source.serial, self.width, self.height,
                                                                  self.has_depth),
                                           frame_timeout_s=self.config.frame_timeout_s,
                                           open_timeout_s=self.config.open_timeout_s)
+            self.stream.incomplete = before
             return self.stream
         except BaseException:
             source.close()
@@ -176,6 +181,7 @@ class RealSenseCamera(CameraNode):
                 "firmware": self.firmware, "source": self.config.source,
                 "mode": f"{self.width}x{self.height}@{self.rate_hz:g}", "depth": self.has_depth,
                 "depth_scale": self.depth_scale, "settings": self.settings, **status}
+
 
 def _info(dev: Any, what: Any) -> str:
     return str(dev.get_info(what)) if dev.supports(what) else ""

@@ -39,13 +39,22 @@ def check_cube_on_pad(summary: Any, robot: str, tolerance_m: float = 0.015) -> N
     assert abs(cube.end[2] - CUBE / 2) < 0.004, summary.format()  # ... and put down on the table
 
 
-def record_pick_and_place(station: str, root: Any, duration: float = 30.0) -> Any:
+def record_pick_and_place(station: str, root: Any, duration: float = 30.0, cli: bool = False) -> Any:
     """Record one scripted pick-and-place on sim `station` into dataset `root`, by the code of
-    `rio teleop STATION --teleop scripted --record ROOT` (thread middleware). Returns `root`."""
+    `rio teleop STATION --teleop scripted --record ROOT` (thread middleware), or (`cli`) by that command
+    in a process of its own with the station's middleware. Returns `root`."""
+    instruction = "put the red cube on the blue pad"
+    if cli:
+        from rio.testing import run_rio
+
+        out = run_rio("teleop", station, "--teleop", "scripted", "--duration", f"{duration:g}", "--record",
+                      str(root), "--on-end", "keep", "--instruction", instruction)
+        assert "1 episode(s) kept" in out.stdout, out.stdout[-2000:]
+        return root
     from rio.teleop.command import teleop
 
-    teleop(station, device="scripted", instruction="put the red cube on the blue pad", duration=duration,
-           middleware="thread", record=str(root), on_end="keep")
+    teleop(station, device="scripted", instruction=instruction, duration=duration, middleware="thread",
+           record=str(root), on_end="keep")
     return root
 
 
@@ -73,14 +82,24 @@ def check_recorded_pick_and_place(root: Any) -> None:
     assert not ep.verify()
 
 
-def check_replay_repeats_the_task(station: str, root: Any, rollout: Any, duration: float = 20.0) -> None:
+def check_replay_repeats_the_task(station: str, root: Any, rollout: Any, duration: float = 20.0,
+                                  cli: bool = False) -> None:
     """`rio deploy STATION --policy replay.episode,episode=ROOT --record ROLLOUT` (its code, thread
-    middleware) carries the cube again and puts it down within 2 cm of where the recording did."""
+    middleware; or `cli`: the command in a process of its own) carries the cube again and puts it down
+    within 2 cm of where the recording did."""
     import numpy as np
-    from rio.policy.deploy import run_deploy
 
-    summary = run_deploy(station, f"replay.episode,episode={root}", record=str(rollout), duration=duration,
-                         middleware="thread", log=None)
+    policy = f"replay.episode,episode={root}"
+    if cli:
+        from rio.testing import run_rio
+
+        said = run_rio("deploy", station, "--policy", policy, "--duration", f"{duration:g}", "--record",
+                       str(rollout)).stdout[-2000:]
+    else:
+        from rio.policy.deploy import run_deploy
+
+        said = run_deploy(station, policy, record=str(rollout), duration=duration, middleware="thread",
+                          log=None).format()
     taught, replayed = cube_path(root), cube_path(rollout)
-    assert np.linalg.norm(replayed[-1, :2] - replayed[0, :2]) > 0.10, summary.format()
-    assert np.linalg.norm(replayed[-1, :2] - taught[-1, :2]) < 0.02, summary.format()
+    assert np.linalg.norm(replayed[-1, :2] - replayed[0, :2]) > 0.10, said
+    assert np.linalg.norm(replayed[-1, :2] - taught[-1, :2]) < 0.02, said

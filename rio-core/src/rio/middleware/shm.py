@@ -64,7 +64,11 @@ class _Segment:
         self.mm = mmap.mmap(self.fd, size)
 
     def close(self) -> None:
-        os.close(self.fd)  # the mapping goes with the last numpy view (closing it here would raise)
+        # the mapping goes with the last numpy view (closing it here would raise); the descriptor is closed
+        # once: a second os.close() of the same number would close whatever the process opened since
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
 
 
 class _FlockLock:
@@ -117,7 +121,9 @@ class _FifoNotifier:
         return bool(r)
 
     def close(self) -> None:
-        os.close(self.fd)
+        if self.fd >= 0:  # once: the number may be reused by the next descriptor the process opens
+            os.close(self.fd)
+            self.fd = -1
 
 
 def _attach(layouts: NodeLayouts, res: dict[str, Any]) -> tuple[list[_Segment], RingBuffer | None,

@@ -73,7 +73,9 @@ class FrameRing:
             self.mm.close()
         except BufferError:
             pass
-        try:
-            os.close(self.fd)
-        except OSError:
-            pass
+        if self.fd >= 0:  # once: a second close of the number would close whatever reused it
+            try:
+                os.close(self.fd)
+            except OSError:
+                pass
+            self.fd = -1
