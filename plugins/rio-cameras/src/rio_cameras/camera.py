@@ -19,7 +19,7 @@ import numpy as np
 from pydantic import Field
 from rio import clock
 from rio.interfaces import CameraNode
-from rio.interfaces.grabber import Grabber, Source
+from rio.interfaces.grabber import Grabber, GrabbingCamera, Source
 from rio.node import remote
 
 from .errors import CameraError
@@ -29,7 +29,7 @@ from .frames import Frame
 log = logging.getLogger("rio_cameras")
 
 
-class ThreadedCamera(CameraNode):
+class ThreadedCamera(GrabbingCamera, CameraNode):
     class Config(CameraNode.Config):
         open_timeout_s: float = Field(10.0, gt=0, description="how long opening waits for the first frame (s)")
         reopen_s: float = Field(1.0, gt=0, le=60, description="seconds between reopen attempts after the "
@@ -69,15 +69,6 @@ class ThreadedCamera(CameraNode):
         c = self.config
         self.grabber = Grabber(self.label, self.connect, process=self._prepare, reopen_s=c.reopen_s, log=log)
         self.grabber.start(c.open_timeout_s)
-
-    def arrival_event(self) -> Any:
-        """Each grabbed frame is published as it lands (not polled at the frame rate)."""
-        return self.grabber.arrived if self.grabber is not None else None
-
-    def close(self) -> None:
-        if self.grabber is not None:
-            self.grabber.stop()
-            self.grabber = None
 
     def _prepare(self, frame: Frame) -> Frame:
         """In the grab thread: the frame at the configured size with intrinsics, ready to publish."""

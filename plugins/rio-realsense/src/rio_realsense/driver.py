@@ -26,7 +26,7 @@ import numpy as np
 from pydantic import Field, model_validator
 from rio import clock
 from rio.interfaces import CameraNode
-from rio.interfaces.grabber import Grabber
+from rio.interfaces.grabber import Grabber, GrabbingCamera
 from rio.node import remote
 
 from .errors import RealSenseError
@@ -34,7 +34,7 @@ from .stream import RealSenseStream
 
 log = logging.getLogger("rio_realsense")
 
-class RealSenseCamera(CameraNode):
+class RealSenseCamera(GrabbingCamera, CameraNode):
     """Publishes the newest frameset at `rate_hz` (the camera's frame rate); one not grabbed in time is
     not published."""
 
@@ -100,15 +100,6 @@ class RealSenseCamera(CameraNode):
         log.info("RealSense %s (%s, firmware %s) on node '%s': %dx%d@%g%s, %s", self.serial, self.model,
                  self.firmware, self.name, self.width, self.height, self.rate_hz,
                  f" + depth (scale {self.depth_scale:g} m)" if self.has_depth else "", self.settings)
-
-    def arrival_event(self) -> Any:
-        """Each frame is published as it lands (not polled at the frame rate)."""
-        return self.grabber.arrived if self.grabber is not None else None
-
-    def close(self) -> None:
-        if self.grabber is not None:
-            self.grabber.stop()
-            self.grabber = None
 
     def _source(self) -> Any:
         c = self.config

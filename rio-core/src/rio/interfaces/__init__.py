@@ -29,7 +29,7 @@ published as NaN, never as a made-up number.
 from .arm import EEF, IDENTITY_POSE, JOINT, ArmNode
 from .camera import CameraNode
 from .faults import FAULT_KEYS, Fault, FaultHolding
-from .grabber import CameraError, Grabber, SourceFinished, SourceLost
+from .grabber import CameraError, Grabber, GrabbingCamera, SourceFinished, SourceLost
 from .gripper import GripperNode
 from .hand import HandNode, HumanoidNode
 from .joints import JointNode
@@ -38,4 +38,4 @@ from .teleop import TeleopNode
 
 __all__ = ["ArmNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "JointNode",
            "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolding", "FAULT_KEYS", "ModelTableArm",
-           "Grabber", "CameraError", "SourceLost", "SourceFinished"]
+           "Grabber", "GrabbingCamera", "CameraError", "SourceLost", "SourceFinished"]
