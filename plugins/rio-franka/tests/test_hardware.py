@@ -11,11 +11,10 @@ Read-only unless motion is allowed.
 from __future__ import annotations
 
 import os
-import time
 
 import numpy as np
 import pytest
-from rio.testing import lifecycle, wait_until
+from rio.testing import cycle_gripper, lifecycle, nudge_last_joint
 
 pytestmark = pytest.mark.hardware
 
@@ -45,13 +44,7 @@ def test_arm_reads_and_holds_then_moves_last_joint():
         assert np.isfinite(s["joint_pos"]).all() and np.isfinite(s["eef_pose"]).all()
         if not MOTION:
             return
-        q0 = s["joint_pos"].copy()
-        goal = q0.copy()
-        goal[-1] += 0.1
-        arm.command_joints(goal, time.monotonic() + 2.0)
-        assert wait_until(lambda: abs(arm.read_state()["joint_pos"][-1] - goal[-1]) < 0.01, timeout=6)
-        arm.command_joints(q0, time.monotonic() + 2.0)
-        assert wait_until(lambda: abs(arm.read_state()["joint_pos"][-1] - q0[-1]) < 0.01, timeout=6)
+        nudge_last_joint(arm, timeout=6)
 
 
 def test_hand_opens_and_closes():
@@ -59,6 +52,4 @@ def test_hand_opens_and_closes():
         pytest.skip("set RIO_FRANKA_HAND=1 to move the Franka Hand")
     hand = _node("franka.hand")
     with lifecycle(hand):
-        for goal in (0.08, 0.02, 0.08):
-            hand.command("position", [goal], time.monotonic() + 0.5)
-            assert wait_until(lambda g=goal: abs(hand.read_state()["position"] - g) < 0.003, timeout=6)
+        cycle_gripper(hand, (0.08, 0.02, 0.08), tol=0.003, seconds=0.5)

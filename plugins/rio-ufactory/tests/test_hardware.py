@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 import pytest
-from rio.testing import lifecycle, wait_until
+from rio.testing import cycle_gripper, lifecycle, nudge_last_joint
 
 pytestmark = pytest.mark.hardware
 
@@ -58,13 +58,7 @@ def test_arm_reads_and_holds_then_moves_last_joint():
         assert s["connected"] and np.isfinite(s["joint_pos"]).all() and np.isfinite(s["eef_pose"]).all()
         if not MOTION:
             return
-        q0 = s["joint_pos"].copy()
-        goal = q0.copy()
-        goal[-1] += 0.1
-        arm.command_joints(goal, time.monotonic() + 2.0)
-        assert wait_until(lambda: abs(arm.read_state()["joint_pos"][-1] - goal[-1]) < 0.01, timeout=5)
-        arm.command_joints(q0, time.monotonic() + 2.0)
-        assert wait_until(lambda: abs(arm.read_state()["joint_pos"][-1] - q0[-1]) < 0.01, timeout=5)
+        nudge_last_joint(arm, timeout=5)
 
 
 def test_gripper_opens_and_closes():
@@ -73,6 +67,4 @@ def test_gripper_opens_and_closes():
     grip = _node(GRIPPER)
     with lifecycle(grip):
         w = grip.width
-        for goal in (w, 0.3 * w, w):
-            grip.command("position", [goal], time.monotonic() + 1.0)
-            assert wait_until(lambda g=goal: abs(grip.read_state()["position"] - g) < 0.01 * w + 0.003, timeout=6)
+        cycle_gripper(grip, (w, 0.3 * w, w), tol=0.01 * w + 0.003)

@@ -18,8 +18,7 @@ import time
 
 import numpy as np
 import pytest
-from rio import clock
-from rio.testing import lifecycle, wait_until
+from rio.testing import cycle_gripper, lifecycle, nudge_last_joint
 
 pytestmark = pytest.mark.hardware
 
@@ -69,13 +68,7 @@ def test_arm_reads_then_moves_last_joint():
         print(f"fault: {s['fault_code']}, speed slider {s['speed_scaling']:.2f}")
         if not MOTION:
             return
-        q0 = s["joint_pos"].copy()
-        goal = q0.copy()
-        goal[-1] += 0.1
-        arm.command_joints(goal, clock.now() + 2.0)
-        assert wait_until(lambda: abs(arm.read_state()["joint_pos"][-1] - goal[-1]) < 0.01, timeout=6)
-        arm.command_joints(q0, clock.now() + 2.0)
-        assert wait_until(lambda: abs(arm.read_state()["joint_pos"][-1] - q0[-1]) < 0.01, timeout=6)
+        nudge_last_joint(arm, timeout=6)
 
 
 def test_urcap_gripper_opens_and_closes():
@@ -86,6 +79,4 @@ def test_urcap_gripper_opens_and_closes():
     grip = build_node(resolve_driver("robotiq.urcap"), {"host": IP}, "hw_gripper")
     with lifecycle(grip):
         w = grip.width
-        for goal in (w, 0.3 * w, w):
-            grip.command("position", [goal], clock.now() + 1.0)
-            assert wait_until(lambda g=goal: abs(grip.read_state()["position"] - g) < 0.01 * w + 0.003, timeout=6)
+        cycle_gripper(grip, (w, 0.3 * w, w), tol=0.01 * w + 0.003)

@@ -32,6 +32,26 @@ def wait_until(pred: Any, timeout: float = 3.0, period: float = 0.005) -> bool:
     return bool(pred())
 
 
+def nudge_last_joint(arm: Any, rad: float = 0.1, seconds: float = 2.0, tol: float = 0.01,
+                     timeout: float = 5.0) -> None:
+    """A hardware test's first motion: turn an enabled arm's last joint by `rad` over `seconds` and back,
+    checking it reached each goal within `tol` (rad) and `timeout` (s)."""
+    q0 = np.asarray(arm.read_state()["joint_pos"], dtype=np.float64).copy()
+    goal = q0.copy()
+    goal[-1] += rad
+    for target in (goal, q0):
+        arm.command_joints(target, clock.now() + seconds)
+        assert wait_until(lambda t=target: abs(arm.read_state()["joint_pos"][-1] - t[-1]) < tol, timeout=timeout)
+
+
+def cycle_gripper(grip: Any, widths: Any, tol: float, seconds: float = 1.0, timeout: float = 6.0) -> None:
+    """A hardware test of a gripper: command each opening in `widths` (m) in turn, arriving over `seconds`,
+    checking it got within `tol` (m) of each within `timeout` (s)."""
+    for goal in widths:
+        grip.command("position", [goal], clock.now() + seconds)
+        assert wait_until(lambda g=goal: abs(grip.read_state()["position"] - g) < tol, timeout=timeout)
+
+
 def run_rio(*args: str, timeout: float = 300, env: dict[str, str] | None = None) -> Any:
     """`python -m rio ARGS` in a fresh process (a command as a user types it), checked to succeed; returns
     the `subprocess.CompletedProcess` (stdout and stderr as text)."""
