@@ -24,7 +24,7 @@ def rio_drivers() -> list[Spec]:
 
 
 _STATIONS = {
-    "fr3-hand": "FR3 + Franka Hand through franky (edit the IP; RealSense cameras commented out)",
+    "fr3-hand": "FR3 + Franka Hand through franky (edit the IP and the RealSense serials)",
     "fr3-virtual": "FR3 + Franka Hand on the fake franky robot (modelled arm, no hardware)",
     "panda-sim": "Panda + hand on the fake franky robot driving a rio-sim world (needs rio-sim)",
 }

@@ -24,7 +24,7 @@ def rio_drivers() -> list[Spec]:
 
 
 _STATIONS = {
-    "gen3-robotiq": "Kinova Gen3 7-DOF + Robotiq 2F-85 on its base (edit the IP, user, password; cameras commented)",
+    "gen3-robotiq": "Kinova Gen3 7-DOF + Robotiq 2F-85 on its base (edit the IP, user, password and camera serials)",
     "gen3-virtual": "Kinova Gen3 7-DOF + Robotiq 2F-85 on the fake kortex backend (no hardware, no kortex_api)",
     "gen3-sim": "Kinova Gen3 7-DOF + 2F-85 on the fake kortex backend driving a rio-sim world (needs rio-sim)",
 }

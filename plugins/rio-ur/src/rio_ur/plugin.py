@@ -24,7 +24,7 @@ def rio_drivers() -> list[Spec]:
 
 
 _STATIONS = {
-    "ur5e-robotiq": "UR5e + Robotiq 2F-85 through the URCap socket (edit the IP; cameras commented out)",
+    "ur5e-robotiq": "UR5e + Robotiq 2F-85 through the URCap socket (edit the IP and the RealSense serials)",
     "ur5e-sim": "UR5e + Robotiq URCap through the real ur-rtde against the emulator, backed by rio-sim physics",
     "ur5e-virtual": "UR5e + emulated URCap Robotiq through the real ur-rtde against the emulator (no hardware)",
 }
