@@ -156,3 +156,16 @@ def test_solver_from_description_and_bad_inputs():
         PinocchioSolver(urdf(ARM5, TOOL5), "no_such_frame")
     with pytest.raises(FileNotFoundError):
         MinkSolver("/nonexistent/arm.xml", "tool")
+
+
+def test_tool_pose_from_a_controllers_tcp_offset():
+    from rio.control import euler_to_quat, rotvec_to_quat
+    from rio.kinematics import tool_pose_from_offset
+
+    assert tool_pose_from_offset(None) is None and tool_pose_from_offset([0.0] * 6) is None
+    rpy = tool_pose_from_offset([0, 0, 0.1, 0.2, -0.1, 0.3], "rpy")
+    np.testing.assert_allclose(rpy, [0, 0, 0.1, *euler_to_quat(0.2, -0.1, 0.3)])
+    rv = tool_pose_from_offset([0.01, 0, 0.1, 0.2, -0.1, 0.3], "rotvec")
+    np.testing.assert_allclose(rv, [0.01, 0, 0.1, *rotvec_to_quat([0.2, -0.1, 0.3])])
+    with pytest.raises(ValueError, match="rotation 'zyx'"):
+        tool_pose_from_offset([0, 0, 0.1, 0, 0, 0], "zyx")

@@ -9,8 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from rio.control import rotvec_to_quat
-from rio.kinematics import mjcf_description
+from rio.kinematics import mjcf_description, tool_pose_from_offset
 
 from .mjcf import arm_mjcf
 from .models import get_arm
@@ -20,7 +19,5 @@ def description(name: str, tcp_offset: Sequence[float] | None = None) -> dict[st
     """RIO's robot description of UR model `name`; `tcp_offset` = [x, y, z (m), rx, ry, rz (rotation
     vector, rad)] from the flange, as the teach pendant's TCP setting writes it."""
     arm = get_arm(name)
-    tool = None
-    if tcp_offset is not None and any(tcp_offset):
-        tool = [*(float(v) for v in tcp_offset[:3]), *rotvec_to_quat(tcp_offset[3:])]
-    return mjcf_description(arm_mjcf(arm), arm.joint_names, arm.home, tool_pose=tool)
+    return mjcf_description(arm_mjcf(arm), arm.joint_names, arm.home,
+                            tool_pose=tool_pose_from_offset(tcp_offset, "rotvec"))

@@ -14,9 +14,10 @@ from __future__ import annotations
 from typing import Any
 
 from .base import DEFAULT_POS_TOL, DEFAULT_ROT_TOL, IKResult, IKSolver
-from .description import mjcf_description, solver_from_description
+from .description import mjcf_description, read_model, solver_from_description, tool_pose_from_offset
 
 __all__ = ["IKSolver", "IKResult", "MinkSolver", "PinocchioSolver", "solver_from_description", "mjcf_description",
+           "tool_pose_from_offset", "read_model",
            "DEFAULT_POS_TOL", "DEFAULT_ROT_TOL"]
 
 _BACKENDS = {"MinkSolver": "mink_solver", "PinocchioSolver": "pin_solver"}

@@ -8,6 +8,8 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cache
+from pathlib import Path
 from typing import Any
 
 from .base import IKSolver
@@ -31,6 +33,27 @@ def mjcf_description(xml: str, joints: Sequence[str], home: Sequence[float] | No
     if home is not None:
         desc["home"] = list(home)
     return desc
+
+
+def tool_pose_from_offset(tcp_offset: Sequence[float] | None, rotation: str = "rpy") -> list[float] | None:
+    """A controller's TCP offset `[x, y, z (m), a, b, c (rad)]` as `mjcf_description`'s `tool_pose`, or None
+    for no offset (absent or all zero). `rotation` says how the vendor writes `a, b, c`: "rpy" (fixed-axis
+    roll, pitch, yaw: UFACTORY, Franka, Kinova) or "rotvec" (a rotation vector: Universal Robots)."""
+    from ..control import euler_to_quat, rotvec_to_quat
+
+    if tcp_offset is None or not any(tcp_offset):
+        return None
+    if rotation not in ("rpy", "rotvec"):
+        raise ValueError(f"rotation '{rotation}': write 'rpy' or 'rotvec'")
+    rot = [float(v) for v in tcp_offset[3:6]]
+    quat = euler_to_quat(*rot) if rotation == "rpy" else rotvec_to_quat(rot)
+    return [*(float(v) for v in tcp_offset[:3]), *(float(q) for q in quat)]
+
+
+@cache
+def read_model(path: Path) -> str:
+    """A packaged model file's text, read once per process (descriptions are asked for often)."""
+    return Path(path).read_text(encoding="utf-8")
 
 
 def solver_from_description(desc: dict[str, Any], **options: Any) -> IKSolver:
