@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import socket
 import threading
+from collections.abc import Iterator
 from typing import Any
 
 log = logging.getLogger("rio.emulation")
@@ -28,6 +29,21 @@ class TcpDevice:
 
     def serve(self, conn: socket.socket, addr: Any) -> None:
         raise NotImplementedError
+
+    @staticmethod
+    def read_lines(conn: socket.socket, encoding: str = "utf-8", errors: str = "strict",
+              bufsize: int = 4096) -> Iterator[str]:
+        """The newline-terminated request lines of a text protocol (a dashboard, the URCap socket), decoded,
+        without their newline, until the client closes: `for line in self.read_lines(conn): ...`."""
+        buf = b""
+        while True:
+            data = conn.recv(bufsize)
+            if not data:
+                return
+            buf += data
+            while b"\n" in buf:
+                line, buf = buf.split(b"\n", 1)
+                yield line.decode(encoding, errors)
 
     def start(self) -> TcpDevice:
         sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)

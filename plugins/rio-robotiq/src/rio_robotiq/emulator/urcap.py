@@ -37,17 +37,10 @@ class UrcapServer(TcpDevice):
         self.lines: list[str] = []
 
     def serve(self, conn: socket.socket, addr: Any) -> None:
-        buf = b""
-        while True:
-            data = conn.recv(1024)
-            if not data:
-                return
-            buf += data
-            while b"\n" in buf:
-                line, buf = buf.split(b"\n", 1)
-                text = line.decode("ascii", "replace").strip()
-                if text:
-                    conn.sendall(self.answer(text))
+        for line in self.read_lines(conn, "ascii", "replace", bufsize=1024):
+            text = line.strip()
+            if text:
+                conn.sendall(self.answer(text))
 
     def answer(self, line: str) -> bytes:
         """The reply to one request line."""

@@ -24,21 +24,14 @@ class DashboardServer(TcpDevice):
 
     def serve(self, conn: socket.socket, addr: Any) -> None:
         conn.sendall((GREETING + "\n").encode())
-        buf = b""
-        while True:
-            data = conn.recv(1024)
-            if not data:
+        for line in self.read_lines(conn, errors="replace", bufsize=1024):
+            cmd = line.strip()
+            if not cmd:
+                continue
+            self.commands.append(cmd)
+            conn.sendall((self.answer(cmd) + "\n").encode())
+            if cmd == "quit":
                 return
-            buf += data
-            while b"\n" in buf:
-                line, buf = buf.split(b"\n", 1)
-                cmd = line.decode("utf-8", "replace").strip()
-                if not cmd:
-                    continue
-                self.commands.append(cmd)
-                conn.sendall((self.answer(cmd) + "\n").encode())
-                if cmd == "quit":
-                    return
 
     def answer(self, cmd: str) -> str:  # noqa: PLR0911 (one branch per command)
         r, low = self.robot, cmd.lower()

@@ -41,29 +41,22 @@ class ServoServer(TcpDevice):
     def serve(self, conn: socket.socket, addr: Any) -> None:
         control = False
         try:
-            buf = b""
-            while True:
-                data = conn.recv(4096)
-                if not data:
-                    return
-                buf += data
-                while b"\n" in buf:
-                    line, buf = buf.split(b"\n", 1)
-                    words = line.decode().split()
-                    if words == ["control"] and not control:
-                        control = True
-                        with self.robot.lock:
-                            self.robot.control_clients += 1
-                            self.robot.servo_stop()
-                        conn.sendall(b"ok\n")
-                    elif words[:2] == ["inject", "drop"]:
-                        conn.sendall(b"ok\n")  # answered first: this connection goes too
-                        self.inject(words[1:])
-                    elif words[:1] == ["inject"]:
-                        self.inject(words[1:])  # done before the answer: the caller's next step sees it
-                        conn.sendall(b"ok\n")
-                    else:
-                        conn.sendall((self.answer(words) + "\n").encode())
+            for line in self.read_lines(conn):
+                words = line.split()
+                if words == ["control"] and not control:
+                    control = True
+                    with self.robot.lock:
+                        self.robot.control_clients += 1
+                        self.robot.servo_stop()
+                    conn.sendall(b"ok\n")
+                elif words[:2] == ["inject", "drop"]:
+                    conn.sendall(b"ok\n")  # answered first: this connection goes too
+                    self.inject(words[1:])
+                elif words[:1] == ["inject"]:
+                    self.inject(words[1:])  # done before the answer: the caller's next step sees it
+                    conn.sendall(b"ok\n")
+                else:
+                    conn.sendall((self.answer(words) + "\n").encode())
         finally:
             if control:
                 with self.robot.lock:
