@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 import pytest
-from rio import wire
+from rio import host, wire
 from rio.middleware import shm_calls
 from rio.middleware.shm_calls import CallChannel, PeerGone
 
@@ -24,7 +24,7 @@ WAYS = [pytest.param(True, id="watch-memory"), pytest.param(False, id="poll-pipe
 
 
 def channel_pair(watch_memory: bool) -> tuple[CallChannel, CallChannel]:
-    mem = shm_calls._anonymous_memory(16 + 4096)  # a small area, so growth is exercised
+    mem = host.anonymous_memory("rio-test", 16 + 4096)  # a small area, so growth is exercised
     a_r, a_w = os.pipe()
     b_r, b_w = os.pipe()
     client = CallChannel(mem, b_r, a_w, watch_memory=watch_memory)

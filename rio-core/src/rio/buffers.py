@@ -3,22 +3,26 @@
 Both work on a plain bytearray (thread middleware, network mirrors) or a shared-memory mapping (shm
 middleware) with the same code, because a slot is one record of the node's `Layout`.
 
-Ring buffer: one writer, any number of lock-free readers. The writer fills slot `count % N` and only
-then bumps `count`; a reader copies slot `count-1` and re-reads `count` afterwards: if the writer may
-have lapped onto the slot during the copy, it retries. Request queue: many producers under a lock,
-one consumer; a full queue makes `put` wait (bounded) instead of dropping a command silently.
+Ring buffer: one writer, any number of lock-free readers. The writer fills slot `count % N`, checks
+it (`rio.slot_check`: sequence number + checksum) and only then bumps `count`; a reader copies slot
+`count-1` and keeps the copy only if the check says it is exactly sample `count-1`, else reads again.
+The check, not the order in which memory becomes visible, is what makes a read safe, so the same code
+is correct on x86 and on ARM (see `rio.slot_check` for the argument). Request queue: many producers under
+a lock, one consumer that takes only checked, complete slots; a full queue makes `put` wait (bounded)
+instead of dropping a command silently.
+
+Memory: a 64-byte header, the slots, then one 16-byte check per slot (8-byte aligned).
 """
 
 from __future__ import annotations
 
-import os
 import threading
 from collections.abc import Callable, Mapping
 from typing import Any, Protocol
 
 import numpy as np
 
-from . import clock
+from . import clock, host, slot_check
 from .errors import QueueFull, RioError
 from .layout import TIMESTAMP, Layout
 
@@ -54,8 +58,67 @@ class ThreadNotifier:
         self._ev.clear()
 
 
+#: A reader that finds no consistent sample for this long gives up (only a corrupted segment, or a
+#: writer that outruns every copy, can keep it from finding one).
+_CONSISTENT_S = 1.0
+
+
+def _check_offset(layout: Layout, capacity: int) -> int:
+    return _HEADER + -(-capacity * layout.itemsize // _HEADER) * _HEADER
+
+
 def _nbytes(layout: Layout, capacity: int) -> int:
-    return _HEADER + capacity * layout.itemsize
+    return _check_offset(layout, capacity) + capacity * 8 * slot_check.CHECK_WORDS
+
+
+class _Slots:
+    """The slot records, their raw bytes and their checks, over one buffer."""
+
+    def __init__(self, layout: Layout, capacity: int, buf: Any):
+        self.records = np.ndarray((capacity,), layout.dtype, buffer=buf, offset=_HEADER)
+        self.raw = np.ndarray((capacity, layout.itemsize), np.uint8, buffer=buf, offset=_HEADER)
+        self.checks = slot_check.checks_view(buf, capacity, _check_offset(layout, capacity))
+        self.dtype, self.capacity = layout.dtype, capacity
+
+    def write(self, seq: int, rec: np.ndarray) -> None:
+        i = seq % self.capacity
+        self.records[i] = rec
+        slot_check.write_check(self.checks, i, seq, self.raw[i])
+
+    def read(self, seq: int) -> np.ndarray | None:
+        """A copy of sample `seq` as a record, or None if the slot does not hold it (yet, or any more)."""
+        i = seq % self.capacity
+        raw = self.raw[i].copy()
+        return raw.view(self.dtype)[0] if slot_check.matches(self.checks, i, seq, raw) else None
+
+    def read_many(self, seqs: list[int]) -> np.ndarray | None:
+        idx = [q % self.capacity for q in seqs]
+        raw = self.raw[idx]  # fancy indexing copies
+        for row, (i, q) in enumerate(zip(idx, seqs, strict=True)):
+            if not slot_check.matches(self.checks, i, q, raw[row]):
+                return None
+        return raw.view(self.dtype).reshape(len(seqs))
+
+
+class _Retry:
+    """Pacing of a reader's retries: spin, then yield the CPU; give up after `_CONSISTENT_S`."""
+
+    __slots__ = ("tries", "deadline", "owner")
+
+    def __init__(self, owner: str):
+        self.tries, self.deadline, self.owner = 0, 0.0, owner
+
+    def again(self) -> None:
+        self.tries += 1
+        if self.tries % 16:
+            return
+        now = clock.now()
+        if self.deadline == 0.0:
+            self.deadline = now + _CONSISTENT_S
+        elif now > self.deadline:
+            raise RioError(f"node '{self.owner}': no consistent sample in its buffer for {_CONSISTENT_S:.0f} s "
+                           "(its shared memory was overwritten by something else?)")
+        host.yield_cpu()
 
 
 class RingBuffer:
@@ -68,7 +131,7 @@ class RingBuffer:
         self.layout, self.capacity = layout, capacity
         self.buf = bytearray(self.nbytes(layout, capacity)) if buf is None else buf
         self._count = np.ndarray((1,), np.uint64, buffer=self.buf, offset=0)
-        self._slots = np.ndarray((capacity,), layout.dtype, buffer=self.buf, offset=_HEADER)
+        self._slots = _Slots(layout, capacity, self.buf)
         #: Called with each new record after it is stored (network middlewares send it from here).
         self.on_put = on_put
 
@@ -86,7 +149,7 @@ class RingBuffer:
 
     def put_record(self, rec: np.ndarray) -> None:
         c = int(self._count[0])
-        self._slots[c % self.capacity] = rec
+        self._slots.write(c, rec)
         self._count[0] = c + 1
         if self.on_put is not None:
             self.on_put(rec)
@@ -104,20 +167,28 @@ class RingBuffer:
         return c
 
     def get_record(self) -> np.ndarray:
-        """Copy of the newest record (torn-read safe)."""
+        """Copy of the newest record (checked against its slot check: never torn, never stale)."""
+        retry = _Retry(self.layout.owner)
         while True:
             c = self._require(1)
-            rec = self._slots[(c - 1) % self.capacity].copy()
-            if int(self._count[0]) - c < self.capacity - 1:
+            rec = self._slots.read(c - 1)
+            if rec is not None:
                 return rec
+            retry.again()
 
     def get(self, out: dict[str, np.ndarray] | None = None, *, copy: bool = True) -> dict[str, Any]:
         """Newest sample as a dict. `out` fills preallocated arrays; `copy=False` returns zero-copy
-        read-only views into the buffer, valid until the writer laps the ring (capacity-1 samples)."""
+        read-only views into the buffer (checked when taken), valid until the
+        writer laps the ring (capacity-1 samples)."""
         if not copy:
-            c = self._require(1)
-            view = self._slots[(c - 1) % self.capacity]
-            d = self.layout.to_dict(view, copy=False)
+            retry = _Retry(self.layout.owner)
+            while True:
+                c = self._require(1)
+                i = (c - 1) % self.capacity
+                if slot_check.matches(self._slots.checks, i, c - 1, self._slots.raw[i]):
+                    break
+                retry.again()
+            d = self.layout.to_dict(self._slots.records[i], copy=False)
             for v in d.values():
                 if isinstance(v, np.ndarray):
                     v.flags.writeable = False
@@ -135,12 +206,13 @@ class RingBuffer:
     def get_last_k(self, k: int, out: dict[str, np.ndarray] | None = None) -> dict[str, Any]:
         """The k newest samples, oldest first, each field with a leading axis of k. Before k samples
         exist, the oldest is repeated (its timestamps show it), so shapes are fixed from the start."""
+        retry = _Retry(self.layout.owner)
         while True:
             c = self._require(k)
-            idx = [max(c - k + i, 0) % self.capacity for i in range(k)]
-            recs = self._slots[idx]  # fancy indexing copies
-            if int(self._count[0]) - c < self.capacity - k:
+            recs = self._slots.read_many([max(c - k + i, 0) for i in range(k)])
+            if recs is not None:
                 break
+            retry.again()
         if out is None:
             return self.layout.to_dict(recs, copy=False)
         for n in self.layout.names:
@@ -161,7 +233,7 @@ class RequestQueue:
         self.buf = bytearray(self.nbytes(layout, capacity)) if buf is None else buf
         hdr = np.ndarray((3,), np.uint64, buffer=self.buf, offset=0)
         self._hdr = hdr  # [head (consumer), tail (producers), rejected]
-        self._slots = np.ndarray((capacity,), layout.dtype, buffer=self.buf, offset=_HEADER)
+        self._slots = _Slots(layout, capacity, self.buf)
         self.lock = lock if lock is not None else threading.Lock()
         self.notifier = notifier if notifier is not None else ThreadNotifier()
 
@@ -181,13 +253,13 @@ class RequestQueue:
             with self.lock:
                 head, tail = int(self._hdr[0]), int(self._hdr[1])
                 if tail - head < self.capacity:
-                    self._slots[tail % self.capacity] = rec
+                    self._slots.write(tail, rec)
                     self._hdr[1] = tail + 1
                     break
             deadline = deadline or clock.now() + self.put_timeout
             if clock.now() > deadline:
                 raise QueueFull(self.layout.owner, self.capacity, self.put_timeout)
-            os.sched_yield()
+            host.yield_cpu()
         self.notifier.notify()
 
     def put_bytes(self, data: bytes | memoryview) -> None:
@@ -202,21 +274,27 @@ class RequestQueue:
 
     # -- consumer -----------------------------------------------------------------------------------
     def get_all(self) -> list[dict[str, Any]]:
-        """Every pending request, oldest first (empty list when none)."""
+        """Every pending request, oldest first (empty list when none). A request whose slot is not
+        yet fully visible to this process (its check does not match) waits for the next call."""
         head, tail = int(self._hdr[0]), int(self._hdr[1])
-        if tail == head:
-            return []
-        idx = [i % self.capacity for i in range(head, tail)]
-        recs = self._slots[idx]
-        self._hdr[0] = tail
-        return [self.layout.to_dict(r, copy=False) for r in recs]
+        out = []
+        for seq in range(head, tail):
+            rec = self._slots.read(seq)
+            if rec is None:
+                break
+            out.append(self.layout.to_dict(rec, copy=False))
+        if out:
+            self._hdr[0] = head + len(out)  # only after the copies were checked (see rio.slot_check)
+        return out
 
     def get(self) -> dict[str, Any] | None:
         """Oldest pending request, or None."""
         head, tail = int(self._hdr[0]), int(self._hdr[1])
         if tail == head:
             return None
-        rec = self._slots[head % self.capacity].copy()
+        rec = self._slots.read(head)
+        if rec is None:
+            return None
         self._hdr[0] = head + 1
         return self.layout.to_dict(rec, copy=False)
 
@@ -229,7 +307,7 @@ class RequestQueue:
                 return True
             if clock.now() > t_spin:
                 break
-            os.sched_yield()
+            host.yield_cpu()
         self.notifier.clear()
         if len(self):
             return True

@@ -8,8 +8,9 @@ until ~1 ms before the deadline and yield-spin the rest.
 
 from __future__ import annotations
 
-import os
 import time as _time
+
+from .host import yield_cpu as _yield
 
 __all__ = ["now", "precise_wait", "Rate", "set_timer_slack"]
 
@@ -37,14 +38,14 @@ def set_timer_slack(ns: int = 1) -> bool:
 def precise_wait(t_end: float, spin_s: float = _SPIN_S) -> None:
     """Return at `t_end` (a `now()` time): OS sleep to `spin_s` before it, then yield-spin.
 
-    `os.sched_yield()` is used for the spin because on a 2-core machine a pure busy loop starves the
+    `sched_yield()` is used for the spin because on a 2-core machine a pure busy loop starves the
     process we are waiting on, and `time.sleep(0)` costs ~30 us through timer slack.
     """
     t_sleep = t_end - now() - spin_s
     if t_sleep > 0:
         _time.sleep(t_sleep)
     while now() < t_end:
-        os.sched_yield()
+        _yield()
 
 
 class Rate:

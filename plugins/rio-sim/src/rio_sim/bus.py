@@ -5,36 +5,38 @@ and attached by the arm, gripper and camera nodes of the same station, whatever 
 them (threads of one process or a process each):
 
 - state, written by the world after every batch of physics steps: `qpos`, `qvel`, `ctrl`, simulated
-  time, under a sequence lock (the counter is odd while a write is in progress; a reader retries
-  until it sees the same even value before and after its copy);
-- commands, one slot per actuator: `target`, `t_target` (a `rio.clock.now()` time) and a `stamp`
-  bumped after both are written. Each actuator has exactly one writer (the node that owns it: an
-  arm its joints, a gripper its fingers), so writers never contend; the world picks a slot up when
-  its stamp changes and interpolates towards the target in physics time.
+  time, under a sequence counter (odd while a write is in progress) and a checksum of the state
+  seeded with the counter (`rio.slot_check`): a reader accepts its copy only when the checksum of
+  the copy matches, which holds on CPUs that reorder memory (ARM) as on x86;
+- commands, one slot per actuator: `target`, `t_target` (a `rio.clock.now()` time), a `stamp`
+  bumped after both are written, and a check of (target, t_target) seeded with the stamp. Each
+  actuator has exactly one writer (the node that owns it: an arm its joints, a gripper its fingers),
+  so writers never contend; the world picks a slot up when its stamp changes and its check matches,
+  and interpolates towards the target in physics time.
 
 The block's name joins the user id, a session id that `rio_sim` puts in the environment of the
 process that builds the station (inherited by the node processes it spawns), and the world's name,
 so two stations running at once on one machine never meet. A block left behind by a world that was
 SIGKILLed (its owner pid is gone) is removed by the next world created on the machine, whatever its
-name, so crashes do not accumulate in /dev/shm.
+name, so crashes do not accumulate in /dev/shm. Shared-memory calls go through `rio.host` (macOS's
+short names and missing listing included).
 """
 
 from __future__ import annotations
 
-import _posixshmem
 import mmap
 import os
 import uuid
 
 import numpy as np
-from rio import clock
+from rio import clock, host, slot_check
 from rio.errors import RioError
 
 SESSION_ENV = "RIO_SIM_SESSION"
 _MAGIC = 0x52494F53494D  # "RIOSIM"
-_VERSION = 1
-# int64 header fields
-_H_MAGIC, _H_VERSION, _H_PID, _H_READY, _H_CLOSED, _H_SEQ, _H_NQ, _H_NV, _H_NU = range(9)
+_VERSION = 2
+# int64 header fields (the state's check is a uint64)
+_H_MAGIC, _H_VERSION, _H_PID, _H_READY, _H_CLOSED, _H_SEQ, _H_NQ, _H_NV, _H_NU, _H_CHECK = range(10)
 _NHDR = 16
 _NAME_BYTES = 128
 #: How long a reader waits for a write in progress before calling the writer dead (a preempted writer on
@@ -57,24 +59,12 @@ def block_name(world: str) -> str:
 
 
 def _size(nq: int, nv: int, nu: int) -> int:
-    return 8 * _NHDR + _NAME_BYTES + 8 * (2 + nq + nv + nu + 3 * nu)
-
-
-def _pid_alive(pid: int) -> bool:
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
+    return 8 * _NHDR + _NAME_BYTES + 8 * (2 + nq + nv + nu + 4 * nu)
 
 
 def _read_header(name: str) -> np.ndarray | None:
     try:
-        fd = _posixshmem.shm_open("/" + name, os.O_RDONLY, mode=0o600)
+        fd = host.shm_open(name, readonly=True)
     except OSError:
         return None
     try:
@@ -91,20 +81,12 @@ def _read_header(name: str) -> np.ndarray | None:
 def sweep_stale() -> int:
     """Unlink this user's world blocks whose world is gone (closed, or its process died)."""
     prefix, removed = f"rio-sim-{os.getuid()}-", 0
-    try:
-        names = [n for n in os.listdir("/dev/shm") if n.startswith(prefix)]
-    except OSError:  # no /dev/shm listing on this platform
-        return 0
-    for name in names:
+    for name in host.shm_list(prefix):
         hdr = _read_header(name)
         if hdr is None or hdr[_H_MAGIC] != _MAGIC:
             continue  # being created right now, or not ours
-        if hdr[_H_CLOSED] or not _pid_alive(int(hdr[_H_PID])):
-            try:
-                _posixshmem.shm_unlink("/" + name)
-                removed += 1
-            except FileNotFoundError:
-                pass
+        if hdr[_H_CLOSED] or not host.pid_alive(int(hdr[_H_PID])):
+            removed += host.shm_unlink(name)
     return removed
 
 
@@ -126,22 +108,25 @@ class WorldBus:
             i += n
             return out
 
+        self._state = f[:2 + nq + nv + nu]  # what one write_state writes, checked as one
         self._times = take(2)             # sim time, wall time of the last write
         self.qpos, self.qvel, self.ctrl = take(nq), take(nv), take(nu)
         self.cmd_target, self.cmd_t, self.cmd_stamp = take(nu), take(nu), take(nu)
+        self.cmd_check = take(nu).view(np.uint64)
+        self._hdr_u = self.hdr.view(np.uint64)
 
     # -- creation / attachment ------------------------------------------------------------------
     @classmethod
     def create(cls, world: str, scene: str, nq: int, nv: int, nu: int) -> WorldBus:
+        host.require_shared_memory("the sim world bus")
         sweep_stale()
         name = block_name(world)
         size = _size(nq, nv, nu)
         try:
-            fd = _posixshmem.shm_open("/" + name, os.O_CREAT | os.O_EXCL | os.O_RDWR, mode=0o600)
+            fd = host.shm_create(name, size)
         except FileExistsError:
             cls._reclaim(name, world)
-            fd = _posixshmem.shm_open("/" + name, os.O_CREAT | os.O_EXCL | os.O_RDWR, mode=0o600)
-        os.ftruncate(fd, size)
+            fd = host.shm_create(name, size)
         mm = mmap.mmap(fd, size)
         hdr = np.frombuffer(mm, dtype=np.int64, count=_NHDR)
         hdr[_H_NQ], hdr[_H_NV], hdr[_H_NU] = nq, nv, nu
@@ -153,18 +138,18 @@ class WorldBus:
 
     @staticmethod
     def _reclaim(name: str, world: str) -> None:
-        fd = _posixshmem.shm_open("/" + name, os.O_RDWR, mode=0o600)
+        fd = host.shm_open(name)
         try:
             if os.fstat(fd).st_size >= 8 * _NHDR:
                 mm = mmap.mmap(fd, 8 * _NHDR)
                 hdr = np.frombuffer(mm, dtype=np.int64, count=_NHDR).copy()
                 del mm
-                if hdr[_H_MAGIC] == _MAGIC and not hdr[_H_CLOSED] and _pid_alive(int(hdr[_H_PID])):
+                if hdr[_H_MAGIC] == _MAGIC and not hdr[_H_CLOSED] and host.pid_alive(int(hdr[_H_PID])):
                     raise RioError(f"sim world '{world}' is already running in this session (pid {hdr[_H_PID]}); "
                                    "give the second station's world another `world` name")
         finally:
             os.close(fd)
-        _posixshmem.shm_unlink("/" + name)
+        host.shm_unlink(name)
 
     @classmethod
     def attach(cls, world: str, timeout: float = 60.0) -> WorldBus:
@@ -173,7 +158,7 @@ class WorldBus:
         deadline = clock.now() + timeout
         while True:
             try:
-                fd = _posixshmem.shm_open("/" + name, os.O_RDWR, mode=0o600)
+                fd = host.shm_open(name)
             except FileNotFoundError:
                 fd = None
             if fd is not None:
@@ -182,7 +167,7 @@ class WorldBus:
                     probe = mmap.mmap(fd, 8 * _NHDR)
                     hdr = np.frombuffer(probe, dtype=np.int64, count=_NHDR).copy()
                     del probe
-                    if (hdr[_H_MAGIC] == _MAGIC and hdr[_H_READY] and not hdr[_H_CLOSED]
+                    if (hdr[_H_MAGIC] == _MAGIC and hdr[_H_VERSION] == _VERSION and hdr[_H_READY] and not hdr[_H_CLOSED]
                             and size >= _size(*(int(hdr[i]) for i in (_H_NQ, _H_NV, _H_NU)))):
                         return cls(name, fd, mmap.mmap(fd, size), owner=False)
                 os.close(fd)
@@ -202,16 +187,18 @@ class WorldBus:
 
     def check_alive(self) -> None:
         """Raise if the world has stopped (its node closed or its process died)."""
-        if self.hdr[_H_CLOSED] or not _pid_alive(int(self.hdr[_H_PID])):
+        if self.hdr[_H_CLOSED] or not host.pid_alive(int(self.hdr[_H_PID])):
             raise RioError("the sim world stopped (its node closed or its process died)")
 
     # -- state ----------------------------------------------------------------------------------
     def write_state(self, sim_time: float, qpos, qvel, ctrl) -> None:
         hdr = self.hdr
-        hdr[_H_SEQ] += 1  # odd: write in progress
+        seq = int(hdr[_H_SEQ]) + 2
+        hdr[_H_SEQ] = seq - 1  # odd: write in progress
         self.qpos[:], self.qvel[:], self.ctrl[:] = qpos, qvel, ctrl
         self._times[0], self._times[1] = sim_time, clock.now()
-        hdr[_H_SEQ] += 1
+        self._hdr_u[_H_CHECK] = slot_check.checksum(seq, self._state)
+        hdr[_H_SEQ] = seq
 
     def read_state(self, out: dict | None = None) -> dict:
         """Consistent copy of {qpos, qvel, ctrl, sim_time, wall_time}."""
@@ -220,31 +207,47 @@ class WorldBus:
         hdr = self.hdr
         deadline = None
         for attempt in range(1 << 30):
-            s1 = int(hdr[_H_SEQ])
-            if s1 & 1:  # a write is in progress; its writer may be preempted on a busy machine
-                if attempt % 16 == 15:
-                    now = clock.now()
-                    deadline = deadline or now + _LOCKED_S
-                    if now > deadline:
-                        break
-                    os.sched_yield()
-                continue
-            out["qpos"][:], out["qvel"][:], out["ctrl"][:] = self.qpos, self.qvel, self.ctrl
-            out["sim_time"], out["wall_time"] = float(self._times[0]), float(self._times[1])
-            if int(hdr[_H_SEQ]) == s1:
-                return out
+            seq = int(hdr[_H_SEQ])
+            if not seq & 1:
+                state = self._state.copy()
+                if slot_check.checksum(seq, state) == int(self._hdr_u[_H_CHECK]):
+                    nq, nv = self.nq, self.nv
+                    out["sim_time"], out["wall_time"] = float(state[0]), float(state[1])
+                    out["qpos"][:], out["qvel"][:] = state[2:2 + nq], state[2 + nq:2 + nq + nv]
+                    out["ctrl"][:] = state[2 + nq + nv:]
+                    return out
+            # a write is in progress, or not yet visible here; its writer may be preempted on a busy machine
+            if attempt % 16 == 15:
+                now = clock.now()
+                deadline = deadline or now + _LOCKED_S
+                if now > deadline:
+                    break
+                host.yield_cpu()
         raise RioError(f"sim world state stayed locked for {_LOCKED_S} s (a writer died mid-write?)")
 
     # -- commands -------------------------------------------------------------------------------
+    @staticmethod
+    def _command_check(stamp: float, target: float, t_target: float) -> int:
+        return slot_check.checksum(int(stamp), np.array([target, t_target]))
+
     def command(self, actuators: np.ndarray, targets, t_target: float) -> None:
         """Set targets for actuators this node owns, to be reached at `t_target`."""
         self.cmd_target[actuators] = targets
         self.cmd_t[actuators] = t_target
-        self.cmd_stamp[actuators] += 1.0  # after target and time: the world reads the stamp first
+        for a in np.atleast_1d(actuators):
+            stamp = self.cmd_stamp[a] + 1.0
+            self.cmd_check[a] = self._command_check(stamp, self.cmd_target[a], self.cmd_t[a])
+            self.cmd_stamp[a] = stamp  # after target, time and check
 
-    def read_commands(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        stamp = self.cmd_stamp.copy()
-        return stamp, self.cmd_target.copy(), self.cmd_t.copy()
+    def read_commands(self, seen: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(stamp, target, t_target) of every actuator. An actuator whose new command is not yet fully
+        visible here (its check does not match) keeps its `seen` stamp: it is picked up next time."""
+        stamp, target, t = self.cmd_stamp.copy(), self.cmd_target.copy(), self.cmd_t.copy()
+        check = self.cmd_check.copy()
+        for a in np.flatnonzero(stamp != seen):
+            if self._command_check(stamp[a], target[a], t[a]) != int(check[a]):
+                stamp[a] = seen[a]
+        return stamp, target, t
 
     # -- teardown -------------------------------------------------------------------------------
     def close(self) -> None:
@@ -252,12 +255,10 @@ class WorldBus:
             return
         if self.owner:
             self.hdr[_H_CLOSED] = 1
-            try:
-                _posixshmem.shm_unlink("/" + self.name)
-            except FileNotFoundError:
-                pass
+            host.shm_unlink(self.name)
         # numpy views keep the mapping alive; drop ours and let the last view release it
         self.hdr = self._name_buf = self._times = None  # type: ignore[assignment]
         self.qpos = self.qvel = self.ctrl = self.cmd_target = self.cmd_t = self.cmd_stamp = None  # type: ignore
+        self._state = self.cmd_check = self._hdr_u = None  # type: ignore[assignment]
         os.close(self._fd)
         self._mm = None

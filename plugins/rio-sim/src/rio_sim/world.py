@@ -91,7 +91,7 @@ class SimWorld(Node):
 
     # -- loop -----------------------------------------------------------------------------------
     def _pick_up_commands(self, t_wall: float) -> None:
-        stamp, target, t_target = self.bus.read_commands()
+        stamp, target, t_target = self.bus.read_commands(self._seen)
         new = stamp != self._seen
         if not new.any():
             return

@@ -10,6 +10,8 @@ from __future__ import annotations
 import os
 from typing import Any
 
+from .. import host
+
 
 def _is_resource_tracker(pid: int) -> bool:
     try:
@@ -38,8 +40,9 @@ def child_pids() -> set[int]:
 
 
 def shm_entries() -> set[str]:
-    """Names in /dev/shm (empty where there is none)."""
-    return set(os.listdir("/dev/shm")) if os.path.isdir("/dev/shm") else set()
+    """Names of POSIX shared-memory objects (/dev/shm on Linux; RIO's marker registry on macOS and
+    under RIO_HOST_FALLBACK: see `rio.host`)."""
+    return host.shm_list()
 
 
 def assert_no_shm_left(mgr: Any, before: set[str]) -> None:

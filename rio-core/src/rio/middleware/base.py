@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 
 from pydantic import Field
 
-from .. import clock
+from .. import clock, host
 from ..config import Config, Configurable
 from ..errors import NodeDiedError
 from ..layout import Layout
@@ -125,29 +125,23 @@ def local_process_watch(address: dict[str, Any], node: str) -> ProcessWatch | No
 
 
 class ProcessWatch:
-    """Knows, cheaply and exactly, whether a local process has exited (pidfd; polled fallback)."""
+    """Knows, cheaply and exactly, whether a local process has exited (`rio.host.process_exit_watch`:
+    pidfd or kqueue; polled fallback)."""
 
     def __init__(self, pid: int, node: str, check_every_s: float = 0.02):
         self.pid, self.node, self.check_every_s = pid, node, check_every_s
         self._t_next = 0.0
         self._dead = False
-        self.fd: int | None = None
-        try:
-            self.fd = os.pidfd_open(pid)
-        except (AttributeError, OSError):
-            self.fd = None
+        self._exit = host.process_exit_watch(pid)
 
     def dead(self) -> bool:
         if self._dead:
             return True
-        if self.fd is not None:
-            r, _, _ = select.select([self.fd], [], [], 0)
+        if self._exit is not None:
+            r, _, _ = select.select([self._exit], [], [], 0)
             self._dead = bool(r)
         else:
-            try:
-                os.kill(self.pid, 0)
-            except ProcessLookupError:
-                self._dead = True
+            self._dead = not host.pid_alive(self.pid)
         return self._dead
 
     def check(self) -> None:
@@ -159,6 +153,6 @@ class ProcessWatch:
                 raise NodeDiedError(self.node, f"server process {self.pid} exited")
 
     def close(self) -> None:
-        if self.fd is not None:
-            os.close(self.fd)
-            self.fd = None
+        if self._exit is not None:
+            self._exit.close()
+            self._exit = None

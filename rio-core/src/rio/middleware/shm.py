@@ -9,12 +9,14 @@
   node over a Unix socket in the manager's run directory (`shm_calls`).
 - Segments and files are created and removed by the ServerManager (`prepare`/`release`), never by
   the node process, so a SIGKILLed node leaves nothing in /dev/shm.
+- Memory order: the ring buffer and request queue check each slot (`rio.slot_check`), the call channel
+  hands messages over through a pipe where the CPU may reorder stores (`shm_calls`), so the
+  middleware is correct on ARM as on x86. Operating-system calls go through `rio.host` (Linux,
+  macOS; Windows is refused with a clear error).
 """
 
 from __future__ import annotations
 
-import _posixshmem
-import fcntl
 import logging
 import mmap
 import os
@@ -25,7 +27,7 @@ import uuid
 import weakref
 from typing import Any
 
-from .. import clock, wire
+from .. import clock, host, wire
 from ..buffers import RequestQueue, RingBuffer
 from ..errors import ConfigError, NodeDiedError, NodeError, NodeTimeout
 from ..node import Node
@@ -39,25 +41,14 @@ _POLL_S = 0.05  # how often a waiting call re-checks that the server lives and i
 
 # -- shared memory ----------------------------------------------------------------------------------
 def _create_segment(name: str, size: int) -> None:
-    fd = _posixshmem.shm_open("/" + name, os.O_CREAT | os.O_EXCL | os.O_RDWR, mode=0o600)
-    try:
-        os.ftruncate(fd, size)
-    finally:
-        os.close(fd)
-
-
-def _unlink_segment(name: str) -> None:
-    try:
-        _posixshmem.shm_unlink("/" + name)
-    except FileNotFoundError:
-        pass
+    os.close(host.shm_create(name, size))
 
 
 class _Segment:
     """A mapping of an existing segment; keeps its own descriptor (used for flock)."""
 
     def __init__(self, name: str, size: int):
-        self.fd = _posixshmem.shm_open("/" + name, os.O_RDWR, mode=0o600)
+        self.fd = host.shm_open(name)
         if os.fstat(self.fd).st_size < size:
             os.close(self.fd)
             raise ConfigError(f"shared-memory segment '{name}' is smaller than the node's layout needs")
@@ -69,30 +60,6 @@ class _Segment:
         if self.fd >= 0:
             os.close(self.fd)
             self.fd = -1
-
-
-class _FlockLock:
-    """Cross-process producer lock: flock on a private descriptor, plus a thread lock because
-    threads sharing one descriptor do not exclude each other under flock."""
-
-    def __init__(self, fd: int):
-        self.fd = fd
-        self._tlock = threading.Lock()
-
-    def reopen(self, segment: str) -> None:
-        """In a forked child: flock belongs to the open file, which the child shares with its
-        parent, so the two would not exclude each other. Take a file of our own (and a fresh thread
-        lock: another thread may have held the old one at the moment of the fork)."""
-        self.fd = _posixshmem.shm_open("/" + segment, os.O_RDWR, mode=0o600)
-        self._tlock = threading.Lock()
-
-    def __enter__(self) -> None:
-        self._tlock.acquire()
-        fcntl.flock(self.fd, fcntl.LOCK_EX)
-
-    def __exit__(self, *exc: Any) -> None:
-        fcntl.flock(self.fd, fcntl.LOCK_UN)
-        self._tlock.release()
 
 
 class _FifoNotifier:
@@ -141,7 +108,7 @@ def _attach(layouts: NodeLayouts, res: dict[str, Any]) -> tuple[list[_Segment], 
         segments.append(seg)
         notifier = _FifoNotifier(res["fifo"])
         queue = RequestQueue(layouts.request, layouts.request_capacity, buf=seg.mm,
-                             lock=_FlockLock(seg.fd), notifier=notifier)
+                             lock=host.FileLock(seg.fd), notifier=notifier)
     return segments, ring, queue, notifier
 
 
@@ -247,7 +214,7 @@ class ShmClient(ClientTransport):
             self._channel.close()  # the child's copies only; the parent's channel is untouched
             self._channel = None
         if self.request_queue is not None and self._req_segment:
-            self.request_queue.lock.reopen(self._req_segment)
+            self.request_queue.lock.reopen(host.shm_open(self._req_segment))
 
     def check_alive(self) -> None:
         self._watch.check()
@@ -319,6 +286,7 @@ class ShmMiddleware(Middleware):
     name = "shm"
 
     def prepare(self, layouts: NodeLayouts, run_dir: str) -> dict[str, Any]:
+        host.require_shared_memory("the shm middleware")
         # The run directory is named rio-<run id>-*: carrying the run id in segment names lets a
         # person (or a test) tell which manager a /dev/shm entry belongs to.
         run_id = os.path.basename(run_dir).split("-")[1] if os.path.basename(run_dir).startswith("rio-") else "x"
@@ -344,7 +312,7 @@ class ShmMiddleware(Middleware):
     def release(self, resources: dict[str, Any]) -> None:
         for key in ("data", "req"):
             if key in resources:
-                _unlink_segment(resources[key])
+                host.shm_unlink(resources[key])
         for key in ("fifo", "sock"):
             if key in resources:
                 try:

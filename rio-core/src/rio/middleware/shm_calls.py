@@ -6,9 +6,9 @@ memory both processes map (the arrays' own bytes: see `rio.wire.call_message`), 
 wake-up crosses the kernel: the "raw pipe + shared memory" transport the latency benchmark compares
 against.
 
-- Set-up: the client creates the memory (an anonymous memfd: nothing appears in /dev/shm, and the
-  kernel frees it with the last descriptor) and both pipes, and hands the node's ends over the node's
-  Unix socket (SCM_RIGHTS). The socket is closed after that hand-over.
+- Set-up: the client creates the memory (`rio.host.anonymous_memory`: a memfd on Linux, so nothing
+  appears in /dev/shm, and the kernel frees it with the last descriptor) and both pipes, and hands
+  the node's ends over the node's Unix socket (SCM_RIGHTS). The socket is closed after that hand-over.
 - Calls strictly alternate (the client holds a lock), so one area carries the call, then its reply.
   A 16-byte header holds the message length and a message counter, written last. A message that
   does not fit grows the file; the other side re-maps when a message is longer than its mapping.
@@ -31,10 +31,9 @@ import os
 import platform
 import select
 import socket
-import tempfile
 from collections.abc import Callable
 
-from .. import clock
+from .. import clock, host
 from ..wire import Message
 
 # Header: 8 bytes reserved, u32 message length at 8, u32 count of messages written so far at 12.
@@ -52,16 +51,6 @@ class PeerGone(Exception):
     """The other end of a call channel closed (its process exited or dropped the channel)."""
 
 
-def _anonymous_memory(size: int) -> int:
-    try:
-        fd = os.memfd_create("rio-shm-calls")  # close-on-exec by default
-    except (AttributeError, OSError):  # not Linux: an unlinked temporary file works the same way
-        fd, path = tempfile.mkstemp(prefix="rio-calls-", dir="/dev/shm" if os.path.isdir("/dev/shm") else None)
-        os.unlink(path)
-    os.ftruncate(fd, size)
-    return fd
-
-
 def _spin_until(ready: Callable[[], bool], spin_s: float) -> bool:
     """Poll `ready()` for up to `spin_s`, yielding the CPU between tries (a pure busy loop would
     starve the peer on a 2-core machine)."""
@@ -69,7 +58,7 @@ def _spin_until(ready: Callable[[], bool], spin_s: float) -> bool:
         return True
     t_end = clock.now() + spin_s
     while clock.now() < t_end:
-        os.sched_yield()
+        host.yield_cpu()
         if ready():
             return True
     return False
@@ -182,7 +171,7 @@ class CallChannel:
 def open_client_channel(sock_path: str, timeout_s: float) -> CallChannel:
     """Create a channel and hand its node-side ends to the node listening on `sock_path`.
     Raises OSError if the node is unreachable or does not accept it in time."""
-    mem = _anonymous_memory(_HEADER_SIZE + _INITIAL_AREA)
+    mem = host.anonymous_memory("rio-shm-calls", _HEADER_SIZE + _INITIAL_AREA)
     call_r, call_w = os.pipe()
     reply_r, reply_w = os.pipe()
     ok = False

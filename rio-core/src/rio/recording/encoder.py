@@ -61,6 +61,7 @@ class EncoderProcess:
 
     def put(self, key: str, frame: np.ndarray) -> int | None:
         """Copy a frame into the stream's ring; its slot, or None if the ring is full (dropped)."""
+        self.poll()  # slots the encoder released since
         return self.rings[key].try_put(frame)
 
     def encode(self, key: str, slot: int) -> None:
@@ -116,7 +117,10 @@ class EncoderProcess:
             pass
 
     def _handle(self, msg: Any) -> None:
-        if msg[0] == "error":
+        if msg[0] == "released":
+            if (ring := self.rings.get(msg[1])) is not None:
+                ring.released()
+        elif msg[0] == "error":
             self.errors[msg[1]] = msg[2]
 
     def _send(self, msg: Any) -> None:

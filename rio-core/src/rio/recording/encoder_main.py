@@ -83,7 +83,10 @@ def encoder_main(conn: Any, nice: int = 10) -> None:
                 report(key, f"encoding failed: {type(e).__name__}: {e}")
                 writers.pop(key, None)
             finally:
-                ring.release()
+                try:  # through the kernel, not shared memory: see frame_ring's note on memory order
+                    conn.send(("released", key))
+                except OSError:
+                    pass
         elif op == "ring":
             _, key, shape, dtype, slots = msg
             fd = recv_handle(conn)

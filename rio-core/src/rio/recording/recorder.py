@@ -13,13 +13,13 @@ write a dataset (an flock on DATASET/.lock, released even if the process is kill
 
 from __future__ import annotations
 
-import fcntl
 import os
 import threading
 import time
 from pathlib import Path
 from typing import Any
 
+from .. import host
 from ..errors import RioError
 from . import index as I
 from . import paths as L
@@ -99,9 +99,7 @@ class Recorder:
             raise RecordingError(f"cannot record the station's cameras: {why}")
         self.root.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.root / L.LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
+        if not host.try_lock(fd):
             os.close(fd)
             raise RecordingError(f"another recorder is writing {self.root} (it holds {self.root / L.LOCK})") from None
         self._lock_fd = fd

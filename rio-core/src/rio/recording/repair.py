@@ -10,7 +10,6 @@ recorder was killed) are kept byte for byte; a torn one is re-encoded from its d
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 import shutil
@@ -21,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import host
 from . import index as I
 from . import paths as L
 from .dataset import Episode
@@ -179,10 +179,8 @@ def repair_dataset(root: str | os.PathLike, *, verify: bool = True) -> RepairRep
         raise RecordingError(f"no dataset at {root}")
     fd = os.open(root / L.LOCK, os.O_RDWR | os.O_CREAT, 0o644)
     try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise RecordingError(f"a recorder is still writing {root}; stop it before repairing") from None
+        if not host.try_lock(fd):
+            raise RecordingError(f"a recorder is still writing {root}; stop it before repairing")
         report = RepairReport()
         finished = set()
         for idx, (path, partial) in sorted(L.scan(root).items()):
