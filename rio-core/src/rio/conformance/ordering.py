@@ -166,7 +166,7 @@ def _consumer(path: str, plan: Plan, out: Any) -> None:
     received = 0
     deadline = time.monotonic() + plan.timeout_s
     while received < total and time.monotonic() < deadline:
-        if not queue.wait(0.05):
+        if not queue.wait(0.001):  # no cross-process notifier here: poll
             continue
         for req in queue.get_all():
             received += 1
