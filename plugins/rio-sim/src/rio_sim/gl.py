@@ -20,7 +20,9 @@ import threading
 #: (seen with two cameras opening together under the thread middleware): hold this around both.
 CONTEXT_LOCK = threading.Lock()
 
-_FIX = ("install the EGL/Mesa libraries (Debian/Ubuntu: apt-get install libegl1 libopengl0 libgl1-mesa-dri), "
+_FIX = ("MuJoCo renders through CGL on macOS (no install needed); MUJOCO_GL=glfw uses a window's context instead"
+        if sys.platform == "darwin" else
+        "install the EGL/Mesa libraries (Debian/Ubuntu: apt-get install libegl1 libopengl0 libgl1-mesa-dri), "
         "or set MUJOCO_GL to a backend this machine has (egl, glfw with a display, osmesa)")
 
 

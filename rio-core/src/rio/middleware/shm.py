@@ -279,7 +279,8 @@ def _after_fork_in_child() -> None:
         client._after_fork()
 
 
-os.register_at_fork(after_in_child=_after_fork_in_child)
+if hasattr(os, "register_at_fork"):  # not on Windows (no fork there)
+    os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
 class ShmMiddleware(Middleware):
