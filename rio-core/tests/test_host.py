@@ -8,6 +8,7 @@ Windows is simulated only as far as "no POSIX shared memory": the refusal messag
 
 from __future__ import annotations
 
+import json
 import mmap
 import os
 import subprocess
@@ -63,7 +64,7 @@ def test_fallback_anonymous_memory_leaves_no_file_and_liveness_is_polled():
     assert host.pid_alive(os.getpid())
 
 
-def test_without_posix_shared_memory_the_shm_middleware_names_the_alternatives(monkeypatch):
+def test_without_posix_shared_memory_the_shm_middleware_names_the_alternatives(monkeypatch, capsys):
     monkeypatch.setattr(host, "_posixshmem", None)
     with pytest.raises(ConfigError, match="thread, zmq or zenoh.*WSL2"):
         host.require_shared_memory("the shm middleware")
@@ -71,6 +72,12 @@ def test_without_posix_shared_memory_the_shm_middleware_names_the_alternatives(m
 
     with pytest.raises(ConfigError, match="the shm middleware needs POSIX shared memory"):
         ShmMiddleware().prepare(None, "/tmp")  # type: ignore[arg-type]
+    from rio.cli import main
+
+    assert main(["doctor", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    shm = next(r for r in data["middlewares"] if r["middleware"] == "shm")
+    assert not shm["ok"] and "WSL2" in shm["install"] and data["host"] == host.describe()
 
 
 def test_file_lock_is_exclusive_across_descriptors(tmp_path):

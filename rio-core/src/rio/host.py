@@ -199,9 +199,13 @@ class FileLock:
 
 
 # -- named POSIX shared memory --------------------------------------------------------------------------
+def has_shared_memory() -> bool:
+    return _posixshmem is not None
+
+
 def require_shared_memory(what: str) -> None:
     """Refuse, naming the alternatives, where there is no POSIX shared memory (Windows)."""
-    if _posixshmem is None:
+    if not has_shared_memory():
         raise ConfigError(f"{what} needs POSIX shared memory (Linux or macOS); on Windows use the thread, zmq "
                           "or zenoh middleware, or run RIO inside WSL2 (see docs/platforms.md)")
 
@@ -271,5 +275,5 @@ def shm_list(prefix: str = "") -> set[str]:
 
 
 __all__ = ["FALLBACK", "WINDOWS", "describe", "yield_cpu", "shm_dir", "anonymous_memory", "process_exit_watch",
-           "pid_alive", "try_lock", "FileLock", "require_shared_memory", "shm_create", "shm_open", "shm_unlink",
-           "shm_list", "registry_dir"]
+           "pid_alive", "try_lock", "FileLock", "has_shared_memory", "require_shared_memory", "shm_create",
+           "shm_open", "shm_unlink", "shm_list", "registry_dir"]

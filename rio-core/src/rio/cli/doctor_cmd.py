@@ -11,6 +11,7 @@ from typing import Annotated, Any
 
 import typer
 
+from .. import host
 from ..requirements import evaluate, module_present
 
 # middleware name -> (import name or None, install command)
@@ -31,6 +32,8 @@ def _middleware_rows(reg: Any) -> list[dict[str, Any]]:
         # the implementing module itself (find_spec imports only its parent packages)
         impl_ok = module_present(spec.target.partition(":")[0])
         why = install if not dep_ok else ("" if impl_ok else f"{spec.target} not found (plugin {spec.plugin})")
+        if spec.name == "shm" and not host.has_shared_memory():
+            dep_ok, why = False, "no POSIX shared memory here: use zmq or zenoh, or WSL2 (docs/platforms.md)"
         rows.append({"middleware": spec.name, "plugin": spec.plugin, "dependency": module or "-",
                      "ok": dep_ok and impl_ok, "install": why})
     return rows
@@ -55,13 +58,14 @@ def doctor(as_json: Annotated[bool, typer.Option("--json", help="Machine-readabl
     mw_rows = _middleware_rows(reg)
     needs = {dist: [evaluate(r).as_dict() for r in reqs] for dist, reqs in reg.requirements().items()}
     info = {"python": sys.version.split()[0], "platform": platform.platform(), "rio": __version__,
-            "executable": sys.executable}
+            "executable": sys.executable, "host": host.describe()}
     if as_json:
         print_json({**info, "plugins": [{"name": p.dist, "version": p.version} for p in reg.plugins.values()],
                     "problems": [str(p) for p in reg.problems], "middlewares": mw_rows, "requirements": needs})
         return
     out = console()
-    out.print(f"rio {info['rio']} on Python {info['python']} ({info['platform']})\n{info['executable']}", markup=False)
+    out.print(f"rio {info['rio']} on Python {info['python']} ({info['platform']})\n{info['executable']}\n"
+              f"host: {info['host']} (docs/platforms.md)", markup=False)
     table("plugins", ("plugin", "version"), [(p.dist, p.version) for p in reg.plugins.values()])
     from rich.text import Text
 
