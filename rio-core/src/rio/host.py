@@ -95,8 +95,9 @@ class _KqueueExit:
     """macOS/BSD: a kqueue with a NOTE_EXIT filter on the process, readable once it has exited."""
 
     def __init__(self, pid: int):
-        import select
+        import select as select_module
 
+        select: Any = select_module  # kqueue exists on macOS/BSD only (mypy checks with Linux stubs)
         self.kq = select.kqueue()
         ev = select.kevent(pid, filter=select.KQ_FILTER_PROC, flags=select.KQ_EV_ADD | select.KQ_EV_ONESHOT,
                            fflags=select.KQ_NOTE_EXIT)
@@ -152,6 +153,12 @@ def pid_alive(pid: int) -> bool:
 
 
 # -- file locks -----------------------------------------------------------------------------------------
+def _msvcrt() -> Any:
+    import importlib
+
+    return importlib.import_module("msvcrt")  # Windows only
+
+
 def try_lock(fd: int) -> bool:
     """Take an exclusive lock on an open file without waiting; False when another process holds it.
     The kernel drops the lock when its holder dies (flock; msvcrt's region lock on Windows)."""
@@ -159,8 +166,8 @@ def try_lock(fd: int) -> bool:
         if fcntl is not None:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         else:
-            import msvcrt
-            msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)  # type: ignore[attr-defined]
+            msvcrt = _msvcrt()
+            msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
     except OSError:
         return False
     return True
@@ -186,15 +193,15 @@ class FileLock:
         if fcntl is not None:
             fcntl.flock(self.fd, fcntl.LOCK_EX)
         else:
-            import msvcrt
-            msvcrt.locking(self.fd, msvcrt.LK_LOCK, 1)  # type: ignore[attr-defined]
+            msvcrt = _msvcrt()
+            msvcrt.locking(self.fd, msvcrt.LK_LOCK, 1)
 
     def __exit__(self, *exc: Any) -> None:
         if fcntl is not None:
             fcntl.flock(self.fd, fcntl.LOCK_UN)
         else:
-            import msvcrt
-            msvcrt.locking(self.fd, msvcrt.LK_UNLCK, 1)  # type: ignore[attr-defined]
+            msvcrt = _msvcrt()
+            msvcrt.locking(self.fd, msvcrt.LK_UNLCK, 1)
         self._tlock.release()
 
 
