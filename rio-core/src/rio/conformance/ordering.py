@@ -111,13 +111,14 @@ def _queue(plan: Plan, mm: mmap.mmap, fd: int) -> RequestQueue:
                         lock=host.FileLock(fd), put_timeout=plan.timeout_s)
 
 
-def _ring_writer(path: str, plan: Plan, k: int, out: Any) -> None:
+def _writer(path: str, plan: Plan, src: int, out: Any) -> None:
+    """Writer `src`: of ring `src` when src < plan.rings, else a producer into the queue."""
     fd, mm = _open(path, _areas(plan)[2])
-    ring = _ring(plan, mm, k)
-    rec = ring.layout.empty()
+    target: RingBuffer | RequestQueue = _ring(plan, mm, src) if src < plan.rings else _queue(plan, mm, fd)
+    rec = target.layout.empty()
     for seq in range(plan.per_writer()):
-        rec["seq"], rec["src"], rec["data"] = seq, k, _pattern(k, seq, plan.payload)
-        ring.put_record(rec)
+        rec["seq"], rec["src"], rec["data"] = seq, src, _pattern(src, seq, plan.payload)
+        target.put_record(rec)
     out.put(("written", plan.per_writer()))
 
 
@@ -145,17 +146,6 @@ def _ring_reader(path: str, plan: Plan, out: Any) -> None:
                 stale += 1
             newest[k] = max(newest[k], seq)
     out.put(("reads", reads, torn, stale))
-
-
-def _producer(path: str, plan: Plan, p: int, out: Any) -> None:
-    fd, mm = _open(path, _areas(plan)[2])
-    queue = _queue(plan, mm, fd)
-    rec = queue.layout.empty()
-    src = plan.rings + p
-    for seq in range(plan.per_writer()):
-        rec["seq"], rec["src"], rec["data"] = seq, src, _pattern(src, seq, plan.payload)
-        queue.put_record(rec)
-    out.put(("written", plan.per_writer()))
 
 
 def _consumer(path: str, plan: Plan, out: Any) -> None:
@@ -187,14 +177,14 @@ def stress(plan: Plan | None = None, **fields: Any) -> Report:
         os.ftruncate(fd, size)
         ctx = mp.get_context("spawn")
         out = ctx.Queue()
-        procs = [ctx.Process(target=_ring_writer, args=(path, plan, k, out)) for k in range(plan.rings)]
-        procs += [ctx.Process(target=_ring_reader, args=(path, plan, out)) for _ in range(plan.readers)]
-        if plan.producers:
-            procs += [ctx.Process(target=_producer, args=(path, plan, p, out)) for p in range(plan.producers)]
-            procs.append(ctx.Process(target=_consumer, args=(path, plan, out)))
-        t0 = time.monotonic()
         # readers and the consumer first, so they are watching before the writers start
-        for proc in sorted(procs, key=lambda p: p._target not in (_ring_reader, _consumer)):  # type: ignore[attr-defined]
+        procs = [ctx.Process(target=_ring_reader, args=(path, plan, out)) for _ in range(plan.readers)]
+        if plan.producers:
+            procs.append(ctx.Process(target=_consumer, args=(path, plan, out)))
+        procs += [ctx.Process(target=_writer, args=(path, plan, src, out))
+                  for src in range(plan.rings + plan.producers)]
+        t0 = time.monotonic()
+        for proc in procs:
             proc.start()
         for _ in procs:
             try:
