@@ -84,17 +84,20 @@ fi
 [[ $MODE == wrapper ]] || binfmt_enabled || die "RIO_ARM64_MODE=chroot needs a qemu-aarch64 binfmt_misc entry"
 [[ $MODE == wrapper ]] || need_root "chroot mode"
 if [[ $MODE == chroot ]] && ! grep -q '^flags:.*F' "$BINFMT/qemu-aarch64"; then
-    # without the F (fix-binary) flag the kernel looks for the interpreter inside the chroot
-    interp=$(sed -n 's/^interpreter //p' "$BINFMT/qemu-aarch64")
-    [[ -x $ROOT$interp ]] || { mkdir -p "$ROOT$(dirname "$interp")"; cp -L "$interp" "$ROOT$interp"; }
+    die "the qemu-aarch64 binfmt_misc entry lacks the F (fix-binary) flag, so the kernel would look for
+    qemu inside the chroot: re-register it with flags OCF/OPF (Debian's qemu-user-static does) or use
+    RIO_ARM64_MODE=wrapper"
 fi
 log "mode: $MODE, userland: $ROOT (Debian $SUITE arm64)"
 
 # ---- running things in the userland -------------------------------------------------------------
+# test_shm_ordering.py's stress test: 1 000 000 samples take ~17 s natively on x86 but ~9 min under
+# QEMU (past its 240 s limit); 100 000 take ~1 min. Set RIO_STRESS_SAMPLES to override.
+RIO_STRESS_SAMPLES=${RIO_STRESS_SAMPLES:-100000}
 GUEST_ENV=(PATH=$VENV/bin:/usr/bin:/bin HOME=/root LANG=C.UTF-8 TERM=${TERM:-dumb}
            PYTHONDONTWRITEBYTECODE=1 PIP_CONFIG_FILE=/dev/null PIP_DISABLE_PIP_VERSION_CHECK=1
            PIP_CERT=/etc/ssl/host-ca-bundle.crt)
-for v in http_proxy https_proxy no_proxy HTTP_PROXY HTTPS_PROXY NO_PROXY PYTEST_ADDOPTS; do
+for v in http_proxy https_proxy no_proxy HTTP_PROXY HTTPS_PROXY NO_PROXY PYTEST_ADDOPTS RIO_STRESS_SAMPLES; do
     [[ -n ${!v:-} ]] && GUEST_ENV+=("$v=${!v}")
 done
 # guest ARGS...: run ARGS (a guest path first) in the userland, from the checkout's directory
@@ -116,7 +119,7 @@ guest() {
         local exe=$1; shift
         case $exe in
             $VENV/bin/python*) exe=$ROOT$VENV/bin/python-qemu ;;
-            *) exe=$QEMU; set -- -L "$ROOT" "$ROOT$1" "${@:2}" ;;
+            *) set -- -L "$ROOT" "$ROOT$exe" "$@"; exe=$QEMU ;;
         esac
         (cd "$REPO" && exec env -i "${GUEST_ENV[@]}" "$exe" "$@")
     fi
@@ -160,7 +163,8 @@ fi
 [[ -f $ROOT/etc/ssl/host-ca-bundle.crt ]] || ln -sf certs/ca-certificates.crt "$ROOT/etc/ssl/host-ca-bundle.crt"
 
 # ---- the venv -------------------------------------------------------------------------------------
-if [[ ! -x $ROOT$VENV/bin/python-qemu || ! -f $ROOT$VENV/.rio-venv-ok ]]; then
+if [[ ! -f $ROOT$VENV/.rio-venv-ok ]]; then
+    mkdir -p "$ROOT/opt" 2>/dev/null || true
     [[ -w $ROOT/opt ]] || die "cannot write $ROOT/opt: run as root"
     rm -rf "$ROOT$VENV"
     log "creating the venv $VENV in the userland"
@@ -173,14 +177,15 @@ if [[ ! -x $ROOT$VENV/bin/python-qemu || ! -f $ROOT$VENV/.rio-venv-ok ]]; then
         ln -sfn /usr/bin/python3 "$ROOT$VENV/bin/python3"
     fi
 fi
-# host-side launcher for wrapper mode (rewritten every run: it names ROOT and qemu's path)
-cat > "$ROOT$VENV/bin/python-qemu" <<EOF
-#!/bin/sh
-# x86 launcher of the arm64 python (tools/aarch64/run-tests.sh, wrapper mode). -0 "\$0" makes the
+# host-side launcher for wrapper mode (it names ROOT and qemu's path: rewritten when they change)
+launcher="#!/bin/sh
+# x86 launcher of the arm64 python (tools/aarch64/run-tests.sh, wrapper mode). -0 \"\$0\" makes the
 # guest's sys.executable this script, so multiprocessing's spawned children are emulated too.
-exec $QEMU -L $ROOT -0 "\$0" $ROOT/usr/bin/python3 "\$@"
-EOF
-chmod +x "$ROOT$VENV/bin/python-qemu"
+exec $QEMU -L $ROOT -0 \"\$0\" $ROOT/usr/bin/python3 \"\$@\""
+if [[ $(cat "$ROOT$VENV/bin/python-qemu" 2>/dev/null) != "$launcher" ]]; then
+    printf '%s\n' "$launcher" > "$ROOT$VENV/bin/python-qemu"
+    chmod 755 "$ROOT$VENV/bin/python-qemu"
+fi
 if [[ ! -f $ROOT$VENV/.rio-venv-ok ]]; then
     guest $VENV/bin/python -m ensurepip >/dev/null
     touch "$ROOT$VENV/.rio-venv-ok"
@@ -196,7 +201,7 @@ if command -v uv >/dev/null && [[ -f $REPO/uv.lock ]] \
            | grep -vE '^(mypy|mypy-extensions|ruff|librt|ast-serialize|pathspec)==') > "$req" 2>/dev/null; then
     log "dependencies pinned from uv.lock"
 else
-    log "uv not found: dependencies from version ranges"
+    log "uv (or its uv.lock export) not available: dependencies from version ranges"
     printf '%s\n' "numpy>=1.24" "pluggy>=1.5" "pydantic>=2.6" "msgpack>=1.0" "xxhash>=3.0" "pyzmq>=25" \
         "typer>=0.12" "rich>=13" "tomli>=2.0; python_version < '3.11'" "eclipse-zenoh>=1.0,<2" \
         "portal>=3.5" "pytest>=8" "pytest-timeout>=2.3" "psutil>=5.9" > "$req"
@@ -215,13 +220,19 @@ if ! cmp -s "$req" "$stamp"; then
 fi
 
 # ---- run ------------------------------------------------------------------------------------------
-guest $VENV/bin/python -c 'import platform, sys; print("[aarch64] python", platform.python_version(), "on", platform.machine())' >&2
+guest $VENV/bin/python -c 'import platform, sys
+print("[aarch64] python", platform.python_version(), "on", platform.machine(), file=sys.stderr)
+sys.exit(sys.version_info < (3, 10) or platform.machine() != "aarch64")' \
+    || die "the userland's python is not aarch64 python >= 3.10 (rio-core needs 3.10; bookworm has 3.11)"
 if [[ ${1:-} == --python ]]; then
     shift
     start=$SECONDS; rc=0
     guest $VENV/bin/python "$@" || rc=$?
 else
-    (($#)) || set -- "${DEFAULT_TESTS[@]}"
+    # no test path among the arguments (only options, e.g. -x -q): the default tests
+    has_path=
+    for a in "$@"; do [[ $a != -* && -e $REPO/${a%%::*} ]] && has_path=1; done
+    [[ -n $has_path ]] || set -- "$@" "${DEFAULT_TESTS[@]}"
     start=$SECONDS; rc=0
     # -p no:cacheprovider: no root-owned .pytest_cache in the checkout
     guest $VENV/bin/python -m pytest -p no:cacheprovider "$@" || rc=$?
