@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Run rio-core's tests on aarch64 on an x86-64 Linux machine, under QEMU user-mode emulation.
-# See docs/arm.md. On a real aarch64 machine (Jetson, Raspberry Pi) do not use this: run
-# `uv sync && uv run pytest ...` there, natively.
+# See docs/arm.md. On a real aarch64 machine (Jetson, Raspberry Pi) do not use this: the tests run
+# natively there with uv (docs/arm.md gives the commands).
 #
 #   sudo tools/aarch64/run-tests.sh                          # the shared-memory tests (default)
 #   sudo tools/aarch64/run-tests.sh rio-core/tests/test_conformance.py -x   # any pytest arguments
@@ -32,6 +32,7 @@ ROOT=${RIO_ARM64_ROOT:-/opt/rio-arm64}
 MODE=${RIO_ARM64_MODE:-auto}
 MIRROR=${RIO_ARM64_MIRROR:-http://deb.debian.org/debian}
 if [[ -z ${RIO_ARM64_SUITE:-} ]]; then
+    # shellcheck disable=SC1091
     RIO_ARM64_SUITE=$( (. /etc/os-release && [[ ${ID:-} == debian && -n ${VERSION_CODENAME:-} ]] \
                         && echo "$VERSION_CODENAME") 2>/dev/null || echo bookworm)
 fi
@@ -46,7 +47,8 @@ die() { echo "[aarch64] error: $*" >&2; exit 1; }
 
 case $(uname -m) in
     aarch64|arm64) die "this machine is aarch64 already: run the tests natively (docs/arm.md):
-    uv sync && uv run pytest ${DEFAULT_TESTS[*]}" ;;
+    uv sync --no-install-package franky-control --no-install-package ur-rtde --no-install-package pyrealsense2
+    uv run --no-sync pytest ${DEFAULT_TESTS[*]}" ;;
     x86_64) ;;
     *) log "untested host architecture $(uname -m); trying anyway" ;;
 esac
@@ -91,16 +93,17 @@ fi
 log "mode: $MODE, userland: $ROOT (Debian $SUITE arm64)"
 
 # ---- running things in the userland -------------------------------------------------------------
-# test_shm_ordering.py's stress test: 1 000 000 samples take ~17 s natively on x86 but ~9 min under
-# QEMU (past its 240 s limit); 100 000 take ~1 min. Set RIO_STRESS_SAMPLES to override.
+# test_shm_ordering.py's stress test: its default 1 000 000 samples take ~17 s natively on x86 but did
+# not finish within the test's limits under QEMU (100 000 took ~1 min). Set RIO_STRESS_SAMPLES to override.
 RIO_STRESS_SAMPLES=${RIO_STRESS_SAMPLES:-100000}
-GUEST_ENV=(PATH=$VENV/bin:/usr/bin:/bin HOME=/root LANG=C.UTF-8 TERM=${TERM:-dumb}
+GUEST_ENV=("PATH=$VENV/bin:/usr/bin:/bin" HOME=/root LANG=C.UTF-8 "TERM=${TERM:-dumb}"
            PYTHONDONTWRITEBYTECODE=1 PIP_CONFIG_FILE=/dev/null PIP_DISABLE_PIP_VERSION_CHECK=1
            PIP_CERT=/etc/ssl/host-ca-bundle.crt)
 for v in http_proxy https_proxy no_proxy HTTP_PROXY HTTPS_PROXY NO_PROXY PYTEST_ADDOPTS RIO_STRESS_SAMPLES; do
     [[ -n ${!v:-} ]] && GUEST_ENV+=("$v=${!v}")
 done
 # guest ARGS...: run ARGS (a guest path first) in the userland, from the checkout's directory
+# shellcheck disable=SC2016  # the single-quoted scripts get their values as arguments
 guest() {
     if [[ $MODE == chroot ]]; then
         # a private mount namespace: the mounts vanish with the command, nothing to clean up
@@ -160,7 +163,7 @@ if [[ $(id -u) == 0 ]]; then
     ca=${PIP_CERT:-${SSL_CERT_FILE:-/etc/ssl/certs/ca-certificates.crt}}
     [[ -f $ca ]] && cp -L "$ca" "$ROOT/etc/ssl/host-ca-bundle.crt"
 fi
-[[ -f $ROOT/etc/ssl/host-ca-bundle.crt ]] || ln -sf certs/ca-certificates.crt "$ROOT/etc/ssl/host-ca-bundle.crt"
+[[ -f $ROOT/etc/ssl/host-ca-bundle.crt ]] || ln -sf certs/ca-certificates.crt "$ROOT/etc/ssl/host-ca-bundle.crt" 2>/dev/null || true
 
 # ---- the venv -------------------------------------------------------------------------------------
 if [[ ! -f $ROOT$VENV/.rio-venv-ok ]]; then
@@ -194,10 +197,16 @@ fi
 # ---- dependencies ---------------------------------------------------------------------------------
 req=$(mktemp)
 trap 'rm -f "$req"' EXIT
-if command -v uv >/dev/null && [[ -f $REPO/uv.lock ]] \
-   && (cd "$REPO" && uv export --frozen --no-hashes --no-header --no-annotate --no-emit-workspace \
+# uv pins the versions from uv.lock; under sudo, PATH may have lost the invoking user's uv
+UV=${UV:-$(command -v uv || true)}
+if [[ -z $UV && -n ${SUDO_USER:-} ]]; then
+    user_home=$(getent passwd "$SUDO_USER" | cut -d: -f6)
+    for c in "$user_home/.local/bin/uv" "$user_home/.cargo/bin/uv"; do [[ -x $c ]] && { UV=$c; break; }; done
+fi
+if [[ -n $UV && -f $REPO/uv.lock ]] \
+   && (cd "$REPO" && "$UV" export --frozen --no-hashes --no-header --no-annotate --no-emit-workspace \
            --package rio-core --extra zenoh --extra portal \
-       && uv export --frozen --no-hashes --no-header --no-annotate --no-emit-workspace --only-group dev \
+       && "$UV" export --frozen --no-hashes --no-header --no-annotate --no-emit-workspace --only-group dev \
            | grep -vE '^(mypy|mypy-extensions|ruff|librt|ast-serialize|pathspec)==') > "$req" 2>/dev/null; then
     log "dependencies pinned from uv.lock"
 else
@@ -208,7 +217,9 @@ else
 fi
 echo "# rio-core editable from $REPO" >> "$req"
 stamp=$ROOT$VENV/.rio-requirements.txt
-if ! cmp -s "$req" "$stamp"; then
+if ! cmp -s "$req" "$stamp" && [[ ! -w $ROOT$VENV && -f $stamp ]]; then
+    log "the venv is not writable here: using it as installed (run as root to update it)"
+elif ! cmp -s "$req" "$stamp"; then
     [[ -w $ROOT$VENV ]] || die "cannot write the venv: run as root"
     start=$SECONDS
     log "installing the aarch64 wheels (pip, emulated; ~2 min the first time)"
@@ -233,6 +244,7 @@ else
     has_path=
     for a in "$@"; do [[ $a != -* && -e $REPO/${a%%::*} ]] && has_path=1; done
     [[ -n $has_path ]] || set -- "$@" "${DEFAULT_TESTS[@]}"
+    log "RIO_STRESS_SAMPLES=$RIO_STRESS_SAMPLES"
     start=$SECONDS; rc=0
     # -p no:cacheprovider: no root-owned .pytest_cache in the checkout
     guest $VENV/bin/python -m pytest -p no:cacheprovider "$@" || rc=$?
