@@ -106,7 +106,12 @@ done
 # shellcheck disable=SC2016  # the single-quoted scripts get their values as arguments
 guest() {
     if [[ $MODE == chroot ]]; then
-        # a private mount namespace: the mounts vanish with the command, nothing to clean up
+        # the checkout's mount point, made for this command and removed after it: an empty
+        # $ROOT$REPO left behind would hide the checkout from qemu -L in wrapper mode
+        local d=$ROOT$REPO made=() rc=0
+        while [[ ! -e $d ]]; do made+=("$d"); d=$(dirname "$d"); done
+        mkdir -p "$ROOT$REPO"
+        # a private mount namespace: the mounts vanish with the command
         unshare --mount --propagation private /bin/sh -ec '
             root=$1 repo=$2; shift 2
             mount -t proc proc "$root/proc"
@@ -114,10 +119,11 @@ guest() {
             mount --bind /dev "$root/dev"
             mount --bind /dev/pts "$root/dev/pts"
             mount --bind /dev/shm "$root/dev/shm"
-            mkdir -p "$root$repo"
             mount --bind "$repo" "$root$repo"
             exec chroot "$root" /usr/bin/env -i "$@"' sh "$ROOT" "$REPO" "${GUEST_ENV[@]}" \
-            /bin/sh -c 'cd "$0" && exec "$@"' "$REPO" "$@"
+            /bin/sh -c 'cd "$0" && exec "$@"' "$REPO" "$@" || rc=$?
+        for d in "${made[@]}"; do rmdir "$d" 2>/dev/null || break; done
+        return $rc
     else
         local exe=$1; shift
         case $exe in
@@ -127,6 +133,13 @@ guest() {
         (cd "$REPO" && exec env -i "${GUEST_ENV[@]}" "$exe" "$@")
     fi
 }
+
+if [[ $MODE == wrapper && -d $ROOT$REPO ]]; then
+    # an empty mount point (left by an interrupted chroot-mode run) hides the checkout from qemu -L
+    d=$ROOT$REPO
+    while [[ $d != "$ROOT" ]] && rmdir "$d" 2>/dev/null; do d=$(dirname "$d"); done
+    [[ -d $ROOT$REPO ]] && die "$ROOT$REPO exists: qemu -L would show it instead of the checkout; remove it"
+fi
 
 # ---- the userland ---------------------------------------------------------------------------------
 if [[ ! -f $ROOT/.rio-rootfs-ok ]]; then
