@@ -100,3 +100,23 @@ def test_shared_memory_suites_pass_on_the_portable_paths():
                          cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
     assert " passed" in run.stdout and "failed" not in run.stdout
+
+
+def test_a_plugins_tests_skip_saying_why_where_its_sdk_has_no_wheel():
+    """`rio.testing.skip_tests_without`, used by rio-franka's and rio-ur's conftests (franky-control and
+    ur-rtde have no aarch64 or macOS wheels)."""
+    from rio.testing import skip_tests_without
+
+    class Item:
+        def __init__(self, path):
+            self.path, self.markers = Path(path), []
+
+        def add_marker(self, marker):
+            self.markers.append(marker)
+
+    items = [Item("/r/plugins/rio-ur/tests/test_arm.py"), Item("/r/plugins/rio-so100/tests/test_arm.py")]
+    skip_tests_without("rio_no_such_sdk", "no wheel here", items, "rio-ur")
+    assert [len(i.markers) for i in items] == [1, 0]
+    assert items[0].markers[0].kwargs["reason"] == "rio_no_such_sdk is not installed (no wheel here)"
+    skip_tests_without("numpy", "installed", items[1:], "rio-so100")
+    assert items[1].markers == []

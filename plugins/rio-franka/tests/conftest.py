@@ -19,14 +19,8 @@ def fake_ip():
     fake.forget(ip)
 
 
-def pytest_collection_modifyitems(config, items):
-    """franky-control ships wheels for Linux x86-64 only (a Jetson or a Mac has none, and the plugin
-    does not require it there): its tests skip, saying so, instead of failing on the import."""
-    import importlib.util
 
-    if importlib.util.find_spec("franky") is not None:
-        return
-    skip = pytest.mark.skip(reason="franky-control is not installed (wheels for Linux x86-64 only)")
-    for item in items:
-        if "rio-franka" in str(item.path):
-            item.add_marker(skip)
+def pytest_collection_modifyitems(config, items):
+    from rio.testing import skip_tests_without
+
+    skip_tests_without("franky", "franky-control ships wheels for Linux x86-64 only", items, "rio-franka")

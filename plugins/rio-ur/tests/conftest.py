@@ -40,3 +40,10 @@ def emulator(shared_emulator):
     """The module's UR5e emulator, reset: safety normal, running, at home, slider 100 %, no program."""
     shared_emulator.inject("reset")
     return shared_emulator
+
+
+def pytest_collection_modifyitems(config, items):
+    from rio.testing import skip_tests_without
+
+    skip_tests_without("rtde_control", "ur-rtde ships wheels for Linux x86-64 and Windows only; elsewhere "
+                       "`pip install ur-rtde` builds it (CMake, Boost)", items, "rio-ur")

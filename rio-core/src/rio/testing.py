@@ -52,6 +52,22 @@ def cycle_gripper(grip: Any, widths: Any, tol: float, seconds: float = 1.0, time
         assert wait_until(lambda g=goal: abs(grip.read_state()["position"] - g) < tol, timeout=timeout)
 
 
+def skip_tests_without(module: str, why: str, items: Any, under: str) -> None:
+    """For a plugin's conftest `pytest_collection_modifyitems`: where `module` (a vendor SDK without
+    wheels for this platform) is not installed, skip the tests whose path contains `under`, saying
+    why, instead of failing on the import."""
+    import importlib.util
+
+    import pytest
+
+    if importlib.util.find_spec(module) is not None:
+        return
+    skip = pytest.mark.skip(reason=f"{module} is not installed ({why})")
+    for item in items:
+        if under in str(item.path):
+            item.add_marker(skip)
+
+
 def run_rio(*args: str, timeout: float = 300, env: dict[str, str] | None = None) -> Any:
     """`python -m rio ARGS` in a fresh process (a command as a user types it), checked to succeed; returns
     the `subprocess.CompletedProcess` (stdout and stderr as text)."""
