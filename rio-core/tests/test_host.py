@@ -90,9 +90,10 @@ def test_file_lock_is_exclusive_across_descriptors(tmp_path):
 
 
 def test_shared_memory_suites_pass_on_the_portable_paths():
-    """The middleware conformance kit (shm), the shm middleware and call-channel tests, recording
-    and the sim world bus, re-run with RIO_HOST_FALLBACK=1: what macOS runs, on this Linux machine."""
-    suites = ["rio-core/tests/test_conformance.py::TestShm", "rio-core/tests/test_mw_shm.py",
+    """The whole middleware conformance kit (every middleware watches its node processes through
+    rio.host), the shm middleware and call-channel tests, crash-safe recording and the sim world bus,
+    re-run with RIO_HOST_FALLBACK=1: what macOS runs, on this Linux machine."""
+    suites = ["rio-core/tests/test_conformance.py", "rio-core/tests/test_mw_shm.py",
               "rio-core/tests/test_shm_calls.py", "rio-core/tests/test_recording_crash.py",
               "plugins/rio-sim/tests/test_bus.py"]
     env = {**os.environ, "RIO_HOST_FALLBACK": "1"}
