@@ -47,8 +47,7 @@ die() { echo "[aarch64] error: $*" >&2; exit 1; }
 
 case $(uname -m) in
     aarch64|arm64) die "this machine is aarch64 already: run the tests natively (docs/arm.md):
-    uv sync --no-install-package ur-rtde
-    uv run --no-sync pytest ${DEFAULT_TESTS[*]}" ;;
+    uv sync && uv run pytest ${DEFAULT_TESTS[*]}" ;;
     x86_64) ;;
     *) log "untested host architecture $(uname -m); trying anyway" ;;
 esac
