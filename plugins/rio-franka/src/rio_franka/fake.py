@@ -349,8 +349,18 @@ class FakeGripper:
         return float(self._link().width)
 
     @property
-    def is_grasped(self) -> bool:
+    def state(self) -> SimpleNamespace:
+        """franky.GripperState: one reading of width and is_grasped together."""
         c = self._link()
+        with c.lock:
+            return SimpleNamespace(width=float(c.width), is_grasped=self._grasped(c), max_width=self.max_width,
+                                   temperature=30, time=clock.now())
+
+    @property
+    def is_grasped(self) -> bool:
+        return self._grasped(self._link())
+
+    def _grasped(self, c: FakeController) -> bool:
         if c.grasping is None:
             return False
         w, inner, outer = c.grasping

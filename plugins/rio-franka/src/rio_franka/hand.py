@@ -53,7 +53,9 @@ class FrankaHand(FrankaLink, GripperNode):
         self.link_status()  # retries a dropped link
         hand = self.handle
         if hand is not None:
-            got = self.guarded(lambda: (float(hand.width), bool(hand.is_grasped)))
+            # one GripperState: width and is_grasped of the same moment (two property reads are two
+            # reads of the gripper, which a busy machine can put far apart)
+            got = self.guarded(lambda: (lambda st: (float(st.width), bool(st.is_grasped)))(hand.state))
             if got is not None:
                 self._last = got
         width, obj = self._last
