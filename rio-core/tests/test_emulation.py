@@ -207,6 +207,8 @@ def test_free_loopback_skips_addresses_whose_ports_are_taken():
 
     host = free_loopback([47001, 47002])
     assert host.startswith("127.0.0.") and is_free(host, [47001, 47002])
+    assert all(int(free_loopback([47001]).rsplit(".", 1)[1]) > 31 for _ in range(300)), \
+        "127.0.0.2-31 are station files' addresses"
     taken = socket.socket()
     taken.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     taken.bind((host, 47002))

@@ -64,6 +64,30 @@ def test_fallback_anonymous_memory_leaves_no_file_and_liveness_is_polled():
     assert host.pid_alive(os.getpid())
 
 
+_HELPER = """
+import os, subprocess, sys
+helper = subprocess.Popen([sys.executable, "-c", "import os, time; from rio import host; "
+                           f"host.exit_with_parent({os.getpid()}); print('armed', flush=True); time.sleep(120)"],
+                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+assert helper.stdout.readline().strip() == "armed"
+print(helper.pid, flush=True)
+os.kill(os.getpid(), 9)  # the parent dies without cleaning up
+"""
+
+
+@pytest.mark.parametrize("fallback", ["0", "1"], ids=["native", "portable"])
+def test_a_helper_process_exits_with_the_parent_that_was_killed(fallback):
+    """PR_SET_PDEATHSIG natively; the polling thread macOS and Windows use, forced on Linux."""
+    env = {**os.environ, "RIO_HOST_FALLBACK": fallback}
+    parent = subprocess.run([sys.executable, "-c", _HELPER], capture_output=True, text=True, env=env, timeout=120)
+    assert parent.returncode == -9, parent.stderr
+    helper = int(parent.stdout.split()[-1])
+    deadline = time.monotonic() + 30
+    while host.pid_alive(helper) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not host.pid_alive(helper), "the helper outlived its parent"
+
+
 def test_without_posix_shared_memory_the_shm_middleware_names_the_alternatives(monkeypatch, capsys):
     monkeypatch.setattr(host, "_posixshmem", None)
     with pytest.raises(ConfigError, match="thread, zmq or zenoh.*WSL2"):

@@ -64,6 +64,26 @@ class Crashes(PubOnly):
 
 
 
+class SlowToConnect(PubOnly):
+    """A device that answers after `delay_s`, as a controller still booting does."""
+
+    class Config(Node.Config):
+        delay_s: float = 1.0
+        connect_timeout_s: float = 0.0
+
+    def open(self):
+        time.sleep(self.config.delay_s)
+
+
+def test_a_node_gets_its_own_connect_timeout_to_be_ready():
+    """CI saw a station's gripper (connect_timeout_s = 90) abandoned at the manager's 60 s."""
+    with ServerManager("thread", [serve(SlowToConnect, name="s", connect_timeout_s=3.0)], ready_timeout=0.2):
+        pass
+    with pytest.raises(rio.RioError, match=r"not ready after 0 s: \['s'\]"):
+        with ServerManager("thread", [serve(SlowToConnect, name="s")], ready_timeout=0.2):
+            pass
+
+
 def test_publish_only_loop_runs_at_its_rate():
     with ServerManager("thread", [serve(PubOnly, name="p", rate_hz=100)]):
         with connect(PubOnly, "thread", name="p") as c:

@@ -24,6 +24,17 @@ def test_rio_ur_status_reads_the_emulated_controller(emulator):
     assert "Safetystatus: NORMAL" in out and emulator.state()["safety_mode"] == 1, out
 
 
+def test_an_emulator_that_does_not_come_up_is_stopped_not_left_holding_its_address():
+    """In CI an emulator that missed its deadline lived on and held 127.0.0.2 for the next runs."""
+    pytest.importorskip("rio_sim")
+    from rio_ur.emulator.process import EmulatorProcess
+
+    emu = EmulatorProcess("ur5e", backend="sim:arm@no-such-world")  # waits for a world that never comes
+    with pytest.raises(TimeoutError, match="did not come up within 1 s"):
+        emu.wait_ready(1.0)
+    assert emu.proc.poll() is not None
+
+
 def test_scripted_pick_and_place_on_the_sim_station_carries_the_cube_to_the_pad():
     pytest.importorskip("mujoco")
     pytest.importorskip("rio_sim")

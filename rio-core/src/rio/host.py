@@ -138,18 +138,64 @@ def _zombie(pid: int) -> bool:
         return False
 
 
+def _windows_pid_alive(pid: int) -> bool:
+    """Windows has no signal 0 (`os.kill(pid, 0)` there *terminates* the process): ask for its exit code."""
+    import ctypes
+
+    kernel32 = ctypes.WinDLL("kernel32", use_last_error=True)  # type: ignore[attr-defined]
+    handle = kernel32.OpenProcess(0x1000, False, pid)  # PROCESS_QUERY_LIMITED_INFORMATION
+    if not handle:
+        return bool(ctypes.get_last_error() == 5)  # type: ignore[attr-defined]  # ERROR_ACCESS_DENIED: not ours
+    try:
+        code = ctypes.c_ulong()
+        return bool(kernel32.GetExitCodeProcess(handle, ctypes.byref(code))) and code.value == 259  # STILL_ACTIVE
+    finally:
+        kernel32.CloseHandle(handle)
+
+
 def pid_alive(pid: int) -> bool:
     if pid <= 0:
         return False
+    if WINDOWS:
+        return _windows_pid_alive(pid)
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:  # someone else's process
         return True
-    except OSError:  # Windows: no signal 0 for foreign processes
-        return False
     return not _zombie(pid)
+
+
+def exit_with_parent(parent_pid: int) -> None:
+    """SIGTERM this process once `parent_pid`, the process that started it, is gone: a helper process (a
+    node, an emulator) must never outlive a parent killed before it could clean up; an orphan keeps its
+    ports and shared memory, and the next run finds them taken. Linux: the kernel's PR_SET_PDEATHSIG (it
+    fires when the parent's *thread* that started us ends: start helpers from a thread that outlives
+    them). Elsewhere: a daemon thread looks every half second."""
+    import signal
+
+    def terminate() -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    if not FALLBACK:
+        try:
+            import ctypes
+
+            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+        else:
+            if os.getppid() != parent_pid:  # it died before the prctl
+                terminate()
+            return
+
+    def watch() -> None:
+        while os.getppid() == parent_pid and pid_alive(parent_pid):  # Windows never re-parents
+            time.sleep(0.5)
+        terminate()
+
+    threading.Thread(target=watch, name="rio-exit-with-parent", daemon=True).start()
 
 
 # -- file locks -----------------------------------------------------------------------------------------
@@ -282,5 +328,5 @@ def shm_list(prefix: str = "") -> set[str]:
 
 
 __all__ = ["FALLBACK", "WINDOWS", "describe", "yield_cpu", "shm_dir", "anonymous_memory", "process_exit_watch",
-           "pid_alive", "try_lock", "FileLock", "has_shared_memory", "require_shared_memory", "shm_create",
-           "shm_open", "shm_unlink", "shm_list", "registry_dir"]
+           "pid_alive", "exit_with_parent", "try_lock", "FileLock", "has_shared_memory", "require_shared_memory",
+           "shm_create", "shm_open", "shm_unlink", "shm_list", "registry_dir"]

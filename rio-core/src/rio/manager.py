@@ -24,7 +24,7 @@ from typing import Any, TypeVar, cast
 
 from pydantic import ValidationError
 
-from . import clock
+from . import clock, host
 from .client import NodeClient
 from .config import error_lines
 from .errors import ConfigError, NodeDiedError, RioError
@@ -100,19 +100,10 @@ def connect(cls: type[N], mw: str | Middleware, *, name: str | None = None, stat
 
 
 # -- child process ----------------------------------------------------------------------------------
-def _set_parent_death_signal() -> None:
-    try:
-        import ctypes
-
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-
-
 def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middleware], station: str,
                 mw_options: dict, resources: dict, conn: Any, parent_pid: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _set_parent_death_signal()
+    host.exit_with_parent(parent_pid)
     clock.set_timer_slack()
     node = None
 
@@ -157,10 +148,20 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
 
 
 # -- handles ----------------------------------------------------------------------------------------
+#: A node that says how long it waits for its device (`connect_timeout_s`) gets that long to be ready,
+#: plus this for what `open()` does after connecting.
+_AFTER_CONNECT_S = 15.0
+
+
+def _connect_timeout(node: Node) -> float:
+    return float(getattr(node.config, "connect_timeout_s", 0.0) or 0.0)
+
+
 class _ThreadHandle:
     def __init__(self, spec: ServedNode, mw: Middleware):
         self.name, self.mw = spec.name, mw
         self.node = _build_node(spec.cls, spec.name, spec.config)
+        self.connect_timeout_s = _connect_timeout(self.node)
         self.transport = mw.make_server(self.node, NodeLayouts.of(self.node), {})
         self.node.ring_buffer = self.transport.ring_buffer
         self.node.request_queue = self.transport.request_queue
@@ -197,6 +198,7 @@ class _ProcessHandle:
     def __init__(self, spec: ServedNode, mw: Middleware, run_dir: str):
         self.name, self.mw = spec.name, mw
         node = _build_node(spec.cls, spec.name, spec.config)
+        self.connect_timeout_s = _connect_timeout(node)
         self.resources = mw.prepare(NodeLayouts.of(node), run_dir)
         ctx = mp.get_context("spawn")
         self.conn, child_conn = ctx.Pipe(duplex=True)
@@ -243,7 +245,8 @@ class _ProcessHandle:
 
 
 class ServerManager:
-    """Start servers, block until every one is ready, and always clean up.
+    """Start servers, block until every one is ready, and always clean up. Ready means within
+    `ready_timeout`, or a node's own `connect_timeout_s` (plus 15 s) where that is longer.
 
     `ServerManager(servers)` or the paper's `ServerManager(mw, servers)`; a spec's own middleware
     wins over the manager's default.
@@ -295,12 +298,14 @@ class ServerManager:
         return self
 
     def _wait_ready(self) -> None:
-        deadline = clock.now() + self.ready_timeout
+        timeout = max([self.ready_timeout] + [h.connect_timeout_s + _AFTER_CONNECT_S for h in self.handles
+                                              if h.connect_timeout_s > 0])
+        deadline = clock.now() + timeout
         pending = list(self.handles)
         while pending:
             pending = [h for h in pending if not h.poll_ready()]
             if pending and clock.now() > deadline:
-                raise RioError(f"nodes not ready after {self.ready_timeout:.0f} s: {[h.name for h in pending]}")
+                raise RioError(f"nodes not ready after {timeout:.0f} s: {[h.name for h in pending]}")
             if pending:
                 clock.precise_wait(clock.now() + 0.002)
         for h in self.handles:

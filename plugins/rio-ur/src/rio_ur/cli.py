@@ -74,12 +74,19 @@ def emulator(
     sim: Annotated[str | None, typer.Option("--sim", help='back the joints with a rio-sim world: "sim" or '
                                                           '"sim:ARM@WORLD"')] = None,
     urcap: Annotated[bool, typer.Option("--urcap", help="also serve a Robotiq URCap socket (63352)")] = False,
+    exit_with: Annotated[int | None, typer.Option("--exit-with", help="exit when the process with this id, the "
+                                                                       "one that started this, exits")] = None,
 ) -> None:
     """Serve an emulated controller (dashboard, RTDE, servo port) until Ctrl-C or SIGTERM (what the test
     fixtures, the bench and the station's `ur.emulator` node run, in a process of their own)."""
     import threading
 
+    from rio import host
+
     from .emulator import UREmulator
+
+    if exit_with is not None:
+        host.exit_with_parent(exit_with)
 
     emu = UREmulator(model, host=ip, backend=sim or "model", urcap=urcap).start()
     typer.echo(f"{emu.arm.label} emulator on {ip} (dashboard 29999, RTDE 30004, servo 30020); backend "

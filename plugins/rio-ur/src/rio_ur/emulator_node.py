@@ -18,6 +18,8 @@ class EmulatorNode(Node):
         backend: str = Field("model", description='"model" or "sim[:ARM@WORLD]" (a running rio-sim world)')
         urcap: bool = Field(False, description="also serve a Robotiq URCap socket (63352)")
         rate_hz: float = Field(10.0, gt=0, description="how often the ground truth is published")
+        connect_timeout_s: float = Field(120.0, gt=0, description="how long to wait for the emulator to answer "
+                                         "(backend sim: it first waits for the world to compile its scene)")
 
     def setup(self) -> None:
         self.emulator: Any = None
@@ -27,7 +29,7 @@ class EmulatorNode(Node):
         from .emulator.process import EmulatorProcess
 
         c = self.config
-        self.emulator = EmulatorProcess(c.model, c.ip, c.backend, c.urcap).wait_ready()
+        self.emulator = EmulatorProcess(c.model, c.ip, c.backend, c.urcap).wait_ready(c.connect_timeout_s)
 
     def read_state(self) -> dict[str, Any]:
         s = self.emulator.state()

@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from .. import host
+
 RoundTrip = Callable[[np.ndarray], Any]
 
 _READY_TIMEOUT_S = 30.0
@@ -43,18 +45,9 @@ class RawTransport:
 
 
 # -- helpers ---------------------------------------------------------------------------------------
-def _parent_death_signal() -> None:
-    try:
-        import ctypes
-
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-
-
 def _child_init() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C stops the parent, which stops us
-    _parent_death_signal()
+    host.exit_with_parent(os.getppid())
 
 
 def free_port() -> int:

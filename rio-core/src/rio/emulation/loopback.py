@@ -1,6 +1,11 @@
 """Loopback addresses for emulated controllers. A vendor SDK dials fixed ports (xArm 502 and
 30001-30003, UR 29999 and 30004), so emulators side by side need an address each: 127.0.0.N, all of
-which reach the loopback interface on Linux (macOS: `sudo ifconfig lo0 alias 127.0.0.N` first)."""
+which reach the loopback interface on Linux (macOS: `sudo ifconfig lo0 alias 127.0.0.N` first).
+
+Station files name fixed addresses (`ur5e-sim` serves its emulator on 127.0.0.2, others on .3 or .10),
+so `free_loopback` never hands out 127.0.0.2-31: a test's emulator on a station's address would
+answer that station's driver in its place (seen in CI: a UR station's arm connected to the status
+test's emulator and its gripper found no URCap socket there)."""
 
 from __future__ import annotations
 
@@ -10,6 +15,9 @@ import socket
 from collections.abc import Iterable
 
 _counter = itertools.count()
+#: 127.0.0.2 up to this one are left to station files.
+STATION_ADDRESSES_END = 31
+_FIRST, _LAST = STATION_ADDRESSES_END + 1, 254
 
 
 def is_free(host: str, ports: Iterable[int]) -> bool:
@@ -27,15 +35,16 @@ def is_free(host: str, ports: Iterable[int]) -> bool:
 
 
 def free_loopback(ports: Iterable[int]) -> str:
-    """A 127.0.0.N address (N from 2) where all of `ports` are free; spread by process id so parallel
-    test processes rarely race for one."""
+    """A 127.0.0.N address (N from 32: see the module's docstring) where all of `ports` are free;
+    spread by process id so parallel test processes rarely race for one."""
     ports = tuple(ports)
-    base = os.getpid() * 7
-    for _ in range(253):
-        host = f"127.0.0.{2 + (base + next(_counter)) % 252}"
+    base, span = os.getpid() * 7, _LAST - _FIRST + 1
+    for _ in range(span):
+        host = f"127.0.0.{_FIRST + (base + next(_counter)) % span}"
         if is_free(host, ports):
             return host
-    raise RuntimeError(f"no loopback address 127.0.0.2-253 has ports {list(ports)} free for an emulator")
+    raise RuntimeError(f"no loopback address 127.0.0.{_FIRST}-{_LAST} has ports {list(ports)} free for an "
+                       "emulator")
 
 
 def can_listen(port: int) -> bool:

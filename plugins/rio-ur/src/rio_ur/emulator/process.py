@@ -6,6 +6,7 @@ is `rio ur emulator` (`python -m rio ur emulator ...`)."""
 from __future__ import annotations
 
 import json
+import os
 import socket
 import subprocess
 import sys
@@ -18,22 +19,28 @@ from ..loopback import SERVO_PORT, free_loopback
 class EmulatorProcess:
     def __init__(self, model: str = "ur5e", host: str | None = None, backend: str = "model", urcap: bool = False):
         self.model, self.host = model, host or free_loopback()
-        args = [sys.executable, "-m", "rio", "ur", "emulator", "--model", model, "--ip", self.host]
+        args = [sys.executable, "-m", "rio", "ur", "emulator", "--model", model, "--ip", self.host,
+                "--exit-with", str(os.getpid())]
         args += (["--sim", backend] if backend != "model" else []) + (["--urcap"] if urcap else [])
         self.proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
         self._sock: socket.socket | None = None
 
     def wait_ready(self, timeout: float = 60.0) -> EmulatorProcess:
+        """Block until the emulator answers; if it does not, it is stopped (never left holding its ports)."""
         t_end = time.monotonic() + timeout
-        while time.monotonic() < t_end:
-            if self.proc.poll() is not None:
-                raise RuntimeError(f"the UR emulator exited with code {self.proc.returncode}")
-            try:
-                self.state()
-                return self
-            except OSError:
-                time.sleep(0.1)
-        raise TimeoutError(f"the UR emulator on {self.host} did not come up within {timeout:g} s")
+        try:
+            while time.monotonic() < t_end:
+                if self.proc.poll() is not None:
+                    raise RuntimeError(f"the UR emulator on {self.host} exited with code {self.proc.returncode}")
+                try:
+                    self.state()
+                    return self
+                except OSError:
+                    time.sleep(0.1)
+            raise TimeoutError(f"the UR emulator on {self.host} did not come up within {timeout:g} s")
+        except BaseException:
+            self.stop()
+            raise
 
     def _ask(self, line: str) -> str:
         for attempt in (0, 1):
