@@ -26,18 +26,18 @@ def test_ramp_policy_gives_the_ramp_command_stream():
                          config=AsyncConfig(request_threshold=0.6, blend="crossfade", crossfade_s=0.06),
                          on_tick=ticks.append, log=None)
     assert summary.reason == "duration reached", summary.reason
-    used = [k for k in ticks if k.sample is not None]
-    assert summary.stats["chunks"] >= 5 and len(used) > 30
-    first = min(used, key=lambda k: k.sample.seq)
-    t0, start = first.sample.t_obs, None
+    used = [k for k in ticks if k.info["sample"] is not None]
+    assert summary.details["stats"]["chunks"] >= 5 and len(used) > 30
+    first = min(used, key=lambda k: k.info["sample"].seq)
+    t0, start = first.info["sample"].t_obs, None
     for k in ticks:
-        if k.step.meta["t_obs"] <= t0 + 1e-9 and k.sample is None:
+        if k.step.meta["t_obs"] <= t0 + 1e-9 and k.info["sample"] is None:
             start = k.step.observation.proprio  # the observation the first chunk was computed from
     assert start is not None
     for k in used:
         np.testing.assert_allclose(k.action, start + 0.5 * (k.t_target - t0), atol=1e-9)
-    assert summary.stats["late_events"] == 0
-    assert summary.stats["first_action_ms_p50"] >= 30.0
+    assert summary.details["stats"]["late_events"] == 0
+    assert summary.details["stats"]["first_action_ms_p50"] >= 30.0
 
 
 def test_replay_reproduces_a_recorded_rollout(tmp_path):
@@ -49,21 +49,24 @@ def test_replay_reproduces_a_recorded_rollout(tmp_path):
     replayed = []
     summary = run_deploy(station(), f"replay.episode,episode={rec_dir},chunk=20", duration=1.0,
                          on_tick=replayed.append, log=None, config=AsyncConfig(request_threshold=0.5))
-    assert summary.metadata["extra"]["steps"] == len(recorded)
+    assert summary.details["metadata"]["extra"]["steps"] == len(recorded)
     # the recorded commands as a function of time since the recording's first step
     r0 = recorded[0].step.meta["t_obs"]
     rt = np.array([k.t_target - r0 for k in recorded])
     ra = np.array([k.action for k in recorded])
-    p0 = min(k.sample.t_obs for k in replayed if k.sample is not None)  # replay's clock origin
-    checked = 0
+    p0 = min(k.info["sample"].t_obs for k in replayed if k.info["sample"] is not None)  # replay's clock origin
+    errors = []
     for k in replayed:
         s = k.t_target - p0
-        if k.sample is None or not rt[0] + 0.05 < s < rt[-1] - 0.05:
+        if k.info["sample"] is None or not rt[0] + 0.05 < s < rt[-1] - 0.05:
             continue
-        want = [np.interp(s, rt, col) for col in ra.T]
-        np.testing.assert_allclose(k.action, want, atol=1e-6)
-        checked += 1
-    assert checked > 25
+        want = np.array([np.interp(s, rt, col) for col in ra.T])
+        errors.append(np.abs(k.action - want).max())
+    assert len(errors) > 25
+    # exact between the recorded knots; where the recording turned (a new chunk), replay's knots lie off by
+    # the difference of the two runs' observation times from their ticks (wake-up jitter): small, and bounded
+    # by the motion of one control period
+    assert np.median(errors) < 1e-6 and max(errors) < 0.4 * 0.02, (np.median(errors), max(errors))
     # and the robot went where it went when recorded
     q_rec = np.array([k.step.observation.proprio for k in recorded])
     q_rep = np.array([k.step.observation.proprio for k in replayed])
@@ -82,10 +85,10 @@ def test_crashing_policy_is_reported_by_name_and_the_robot_holds():
     summary = run_deploy(station("shm", camera=False), "rio.policy.testing:CrashPolicyNode,crash_after=2,"
                          "forward_s=0.02,chunk=10", duration=20.0, on_tick=ticks.append, log=None,
                          config=AsyncConfig(request_threshold=1.0))
-    assert "policy node 'policy' stopped" in summary.reason and "holds" in summary.reason
+    assert "node 'policy' stopped" in summary.reason and "holds" in summary.reason
     assert summary.seconds < 10.0
-    assert summary.stats["chunks"] == 2
-    np.testing.assert_allclose(summary.held, ticks[-1].action)
+    assert summary.details["stats"]["chunks"] == 2
+    np.testing.assert_allclose(summary.details["held"], ticks[-1].action)
 
 
 def test_unknown_policy_names_the_registered_ones():
@@ -107,7 +110,7 @@ def test_rio_deploy_command_and_benchmark_smoke(tmp_path, capsys):
     assert main(["deploy", str(toml), "--policy", "rio.policy.testing:SleepPolicyNode,forward_s=0.01,chunk=5",
                  "--duration", "0.5", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["reason"] == "duration reached" and out["stats"]["chunks"] >= 3
+    assert out["reason"] == "duration reached" and out["details"]["stats"]["chunks"] >= 3
     assert bench_main(["--seconds", "1", "--cameras", "1", "--width", "64", "--height", "48",
                        "--middleware", "thread", "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
@@ -130,5 +133,5 @@ def test_station_policy_component_is_inert_until_deployed(tmp_path):
         pass
     ticks = []
     summary = run_deploy(parse_station(data), duration=0.5, on_tick=ticks.append, log=None)
-    assert summary.policy == "replay.episode" and summary.stats["chunks"] >= 1
-    assert summary.metadata["dt"] == pytest.approx(0.02)
+    assert summary.details["policy"] == "replay.episode" and summary.details["stats"]["chunks"] >= 1
+    assert summary.details["metadata"]["dt"] == pytest.approx(0.02)

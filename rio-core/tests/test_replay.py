@@ -38,11 +38,11 @@ def test_replay_on_fake_station(tmp_path):
     _record(tmp_path / "ds")
     seen = []
     s = replay_episode(tmp_path / "ds", 0, str(tmp_path / "st.toml"), approach_s=0.2, log=None,
-                       on_step=lambda i, step: seen.append(clock.now()))
-    assert s.steps == 25
+                       on_tick=lambda tick: seen.append(clock.now()))
+    assert s.ticks == 25 and s.reason == "the episode ended"
     assert abs(s.seconds - 24 / 50) < 0.1  # at the recorded rate
     assert np.median(np.diff(seen)) == pytest.approx(1 / 50, abs=4e-3)
-    assert s.final_error < 1e-6
+    assert s.arms[0].joint_err_rad is not None and s.arms[0].joint_err_rad[2] < 1e-6, s.format()
 
 
 def test_replay_refuses_other_action_layout(tmp_path):

@@ -112,5 +112,5 @@ def test_rio_deploy_with_an_openpi_server():
         summary = run_deploy(st, f"openpi.remote,port={srv.port},rate_hz=50", instruction="wave", duration=0.6,
                              log=None)
     assert summary.reason == "duration reached"
-    assert summary.stats["chunks"] >= 2 and srv.seen[0]["prompt"] == "wave"
+    assert summary.details["stats"]["chunks"] >= 2 and srv.seen[0]["prompt"] == "wave"
     assert from_frame(srv.seen[0]["observation/front_image"]).shape == (24, 32, 3)

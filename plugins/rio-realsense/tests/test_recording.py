@@ -50,7 +50,7 @@ def test_three_cameras_record_and_export_to_lerobot_with_their_frames(tmp_path, 
             for cam in CAMERAS:
                 seen[cam].append(tick.step.observation.cameras[cam].rgb.copy())
 
-        run_teleop(str(path), "scripted", duration=2.0, middleware="thread", on_step=on_step, log=None)
+        run_teleop(str(path), "scripted", duration=2.0, middleware="thread", on_tick=on_step, log=None)
         rec.keep()
     ep = Dataset(root).episode(0)
     assert set(ep.cameras) >= set(CAMERAS) and len(ep) == len(seen["wrist"]) > 10

@@ -24,19 +24,19 @@ class Recorder:
         self.offsets: dict[int, np.ndarray] = {}
 
     def __call__(self, tick) -> None:
-        dev = tick.devices["teleop"]
+        dev = tick.info["devices"]["teleop"]
         phase = int(dev["phase"])
         self.offsets[phase] = np.asarray(dev["offset"]).copy()
         self.phase_end[phase] = {b.role: (np.asarray(b.client.get_state()["eef_pose"]).copy(), b.target.copy(),
-                                          b.start_pose.copy()) for b in tick.arms}
-        world = tick.extras["world_sensor"]
+                                          b.start_pose.copy()) for b in tick.info["arms"]}
+        world = tick.env.sensors["world"]
         for name, pose in zip(world.object_names(), world.get_state()["object_poses"], strict=False):
             self.max_z[name] = max(self.max_z.get(name, -1.0), float(pose[2]))
 
 
 def _run(station: str, middleware: str = "thread"):
     rec = Recorder()
-    summary = run_teleop(station, "scripted", device_config=SCRIPT, middleware=middleware, on_step=rec, log=None)
+    summary = run_teleop(station, "scripted", device_config=SCRIPT, middleware=middleware, on_tick=rec, log=None)
     return summary, rec
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from rio.errors import RioError
 from rio.station.load import parse_station
-from rio.teleop.leader_follower import run
+from rio.teleop import run_teleop as run
 from rio_so100.calibration import RAD_PER_STEP, default_calibration
 
 LEADER_Q = np.array([0.3, -0.25, 0.4, 0.15, -0.35])
@@ -43,15 +43,15 @@ def test_follower_aligns_slowly_then_mirrors_the_leader(make_vbus, calibrated):
     cmds, moved = [], []
 
     def on_step(tick):
-        p = tick.pairs[0]
+        p = tick.info["pairs"][0]
         cmds.append((tick.t, p.q_cmd.copy(), p.aligned))
         if tick.t - cmds[0][0] > 1.4 and not moved:  # the person moves the leader once aligned
             _pose_leader(leader_bus, LATER_Q, 0.2)
             moved.append(tick.t)
 
-    summary = run(_station(follower_bus.port, leader_bus.port), duration=2.2, align_speed=0.5, on_step=on_step,
+    summary = run(_station(follower_bus.port, leader_bus.port), duration=2.2, align_speed=0.5, on_tick=on_step,
                   log=None)
-    arm = summary.arms[0]
+    arm = summary.details["pairs"][0]
     assert arm["start_error"] == pytest.approx(0.4, abs=2 * RAD_PER_STEP)
     # alignment took about start_error / align_speed, never faster than align_speed
     assert 0.7 < arm["align_s"] < 1.1, summary.format()
@@ -69,8 +69,8 @@ def test_follower_aligns_slowly_then_mirrors_the_leader(make_vbus, calibrated):
 
 def test_bimanual_virtual_station_aligns_both_pairs():
     summary = run("so100-bimanual-virtual", duration=2.0, middleware="thread", log=None)
-    assert [a["arm"] for a in summary.arms] == ["arm", "arm2"]
-    for a in summary.arms:
+    assert [a["arm"] for a in summary.details["pairs"]] == ["arm", "arm2"]
+    for a in summary.details["pairs"]:
         assert a["align_s"] is not None and a["align_s"] < 1.5, summary.format()
         assert a["final_error"] < 0.08, summary.format()  # the leaders keep waving: a cycle or two of lag
 

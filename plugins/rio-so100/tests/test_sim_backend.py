@@ -10,7 +10,7 @@ pytest.importorskip("rio_sim")
 pytest.importorskip("mujoco")
 
 from rio.station.load import parse_station  # noqa: E402
-from rio.teleop.leader_follower import run  # noqa: E402
+from rio.teleop import run_teleop as run  # noqa: E402
 from rio_so100.calibration import default_calibration  # noqa: E402
 from rio_so100.virtual.sim import parse_sim_port  # noqa: E402
 
@@ -45,8 +45,8 @@ def test_leader_drives_the_simulated_arm_through_the_real_driver(make_vbus, cali
     def on_step(tick):
         last["obs"] = tick.step.observation
 
-    summary = run(st, duration=4.0, align_speed=1.0, on_step=on_step, log=None)  # slack for a loaded CI machine
-    arm = summary.arms[0]
+    summary = run(st, duration=4.0, align_speed=1.0, on_tick=on_step, log=None)  # slack for a loaded CI machine
+    arm = summary.details["pairs"][0]
     assert arm["align_s"] is not None and arm["align_s"] < 1.0, summary.format()
     obs = last["obs"]
     # the follower's joints (read through the SDK from the simulated servos) reached the leader's pose

@@ -44,9 +44,12 @@ class _Checked:
 class NodeClient:
     """Proxy for a running node. Use as a context manager, or call `close()`."""
 
-    def __init__(self, node: Node, transport: ClientTransport):
+    def __init__(self, node: Node, transport: ClientTransport, ring_ref: dict[str, Any] | None = None):
         self._node, self._transport = node, transport
         self.name = node.name
+        #: How another consumer on this machine reads this node's ring buffer in place (`rio.ring_ref`),
+        #: or None (network middlewares, nodes that publish nothing).
+        self.ring_ref = ring_ref
         check = transport.check_alive
         node.ring_buffer = None if transport.ring_buffer is None else _Checked(transport.ring_buffer, check)
         node.request_queue = None if transport.request_queue is None else _Checked(transport.request_queue, check)
@@ -81,6 +84,12 @@ class NodeClient:
 
     def check_alive(self) -> None:
         self._transport.check_alive()
+
+    def published(self) -> int | None:
+        """Samples the node has published so far (its ring buffer's counter; None for a node without
+        state): what the control loop's summary turns into per-node rates."""
+        rb = self._node.ring_buffer
+        return None if rb is None else int(rb.count)
 
     def close(self) -> None:
         self._transport.close()

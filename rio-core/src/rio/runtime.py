@@ -15,6 +15,8 @@ from typing import Any
 from . import clock
 from .errors import InvalidRequest
 from .node import Node
+from .profiling.session import active_dir
+from .profiling.trace import Trace
 
 log = logging.getLogger("rio.runtime")
 
@@ -49,22 +51,34 @@ class NodeRunner:
         self.shape = node.loop_shape()
         self.rejected = 0
         self._worker_error: BaseException | None = None
+        #: Spans of this node's work while profiling is on (`rio.profiling.enable`), else None.
+        self._trace: Trace | None = None
 
     # -- one step of each half ----------------------------------------------------------------------
     def _publish_once(self) -> None:
+        tr = self._trace
         with self.lock:
-            sample = self.node.read_state()
+            if tr is None:
+                sample = self.node.read_state()
+            else:
+                t0 = clock.now()
+                sample = self.node.read_state()
+                tr.span("read_state", "read_state", t0, clock.now())
         if sample is not None:
             self.node.ring_buffer.put(sample)
 
     def _handle_pending(self) -> None:
+        tr = self._trace
         for req in self.node.request_queue.get_all():
             with self.lock:
+                t0 = clock.now() if tr is not None else 0.0
                 try:
                     self.node.handle_request(req)
                 except InvalidRequest as e:  # the node refused it: report, keep serving
                     self.rejected += 1
                     log.warning("%s", e)
+                if tr is not None:
+                    tr.span("request", "handle_request", t0, clock.now())
 
     # -- loops --------------------------------------------------------------------------------------
     def _pub_loop(self, with_requests: bool) -> None:
@@ -110,6 +124,20 @@ class NodeRunner:
         return run
 
     def run(self, on_ready: Callable[[], None]) -> None:
+        directory = active_dir()
+        if directory is None:
+            self._run(on_ready)
+            return
+        self._trace = Trace(process=f"node {self.node.name}")
+        try:
+            self._run(on_ready)
+        finally:
+            try:
+                self._trace.write_part(directory)
+            except Exception as e:  # profiling must never turn a clean stop into an error
+                log.warning("node '%s': could not write its profile trace to %s: %s", self.node.name, directory, e)
+
+    def _run(self, on_ready: Callable[[], None]) -> None:
         node = self.node
         node.open()
         try:

@@ -206,6 +206,8 @@ class FakeArm(ifc.ArmNode):
         max_step_rad: float = Field(0.5, gt=0, description="largest joint goal change per cycle (rad)")
         max_step_m: float = Field(0.05, gt=0, description="largest end-effector travel per cycle (m)")
         max_step_eef_rad: float = Field(0.5, gt=0, description="largest end-effector rotation per cycle (rad)")
+        frozen: bool = Field(False, description="ignore every command, as a disabled or e-stopped arm does (to "
+                                                "check that a workflow notices)")
 
     def default_joint_names(self) -> list[str]:
         return [f"joint{i + 1}" for i in range(self.config.dof)]
@@ -226,12 +228,15 @@ class FakeArm(ifc.ArmNode):
         return {"joint_pos": self.q.copy(), "joint_vel": vel, "eef_pose": self.pose.copy()}
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
+        if self.config.frozen:
+            return
         q = np.array(joint_pos, dtype=np.float64)
         self.pose[:3] += self._carry @ (q - self.q)  # the joints carry the tool
         self.q = q
 
     def write_pose(self, eef_pose: np.ndarray) -> None:
-        self.pose = np.array(eef_pose, dtype=np.float64)
+        if not self.config.frozen:
+            self.pose = np.array(eef_pose, dtype=np.float64)
 
 
 class _FakeJoints:

@@ -1,7 +1,8 @@
-"""`rio so100 ...`: calibrate an arm, serve a virtual bus, leader-follower teleop, torque, scan.
+"""`rio so100 ...`: calibrate an arm, serve a virtual bus, torque, scan. Leader-follower teleop is
+`rio teleop STATION` (a station whose teleop device is a leader arm is mirrored joint by joint).
 
 Mounted by the plugin's `rio_cli` hook. Each command imports what it needs when it runs; the work
-itself lives in importable modules (`calibrate`, `virtual`, core's rio.teleop.leader_follower), so scripts and tests
+itself lives in importable modules (`calibrate`, `virtual`), so scripts and tests
 call exactly what the commands run.
 """
 
@@ -14,7 +15,8 @@ from typing import Annotated
 
 import typer
 
-app = typer.Typer(help="SO-100 / SO-101 arms on the Feetech bus: calibrate, virtual bus, leader-follower teleop.",
+app = typer.Typer(help="SO-100 / SO-101 arms on the Feetech bus: calibrate, virtual bus, torque, scan "
+                       "(leader-follower teleop: `rio teleop STATION`).",
                   no_args_is_help=True)
 
 Port = Annotated[str, typer.Option("--port", "-p", help='serial port (e.g. /dev/ttyACM0), or "virtual"')]
@@ -126,22 +128,6 @@ def virtual_bus(
     finally:
         bus.close()
         typer.echo(f"served {bus.stats['status']} status packets", err=True)
-
-
-@app.command()
-def teleop(
-    station: Annotated[str, typer.Argument(help="station name or .toml path with leader arm(s) as teleop devices")],
-    duration: Annotated[float | None, typer.Option("--duration", "-d", min=0.1, help="stop after (s)")] = None,
-    rate: Annotated[float | None, typer.Option(help="control rate (Hz; default: the station's)")] = None,
-    align_speed: Annotated[float, typer.Option(help="follower speed while aligning to the leader (rad/s)")] = 0.5,
-    middleware: Annotated[str | None, typer.Option("--middleware", "-m", help="override the middleware")] = None,
-) -> None:
-    """Leader-follower teleop: align each follower to its leader slowly, then mirror it."""
-    from rio.teleop.leader_follower import run
-
-    summary = run(station, duration=duration, rate_hz=rate, align_speed=align_speed, middleware=middleware,
-                  log=lambda m: typer.echo(m, err=True))
-    typer.echo(summary.format())
 
 
 @app.command()

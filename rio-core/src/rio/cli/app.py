@@ -28,6 +28,7 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
         new_cmd,
         plugins_cmd,
         replay_cmd,
+        run_cmd,
         stations_cmd,
     )
 
@@ -52,6 +53,7 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
     app.command("replay")(replay_cmd.replay)
     app.command("teleop")(teleop_cmd.teleop)
     app.command("deploy")(deploy_cmd.deploy)
+    app.command("run")(run_cmd.run)
     if load_plugins:
         from ..plugins import get_registry
 

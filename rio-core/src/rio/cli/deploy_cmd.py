@@ -7,6 +7,8 @@ from typing import Annotated
 
 import typer
 
+from .run_cmd import JsonOption, ProfileOption
+
 
 def deploy(
     station: Annotated[str, typer.Argument(help="Station name (`rio stations list`) or path of a .toml file.")],
@@ -33,21 +35,17 @@ def deploy(
         "--lowpass", min=0.1, help="Low-pass cutoff on commands (Hz).")] = None,
     middleware: Annotated[str | None, typer.Option(
         "--middleware", "-m", help="Override the station's middleware.")] = None,
-    json_out: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
+    json_out: JsonOption = False,
+    profile: ProfileOption = None,
 ) -> None:
     """Deploy a policy with asynchronous chunked inference; prints a summary when it ends."""
     from ..policy.async_inference import AsyncConfig
     from ..policy.deploy import run_deploy
+    from .run_cmd import finish
 
     config = AsyncConfig(request_threshold=threshold, blend=blend, crossfade_s=crossfade, on_late=on_late,
                          lowpass_hz=lowpass)
     summary = run_deploy(station, policy, instruction=instruction, record=record, duration=duration,
-                         middleware=middleware, rate_hz=rate, config=config, log=lambda m: typer.echo(m, err=True))
-    if json_out:
-        from dataclasses import asdict
-
-        from .output import print_json
-
-        print_json(asdict(summary))
-    else:
-        typer.echo(summary.format())
+                         middleware=middleware, rate_hz=rate, config=config, profile=profile,
+                         log=lambda m: typer.echo(m, err=True))
+    finish(summary, json_out)

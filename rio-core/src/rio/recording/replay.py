@@ -2,35 +2,23 @@
 
 Written against `make_station` and `Env` only, so it runs on simulated and real stations and any
 middleware. The robot first moves to the episode's first action over `approach_s` seconds (never a
-jump), then every action is sent at its recorded time (scaled by `speed`), each with the next
-action's time as its target, so drivers interpolate exactly as during recording.
+jump), then `EpisodeReplay` runs on the one control loop at the recording's rate (times `speed`):
+each tick commands the recorded action trajectory at the tick's target time, each action meeting
+the time it was recorded for, so drivers interpolate exactly as during recording.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from .. import clock
+from ..control.loop import Tick
+from ..control.summary import RunSummary
 from ..errors import RioError
 from .dataset import Dataset
-
-
-@dataclass
-class ReplaySummary:
-    episode: int
-    station: str
-    steps: int = 0
-    seconds: float = 0.0
-    recorded_seconds: float = 0.0
-    late_ticks: int = 0
-    max_late_ms: float = 0.0
-    #: max |proprio - last action| once the robot settled (same units as the action)
-    final_error: float = float("nan")
-    notes: list[str] = field(default_factory=list)
 
 
 def check_compatible(meta: dict[str, Any], env: Any, action_dim: int) -> None:
@@ -47,14 +35,61 @@ def check_compatible(meta: dict[str, Any], env: Any, action_dim: int) -> None:
         raise RioError(f"action layout differs: recorded {layout}, station has {robot.action_parts()}")
 
 
-def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str | None = None, speed: float = 1.0,
-                   approach_s: float = 2.0, on_step: Callable[[int, Any], None] | None = None,
-                   log: Callable[[str], None] | None = print) -> ReplaySummary:
-    from ..manager import ServerManager
-    from ..station.build import make_station
-    from ..station.load import load_station
+class EpisodeReplay:
+    """Controller (rio.control.loop): a recorded episode's actions, interpolated at each tick's target.
 
-    say = log or (lambda _m: None)
+    Action i of the recording was the command for the i-th tick's target; here it is due at
+    `(t[i] - t[0]) / speed` after the first tick's target, and a tick between two of them gets the
+    straight line between both (the drivers interpolate the same way)."""
+
+    name = "replay"
+
+    def __init__(self, actions: np.ndarray, t: np.ndarray, fps: float, *, speed: float = 1.0,
+                 approach_s: float = 2.0, episode: int = 0):
+        self.actions, self.speed, self.approach_s, self.episode = actions, float(speed), float(approach_s), episode
+        self.rel = (t - t[0]) / self.speed
+        self.due = self.rel
+        self.recorded_seconds = float(t[-1] - t[0]) + 1.0 / fps
+        self.sent = 0
+        self.finished = False
+
+    def reset(self, loop: Any) -> None:
+        self.due = self.rel + loop.dt + loop.lead_s  # the first tick's target (rio.control.loop's timing)
+        if self.approach_s > 0:
+            loop.say(f"moving to the episode's first action over {self.approach_s:g} s ...")
+            t_arrive = clock.now() + self.approach_s
+            loop.env.step(self.actions[0], t_cmd_target=t_arrive)
+            clock.precise_wait(t_arrive + 0.1)
+        loop.say(f"replaying episode {self.episode}: {len(self.actions)} actions over "
+                 f"{self.recorded_seconds / self.speed:.1f} s")
+
+    def step(self, tick: Tick) -> np.ndarray:
+        rel = tick.t_target - tick.t0
+        i = int(np.searchsorted(self.due, rel + 1e-9, side="right"))  # actions due by the target time
+        self.sent = max(self.sent, i)
+        if i >= len(self.due):
+            self.finished = True
+            return self.actions[-1]
+        if i == 0:
+            return self.actions[0]
+        w = (rel - self.due[i - 1]) / (self.due[i] - self.due[i - 1])
+        return self.actions[i - 1] + w * (self.actions[i] - self.actions[i - 1])
+
+    def done(self) -> str | None:
+        return "the episode ended" if self.finished else None
+
+    def finish(self, summary: RunSummary) -> None:
+        summary.details.update(episode=self.episode, actions=len(self.actions),
+                               recorded_seconds=self.recorded_seconds, speed=self.speed)
+        summary.lines.append(f"episode {self.episode}: {len(self.actions)} actions recorded over "
+                             f"{self.recorded_seconds:.1f} s, replayed at speed {self.speed:g}")
+
+
+def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str | None = None, speed: float = 1.0,
+                   approach_s: float = 2.0, on_tick: Callable[[Tick], None] | None = None, profile: str | None = None,
+                   log: Callable[[str], None] | None = print) -> RunSummary:
+    from ..control.workflow import run_workflow
+
     if speed <= 0:
         raise ValueError("speed must be > 0")
     ep = (dataset if isinstance(dataset, Dataset) else Dataset(dataset)).episode(episode)
@@ -65,39 +100,13 @@ def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str 
     actions, t = actions[valid], t[valid]
     if len(actions) == 0:
         raise RioError(f"episode {episode} has no complete action")
-    st = load_station(station)
-    servers, _clients, env = make_station(st, middleware=middleware)
-    if env is None:
-        raise RioError(f"station '{st.name}' has no arm or humanoid to replay on")
-    summary = ReplaySummary(episode, st.name, recorded_seconds=float(t[-1] - t[0]) + 1.0 / ep.fps)
+
+    def make(session: Any) -> EpisodeReplay:
+        check_compatible(ep.meta, session.env, actions.shape[1])
+        return EpisodeReplay(actions, t, ep.fps, speed=speed, approach_s=approach_s, episode=episode)
+
+    summary = run_workflow(station, make, middleware=middleware, rate_hz=ep.fps * speed, on_tick=on_tick,
+                           profile=profile, log=log)
     if not valid.all():
-        summary.notes.append(f"{int((~valid).sum())} steps without an action skipped")
-    with ServerManager(servers, station=st.name), env:
-        check_compatible(ep.meta, env, actions.shape[1])
-        env.reset()
-        if approach_s > 0:
-            say(f"moving to the episode's first action over {approach_s:g} s ...")
-            t_arrive = clock.now() + approach_s
-            env.step(actions[0], t_cmd_target=t_arrive)
-            clock.precise_wait(t_arrive + 0.1)
-        say(f"replaying episode {episode}: {len(actions)} actions over {summary.recorded_seconds / speed:.1f} s")
-        rel = (t - t[0]) / speed
-        period = 1.0 / (ep.fps * speed)
-        t0 = clock.now()
-        for i, a in enumerate(actions):
-            clock.precise_wait(t0 + rel[i])
-            late = clock.now() - (t0 + rel[i])
-            if late > period / 2:
-                summary.late_ticks += 1
-            summary.max_late_ms = max(summary.max_late_ms, late * 1000)
-            t_next = t0 + (rel[i + 1] if i + 1 < len(rel) else rel[i] + period)
-            step = env.step(a, t_cmd_target=t_next)
-            summary.steps += 1
-            if on_step is not None:
-                on_step(i, step)
-        summary.seconds = clock.now() - t0
-        clock.precise_wait(clock.now() + max(3 * period, 0.1))
-        final = env.get_state().observation.proprio
-        if final.shape == actions[-1].shape:
-            summary.final_error = float(np.max(np.abs(final - actions[-1])))
+        summary.warnings.append(f"{int((~valid).sum())} steps without an action skipped")
     return summary

@@ -1,4 +1,5 @@
-"""Teleoperation: the main loop (`run_teleop`, also `rio teleop`), arm bindings for any embodiment,
+"""Teleoperation: `run_teleop` (also `rio teleop`) with its two controllers (`TwistTeleop`, `LeaderFollower`)
+on the one control loop, arm bindings for any embodiment,
 and two devices that need no hardware: `teleop.keyboard` (terminal keys) and `teleop.scripted`.
 
 Exports resolve lazily: the command line imports `rio.teleop.command` while building its app, and
@@ -9,7 +10,8 @@ from __future__ import annotations
 from importlib import import_module
 from typing import Any
 
-_EXPORTS = {"run_teleop": ".loop", "prepare_station": ".loop", "TeleopTick": ".loop", "TeleopSummary": ".summary"}
+_EXPORTS = {"run_teleop": ".loop", "prepare_station": ".loop", "TwistTeleop": ".twist",
+            "LeaderFollower": ".leader_follower"}
 
 __all__ = list(_EXPORTS)
 

@@ -7,6 +7,8 @@ from typing import Annotated
 
 import typer
 
+from ..cli.run_cmd import JsonOption, ProfileOption
+
 
 def teleop(
     station: Annotated[str, typer.Argument(help="Station name (`rio stations list`) or path of a .toml file.")],
@@ -32,32 +34,34 @@ def teleop(
     on_end: Annotated[str, typer.Option("--on-end", help="With --record, after each run: ask (keys k/d/r in a "
                                                          "terminal), keep or discard. Default: ask when "
                                                          "interactive, else keep.")] = "auto",
+    align_speed: Annotated[float, typer.Option(help="Leader arms: follower speed while aligning to its leader "
+                                                    "(rad/s).")] = 0.5,
+    json_out: JsonOption = False,
+    profile: ProfileOption = None,
 ) -> None:
     """Teleoperate a station's arm(s): a twist device in end-effector space, a leader arm joint by joint.
     Prints a summary when it ends."""
+    from ..cli.run_cmd import finish
     from .loop import run_teleop
 
-    def run(on_step=None):
+    def run(recorder=None):
         return run_teleop(station, device, instruction=instruction, viz=viz, duration=duration,
                           middleware=middleware, rate_hz=rate, mode=mode, max_pos_speed=max_pos_speed,
-                          max_rot_speed=max_rot_speed, on_step=on_step, log=lambda m: typer.echo(m, err=True))
+                          max_rot_speed=max_rot_speed, align_speed=align_speed, recorder=recorder, profile=profile,
+                          log=lambda m: typer.echo(m, err=True))
 
     if record is None:
-        typer.echo(run().format())
+        finish(run(), json_out)
         return
-    _record_episodes(run, record, episodes, on_end, station, instruction, rate)
-
-
-def _record_tick(rec, tick) -> None:
-    if tick.it == 0 and tick.env is not None and "embodiment" not in rec.info:
-        rec.describe_env(tick.env)  # action names and embodiment travel with the dataset
-    rec.add(tick.step)
+    finish(_record_episodes(run, record, episodes, on_end, station, instruction, rate, json_out), json_out,
+           printed=True)
 
 
 def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, instruction: str | None,
-                     rate: float | None) -> None:
+                     rate: float | None, json_out: bool):
     """One teleop run per episode; after each, keep / discard / re-record (a key in a terminal, or
-    the --on-end choice for headless runs). The recorder makes every kept episode durable at once."""
+    the --on-end choice for headless runs). The recorder makes every kept episode durable at once.
+    A run ended by a signal is kept (headless) and ends the session. Returns the last run's summary."""
     import sys
 
     from ..recording import Recorder
@@ -70,11 +74,12 @@ def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, i
     with Recorder(root, fps=rate or st.rate_hz, station=st.name, instruction=instruction, cameras=st.has_cameras,
                   episodes=episodes) as rec:
         while not rec.done:
-            summary = run(on_step=lambda tick: _record_tick(rec, tick))
-            typer.echo(summary.format())
+            summary = run(recorder=rec)
+            if not json_out:
+                typer.echo(summary.format())
             choice = (typer.prompt(f"{rec.status()}: [k]eep, [d]iscard or [r]e-record?", default="k")
-                      if ask else on_end if on_end != "auto" else "keep")[:1].lower()
-            if choice == "k":
+                      if ask and not summary.signal else on_end if on_end not in ("auto", "ask") else "keep")[:1]
+            if choice.lower() == "k":
                 meta = rec.keep()
                 typer.echo(f"kept episode {meta['index'] if meta else '(empty, dropped)'} in {root}", err=True)
             else:
@@ -82,4 +87,7 @@ def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, i
                 typer.echo("discarded" if choice == "d" else "discarded; recording it again", err=True)
                 if choice == "d" and not ask:
                     break  # headless discard: do not loop forever
+            if summary.signal:
+                break
     typer.echo(f"dataset {root}: {len(rec.kept)} episode(s) kept")
+    return summary

@@ -1,0 +1,112 @@
+"""`rio run STATION --controller module:Class`: a user's own controller on the one control loop, plus
+what every workflow command shares: `--json`, `--profile`, and how a run ends the process.
+
+Exit status of every workflow command (teleop, deploy, replay, run): 0 when the run ended normally;
+3 when an arm was commanded to move and did not follow (the summary says which); 128 + the signal's
+number when a signal ended it (130 SIGINT, 143 SIGTERM, 129 SIGHUP), after the summary was printed.
+"""
+
+from __future__ import annotations
+
+import signal
+from typing import Annotated, Any
+
+import typer
+
+#: The run's arm did not follow its commands.
+EXIT_NOT_FOLLOWED = 3
+
+JsonOption = Annotated[bool, typer.Option("--json", help="Print the summary as JSON (stdout).")]
+ProfileOption = Annotated[str | None, typer.Option(
+    "--profile", help="Write a trace (Perfetto / chrome://tracing), a timeline PNG and a CPU/RAM/GPU table to "
+                      "this directory.")]
+
+
+def exit_code(summary: Any) -> int:
+    if summary.signal:
+        return 128 + int(getattr(signal, summary.signal, signal.SIGINT))
+    return 0 if summary.followed else EXIT_NOT_FOLLOWED
+
+
+def finish(summary: Any, json_out: bool, printed: bool = False) -> None:
+    """Print the run's summary (text or JSON; `printed`: the text is out already) and end the command
+    with the documented status."""
+    if json_out:
+        from .output import print_json
+
+        print_json(summary.to_json())
+    elif not printed:
+        typer.echo(summary.format())
+    code = exit_code(summary)
+    if code:
+        raise typer.Exit(code)
+
+
+def load_controller(spec: str) -> type:
+    """'package.module:Class' -> the class (a clear error naming what is missing)."""
+    import importlib
+
+    module, sep, attr = spec.partition(":")
+    if not sep or not module or not attr:
+        raise typer.BadParameter(f"'{spec}': write module:Class (e.g. my_lab.controllers:Wave)")
+    try:
+        mod = importlib.import_module(module)
+    except ImportError as e:
+        raise typer.BadParameter(f"cannot import '{module}': {e}") from e
+    cls = getattr(mod, attr, None)
+    if cls is None:
+        raise typer.BadParameter(f"module '{module}' has no '{attr}'")
+    missing = [m for m in ("reset", "step", "done") if not callable(getattr(cls, m, None))]
+    if missing:
+        raise typer.BadParameter(f"{spec} is not a controller: it lacks {missing} (docs/controllers.md)")
+    return cls
+
+
+def _options(pairs: list[str]) -> dict[str, Any]:
+    import json
+
+    out: dict[str, Any] = {}
+    for p in pairs:
+        key, sep, value = p.partition("=")
+        if not sep or not key:
+            raise typer.BadParameter(f"--set '{p}': write key=value")
+        try:
+            out[key] = json.loads(value)
+        except ValueError:
+            out[key] = value  # a bare word is a string
+    return out
+
+
+def run(
+    station: Annotated[str, typer.Argument(help="Station name (`rio stations list`) or path of a .toml file.")],
+    controller: Annotated[str, typer.Option("--controller", "-c", help="module:Class of your controller "
+                                                                       "(docs/controllers.md).")],
+    option: Annotated[list[str] | None, typer.Option("--set", help="key=value given to the controller's "
+                                                                   "constructor (JSON values; repeatable).")] = None,
+    duration: Annotated[float | None, typer.Option("--duration", "-d", min=0.1,
+                                                   help="Stop after this many seconds.")] = None,
+    rate: Annotated[float | None, typer.Option("--rate", help="Control rate (Hz; default: the station's).")] = None,
+    instruction: Annotated[str | None, typer.Option("--instruction", "-i", help="Task text stored with every "
+                                                                               "step.")] = None,
+    record: Annotated[str | None, typer.Option("--record", help="Record the run as an episode of the dataset "
+                                                              "DIR.")] = None,
+    middleware: Annotated[str | None, typer.Option("--middleware", "-m",
+                                                   help="Override the station's middleware.")] = None,
+    json_out: JsonOption = False,
+    profile: ProfileOption = None,
+) -> None:
+    """Run your own controller on a station, with the loop, recording, signals and summary of every
+    other workflow."""
+    from ..control.workflow import run_workflow
+
+    cls = load_controller(controller)
+    kwargs = _options(option or [])
+    from_session = getattr(cls, "from_session", None)  # a controller that connects nodes of its own
+
+    def make(session: Any) -> Any:
+        return from_session(session, **kwargs) if from_session is not None else cls(**kwargs)
+
+    summary = run_workflow(station, make, middleware=middleware, rate_hz=rate,
+                           duration=duration, instruction=instruction, record=record, profile=profile,
+                           log=lambda m: typer.echo(m, err=True))
+    finish(summary, json_out)

@@ -1,0 +1,248 @@
+"""`ControlLoop`: the one loop every workflow runs (teleop, leader-follower, deploy, replay, yours).
+
+The RIO paper's cycle, written once: each period of `1 / rate_hz` the loop wakes at mid-cycle, hands
+the controller the latest observation, and sends the action it returns to be reached one period
+after this cycle ends (`t_target`), so drivers interpolate smoothly between commands. The loop owns
+what every workflow needs and used to write for itself: pacing, wake-up lateness and overrun
+accounting (a loop that fell a whole period behind re-anchors instead of bursting), the episode
+boundary (`env.reset()` before, settling after), recording each step, ending on the controller's
+word, a duration or a signal (`rio.control.signals`), tracking commanded against measured
+(`rio.control.tracking`), profiling spans, and the end `RunSummary`.
+
+A controller is a small object (see `Controller`); everything else is optional, looked up by name:
+
+    class Wave:
+        name = "wave"
+        def reset(self, loop): self.q0 = loop.env.get_state().observation.proprio.copy()
+        def step(self, tick): return self.q0 + 0.2 * np.sin(tick.t - tick.t0)
+        def done(self): return None
+
+    summary = ControlLoop(env, Wave(), rate_hz=30, duration=10).run()
+
+docs/controllers.md has the whole protocol and `rio run STATION --controller module:Class`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import gc
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from .. import clock
+from ..errors import NodeDiedError
+from .signals import StopSignals
+from .summary import RunSummary
+from .tracking import ArmTracker, ObjectWatch
+
+
+@dataclass
+class Tick:
+    """One control cycle, handed to the controller's `step` and to `on_tick` callbacks."""
+
+    t: float  # when this tick reads its inputs (mid-cycle for periodic ticks)
+    t_target: float  # when its command is to be reached
+    t0: float  # the loop's start time
+    it: int
+    periodic: bool  # False for an extra tick a controller asked for (`wait`)
+    obs: Any  # the latest Step before acting (from env.reset() or the previous tick)
+    env: Any
+    t_sent: float = 0.0  # when the action went to env.step
+    step: Any = None  # what env.step returned: the fresh state, tagged with the action
+    action: np.ndarray | None = None
+    #: what the controller shows of this tick (teleop: devices, arms, mode; deploy: sample, chunk; ...)
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+class Controller(Protocol):
+    """What a workflow plugs into the loop. Optional, looked up by name:
+
+    - `after(tick)`: runs once the action is out and `tick.step` holds the fresh state (deploy sends
+      that observation for inference here);
+    - `wait(deadline) -> bool`: sleep until `deadline`, or return True earlier to take an extra,
+      non-periodic tick at once (deploy: a chunk just landed);
+    - `node_died(error) -> bool`: True when the run may end with the robot holding its last command
+      (deploy: the policy node stopped); otherwise the error propagates;
+    - `finish(summary)`: add the workflow's figures (`summary.details`) and lines (`summary.lines`).
+    """
+
+    name: str
+
+    def reset(self, loop: ControlLoop) -> None: ...
+
+    def step(self, tick: Tick) -> np.ndarray | None:
+        """The flat action to be reached at `tick.t_target`; None holds the last command."""
+        ...
+
+    def done(self) -> str | None:
+        """Why the run should end now (e.g. "the device finished"), or None to go on."""
+        ...
+
+
+class ControlLoop:
+    """Run `controller` on a connected `env` (`with env:`) at `rate_hz` until the controller is done,
+    `duration` seconds pass, or a stop signal. `recorder`: a `rio.recording.Recorder` given every step.
+    `lead_s`: how far past the cycle's end a command's target lies (default: one period)."""
+
+    def __init__(self, env: Any, controller: Any, *, rate_hz: float, duration: float | None = None,
+                 recorder: Any = None, on_tick: Callable[[Tick], None] | None = None, lead_s: float | None = None,
+                 stop: StopSignals | None = None, trace: Any = None, settle: bool = True,
+                 log: Callable[[str], None] | None = print):
+        if rate_hz <= 0:
+            raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
+        self.env, self.controller, self.recorder, self.on_tick = env, controller, recorder, on_tick
+        self.rate_hz, self.dt, self.duration = float(rate_hz), 1.0 / float(rate_hz), duration
+        self.lead_s = self.dt if lead_s is None else float(lead_s)
+        self.stop, self.trace, self.settle = stop, trace, settle
+        self.say = log or (lambda _m: None)
+        self.summary = RunSummary(getattr(controller, "name", type(controller).__name__), env.station,
+                                  rate_hz=self.rate_hz, instruction=env.instruction)
+        self.obs: Any = None
+        self.last_action: np.ndarray | None = None
+        self.t0 = 0.0
+
+    # -- helpers for controllers --------------------------------------------------------------------
+    def phase(self, name: str) -> contextlib.AbstractContextManager[Any]:
+        """Time a block on the loop's profiling track (a no-op unless `--profile`)."""
+        return self.trace.phase("control loop", name) if self.trace is not None else contextlib.nullcontext()
+
+    # -- the loop -------------------------------------------------------------------------------------
+    def run(self) -> RunSummary:
+        with contextlib.ExitStack() as stack:
+            stop = self.stop or stack.enter_context(StopSignals())
+            return self._run(stop)
+
+    def _run(self, stop: StopSignals) -> RunSummary:
+        env, ctl, s, dt = self.env, self.controller, self.summary, self.dt
+        self.obs = env.reset()
+        ctl.reset(self)
+        tracker, objects = ArmTracker(env.robot), ObjectWatch(env.sensors)
+        counts0 = self._published()
+        if self.recorder is not None and "embodiment" not in self.recorder.info:
+            self.recorder.describe_env(env)
+        wait = getattr(ctl, "wait", None) or clock.precise_wait
+        lateness: list[float] = []
+        clock.set_timer_slack()  # this thread's sleeps wake on time (see rio.clock)
+        with _collector_paused():
+            self.t0 = t_start = clock.now()
+            env.set_start_time(t_start)
+            self._loop(stop, wait, t_start, tracker, objects, lateness)
+        s.seconds = clock.now() - t_start
+        if self.settle:  # let the arms arrive at their last targets before measuring
+            clock.precise_wait(clock.now() + self.lead_s + 2 * dt)
+        self._finish(tracker, objects, counts0, lateness)
+        return s
+
+    def _loop(self, stop: StopSignals, wait: Callable[[float], Any], t_start: float, tracker: ArmTracker,
+              objects: ObjectWatch, lateness: list[float]) -> None:
+        env, ctl, s, dt = self.env, self.controller, self.summary, self.dt
+        it = 0
+        s.reason = "duration reached"
+        try:
+            while True:
+                if stop.received:
+                    s.reason, s.signal = f"stopped by {stop.received}", stop.received
+                    break
+                t_sample = t_start + (it + 0.5) * dt
+                if wait(t_sample):  # the controller wants a tick now (it had something arrive)
+                    now = clock.now()
+                    self._tick(Tick(now, now + dt / 2 + self.lead_s, t_start, it, False, self.obs, env),
+                               tracker, objects)
+                    continue
+                lateness.append(clock.now() - t_sample)
+                self._tick(Tick(t_sample, t_sample + dt / 2 + self.lead_s, t_start, it, True, self.obs, env),
+                           tracker, objects)
+                it += 1
+                s.ticks += 1
+                late = clock.now() - (t_start + it * dt + dt / 2)  # past the next tick's wake-up
+                if late > 0:
+                    s.late_ticks += 1
+                    if late > dt:  # fell a whole period behind: re-anchor, no burst
+                        s.overruns += 1
+                        it = int((clock.now() - t_start) / dt)
+                reason = ctl.done()
+                if reason:
+                    s.reason = reason
+                    break
+                if self.duration is not None and clock.now() - t_start >= self.duration:
+                    break
+        except KeyboardInterrupt:
+            s.reason, s.signal = "interrupted (Ctrl+C)", "SIGINT"
+        except NodeDiedError as e:
+            handled = getattr(ctl, "node_died", None)
+            if handled is None or not handled(e):
+                raise
+            s.reason = f"node '{e.node}' stopped ({e}); the robot holds its last command"
+            if self.last_action is not None:
+                env.step(self.last_action, t_cmd_target=clock.now() + dt)
+                s.details["held"] = [float(x) for x in self.last_action]
+
+    def _tick(self, tick: Tick, tracker: ArmTracker, objects: ObjectWatch) -> None:
+        env, ctl = self.env, self.controller
+        with self.phase("controller"):
+            action = ctl.step(tick)
+        if action is None:
+            action = self.last_action
+        tick.t_sent = clock.now()
+        with self.phase("send action + read state"):
+            step = env.step(action, t_cmd_target=tick.t_target) if action is not None else env.get_state()
+        if action is not None:
+            self.last_action = np.asarray(action, dtype=np.float64)
+            tracker.commanded(self.last_action, tick.t_target)
+        tracker.measure(tick.t)
+        objects.update()
+        tick.step, tick.action, self.obs = step, self.last_action, step
+        after = getattr(ctl, "after", None)
+        if after is not None:
+            after(tick)
+        if self.recorder is not None and action is not None:
+            with self.phase("record"):
+                self.recorder.add(step)
+        if self.on_tick is not None:
+            self.on_tick(tick)
+
+    def _published(self) -> dict[str, tuple[float, int]]:
+        env = self.env
+        clients = {**env.robot.clients, **env.cameras, **env.sensors}
+        out = {}
+        for role, c in clients.items():
+            n = c.published() if "published" in dir(c) else None
+            if n is not None:
+                out[role] = (clock.now(), n)
+        return out
+
+    def _finish(self, tracker: ArmTracker, objects: ObjectWatch, counts0: dict[str, tuple[float, int]],
+                lateness: list[float]) -> None:
+        s = self.summary
+        s.arms, s.objects = tracker.report(), objects.report()
+        for role, (t1, n1) in self._published().items():
+            if role in counts0 and t1 > counts0[role][0]:
+                s.node_rates_hz[role] = round((n1 - counts0[role][1]) / (t1 - counts0[role][0]), 1)
+        if lateness:
+            us = np.asarray(lateness) * 1e6
+            s.lateness_us = {"p50": round(float(np.percentile(us, 50)), 1),
+                             "p99": round(float(np.percentile(us, 99)), 1), "max": round(float(us.max()), 1)}
+        finish = getattr(self.controller, "finish", None)
+        if finish is not None:
+            finish(s)
+        for a in s.arms:
+            if not a.followed:
+                s.warnings.append(f"{a.role} was commanded over {a.commanded_path_m:.3f} m / "
+                                  f"{a.commanded_joint_path_rad:.3f} rad but moved {a.path_m:.3f} m / "
+                                  f"{a.joint_path_rad:.3f} rad: it did not follow (disabled, e-stopped, "
+                                  "in another control mode, or commands not reaching it)")
+
+
+@contextlib.contextmanager
+def _collector_paused() -> Iterator[None]:
+    """No full garbage collection inside the loop: what exists before it is frozen out of the
+    collector's reach (`gc.freeze`), so a collection pass walks only what the loop allocates."""
+    gc.collect()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
