@@ -187,3 +187,27 @@ def test_a_signal_ends_the_workflow_through_its_normal_end(tmp_path, workflow, s
     assert runs and not _leftovers(runs), ("shared memory left behind", _leftovers(runs))
     assert not list(tmp.glob("rio-*-*")), "run directories left behind"
     tmp.rmdir()
+
+
+def test_a_deploy_profile_has_a_track_per_node_and_loop_phase_and_a_row_per_process(tmp_path):
+    pytest.importorskip("matplotlib")
+    pytest.importorskip("psutil")
+    from rio.profiling import load_trace
+
+    st = tmp_path / "st.toml"
+    st.write_text(JOINT_STATION.format(mw="shm", frozen="false"))
+    out = _rio("deploy", str(st), "--policy", "rio.policy.testing:SleepPolicyNode,forward_s=0.02,chunk=10",
+               "--duration", "1.5", "--profile", str(tmp_path / "prof"))
+    assert out.returncode == 0, out.stderr[-3000:]
+    trace = load_trace(tmp_path / "prof" / "trace.json")
+    names = {(e["pid"], e["tid"]): e["args"]["name"] for e in trace["traceEvents"] if e["name"] == "thread_name"}
+    procs = {e["pid"]: e["args"]["name"] for e in trace["traceEvents"] if e["name"] == "process_name"}
+    tracks = {(procs[p], t) for (p, _), t in names.items()}
+    for node in ("arm", "gripper", "policy"):
+        assert (f"node {node}", "read_state") in tracks or (f"node {node}", "request") in tracks, tracks
+    spans = {e["name"] for e in trace["traceEvents"] if e["ph"] == "X"}
+    assert {"controller", "send action + read state", "policy request", "handle_request"} <= spans, spans
+    assert (tmp_path / "prof" / "timeline.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    rows = {r["label"] for r in json.loads((tmp_path / "prof" / "stats.json").read_text())["processes"]}
+    assert {"node arm", "node gripper", "node policy"} <= rows, rows
+    assert "trace.json" in out.stdout  # the summary says where the profile went

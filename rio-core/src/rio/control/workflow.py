@@ -30,6 +30,13 @@ class Session:
     stack: contextlib.ExitStack
     station: Any
     log: Callable[[str], None]
+    profile: Any = None
+
+    def started(self, manager: Any) -> None:
+        """Tell the run about nodes a controller started itself (`ServerManager`): with `--profile`, their
+        processes get a row in the stats table."""
+        if self.profile is not None:
+            self.profile.watch_nodes(_node_pids(manager))
 
     @property
     def middleware(self) -> Any:
@@ -62,14 +69,11 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
         freq = float(rate_hz or st.rate_hz)
         say(f"starting station '{st.name}' ({len(servers)} nodes over {next(iter(clients.values())).mw.name}) ...")
         with ServerManager(servers, station=st.name) as manager, contextlib.ExitStack() as stack:
-            if prof is not None:
-                for h in manager.handles:
-                    pid = getattr(getattr(h, "proc", None), "pid", None)  # nodes in processes of their own
-                    if pid is not None:
-                        prof.sampler.add(f"node {h.name}", int(pid))
+            session = Session(env, clients, stack, st, say, prof)
+            session.started(manager)
             stack.enter_context(env)
             env.instruction = instruction
-            controller = make_controller(Session(env, clients, stack, st, say))
+            controller = make_controller(session)
             if record:
                 from ..recording import Recorder
 
@@ -85,3 +89,9 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
     if stop.received and not summary.signal:  # arrived while the station was stopping
         summary.signal = stop.received
     return summary
+
+
+def _node_pids(manager: Any) -> dict[str, int]:
+    """{node name: process id} of a ServerManager's nodes that run in processes of their own."""
+    pids = {h.name: getattr(getattr(h, "proc", None), "pid", None) for h in manager.handles}
+    return {name: int(pid) for name, pid in pids.items() if pid is not None}

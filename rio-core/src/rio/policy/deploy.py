@@ -94,7 +94,8 @@ class PolicyController:
         session.log(f"loading policy '{policy}' ...")
         kwargs = {**policy_kwargs, "observation": layout}
         server = serve(node_cls, mw, name=POLICY_ROLE, **kwargs)
-        session.stack.enter_context(ServerManager([server], station=st.name, ready_timeout=ready_timeout))
+        session.started(session.stack.enter_context(ServerManager([server], station=st.name,
+                                                                  ready_timeout=ready_timeout)))
         client = session.stack.enter_context(connect(node_cls, mw, name=POLICY_ROLE, **kwargs))
         meta = PolicyMetadata.from_dict(client.metadata())
         return cls(policy, client, meta, config, env.instruction)
