@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -90,6 +91,7 @@ class ControlLoop:
     def __init__(self, env: Any, controller: Any, *, rate_hz: float, duration: float | None = None,
                  recorder: Any = None, on_tick: Callable[[Tick], None] | None = None, lead_s: float | None = None,
                  stop: StopSignals | None = None, trace: Any = None, settle: bool = True,
+                 freeze_gc: bool = True, realtime: bool | None = None, cpu: int | None = None,
                  log: Callable[[str], None] | None = print):
         if rate_hz <= 0:
             raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
@@ -97,6 +99,9 @@ class ControlLoop:
         self.rate_hz, self.dt, self.duration = float(rate_hz), 1.0 / float(rate_hz), duration
         self.lead_s = self.dt if lead_s is None else float(lead_s)
         self.stop, self.trace, self.settle = stop, trace, settle
+        if realtime is None:  # where permitted, unless RIO_LOOP_REALTIME=0
+            realtime = None if os.environ.get("RIO_LOOP_REALTIME", "") not in ("0", "false", "no") else False
+        self.freeze_gc, self.realtime, self.cpu = freeze_gc, realtime, cpu
         self.say = log or (lambda _m: None)
         self.summary = RunSummary(getattr(controller, "name", type(controller).__name__), env.station,
                                   rate_hz=self.rate_hz, instruction=env.instruction)
@@ -126,7 +131,8 @@ class ControlLoop:
         wait = getattr(ctl, "wait", None) or clock.precise_wait
         lateness: list[float] = []
         clock.set_timer_slack()  # this thread's sleeps wake on time (see rio.clock)
-        with _collector_paused():
+        with _scheduled(self.realtime, self.cpu, self.say), \
+                _collector_paused() if self.freeze_gc else contextlib.nullcontext():
             self.t0 = t_start = clock.now()
             env.set_start_time(t_start)
             self._loop(stop, wait, t_start, tracker, objects, lateness)
@@ -234,6 +240,37 @@ class ControlLoop:
                                   f"{a.commanded_joint_path_rad:.3f} rad but moved {a.path_m:.3f} m / "
                                   f"{a.joint_path_rad:.3f} rad: it did not follow (disabled, e-stopped, "
                                   "in another control mode, or commands not reaching it)")
+
+
+@contextlib.contextmanager
+def _scheduled(realtime: bool | None, cpu: int | None, say: Callable[[str], None]) -> Iterator[None]:
+    """OS scheduling for the loop's thread while it runs: SCHED_FIFO at priority 10 (`realtime`: None
+    tries it quietly, True says when it cannot; it needs root or CAP_SYS_NICE) and pinning to one CPU.
+    On a loaded 2-core machine SCHED_FIFO cut the 500 Hz loop's p99 wake-up lateness from ~2 ms to
+    ~40 us (bench/loop_jitter.py). It cannot starve the machine: the loop sleeps every cycle and
+    spins at most 200 us before a deadline. The thread's old settings come back afterwards."""
+    undo = []
+    if realtime is not False:
+        try:
+            old = (os.sched_getscheduler(0), os.sched_getparam(0))
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))
+            undo.append(lambda: os.sched_setscheduler(0, old[0], old[1]))
+        except (AttributeError, OSError) as e:
+            if realtime:
+                say(f"realtime scheduling not available ({e}); running with the default scheduler")
+    if cpu is not None:
+        try:
+            cpus = os.sched_getaffinity(0)
+            os.sched_setaffinity(0, {int(cpu)})
+            undo.append(lambda: os.sched_setaffinity(0, cpus))
+        except (AttributeError, OSError) as e:
+            say(f"cannot pin the loop to CPU {cpu} ({e})")
+    try:
+        yield
+    finally:
+        for u in reversed(undo):
+            with contextlib.suppress(OSError):
+                u()
 
 
 @contextlib.contextmanager
