@@ -181,12 +181,12 @@ def test_arm_teleop_record_replay_deploy(plugins, tmp_path):
                   "--episodes", "1", cwd=tmp_path)
     assert "1 episode(s) kept" in out, out
     out = rio_cli("replay", str(data), "--episode", "0", "--station", "zzarm-demo", "--approach", "1", cwd=tmp_path)
-    assert re.search(r"replayed episode 0 on 'zzarm-demo': \d+ actions", out), out
+    assert re.search(r"replay on 'zzarm-demo': the episode ended\n  [\d.]+ s, \d+ ticks", out), out
     pytest.importorskip("rio_policies", reason="replay.episode is registered by rio-policies")
     summary = rio_json("deploy", "zzarm-demo", "--policy", f"replay.episode,episode={data}", "--duration", "3",
                        cwd=tmp_path)
-    assert summary["policy"] == "replay.episode" and summary["stats"]["chunks"] >= 1
-    assert summary["metadata"]["action_dim"] == 6  # joint positions of the plugin's arm
+    assert summary["details"]["policy"] == "replay.episode" and summary["details"]["stats"]["chunks"] >= 1
+    assert summary["details"]["metadata"]["action_dim"] == 6  # joint positions of the plugin's arm
 
 
 def test_gripper_teleop(plugins, tmp_path):
@@ -217,11 +217,11 @@ def test_teleop_device_drives_its_station(plugins, tmp_path):
 
 def test_policy_deploys(plugins, tmp_path):
     summary = rio_json("deploy", "zzpolicy-demo", "--policy", "zzpolicy.policy", "--duration", "3", cwd=tmp_path)
-    meta = summary["metadata"]
+    meta = summary["details"]["metadata"]
     assert (meta["name"], meta["action_dim"], meta["horizon"], meta["cameras"]) == ("zzpolicy.policy", 6, 10, ["front"])
-    assert summary["stats"]["chunks"] >= 2
+    assert summary["details"]["stats"]["chunks"] >= 2
     out = rio_cli("deploy", "zzpolicy-demo", "--duration", "2", cwd=tmp_path)  # the station's [components.policy]
-    assert "deployed 'zzpolicy.policy' on 'zzpolicy-demo'" in out, out
+    assert "deploy on 'zzpolicy-demo': duration reached" in out and "policy 'zzpolicy.policy'" in out, out
 
 
 def test_sensor_station_records(plugins, tmp_path):

@@ -103,7 +103,8 @@ class RunSummary:
 
     def format(self) -> str:
         lat = self.lateness_us
-        out = [f"{self.workflow} on '{self.station}': {self.reason}",
+        device = f" with {self.details['device']}" if "device" in self.details else ""
+        out = [f"{self.workflow} on '{self.station}'{device}: {self.reason}",
                f"  {self.seconds:.1f} s, {self.ticks} ticks at {self.achieved_hz:.1f} Hz (target {self.rate_hz:g} Hz), "
                f"{self.late_ticks} late, {self.overruns} overruns"
                + (f"; wake-up lateness p50 {lat['p50']:.0f} us, p99 {lat['p99']:.0f} us, max {lat['max']:.0f} us"
