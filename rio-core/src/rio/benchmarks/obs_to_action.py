@@ -64,7 +64,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     summary = run_deploy(st, policy, duration=args.seconds, rate_hz=args.rate, on_tick=on_tick,
                          config=AsyncConfig(request_threshold=args.threshold, blend=args.blend),
                          log=lambda m: print(f"[obs_to_action] {m}", file=sys.stderr, flush=True))
-    s = summary.stats
+    s = {**summary.details["stats"], "loop_jitter_us_p99": summary.lateness_us.get("p99"),
+         "loop_overruns": summary.overruns}
     out: dict[str, Any] = {
         "setup": {"middleware": args.middleware, "cameras": f"{args.cameras} x {args.width}x{args.height} @ "
                   f"{args.camera_hz:g} Hz", "forward_ms": args.forward_ms, "chunk": f"{args.chunk} @ 50 Hz",
