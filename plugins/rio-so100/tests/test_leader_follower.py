@@ -78,7 +78,7 @@ def test_bimanual_virtual_station_aligns_both_pairs():
 def test_a_station_without_leader_arms_is_refused():
     st = parse_station({"name": "x", "middleware": {"name": "thread"},
                         "components": {"arm": {"driver": "so100.follower", "port": "virtual"}}}, source="<test>")
-    with pytest.raises(RioError, match="no leader-follower pair"):
+    with pytest.raises(RioError, match="has no teleop component"):
         run(st, duration=0.1, log=None)
 
 
