@@ -6,6 +6,8 @@ middleware) with the same code, because a slot is one record of the node's `Layo
 Ring buffer: one writer, any number of lock-free readers. The writer fills slot `count % N`, checks
 it (`rio.slot_check`: sequence number + checksum) and only then bumps `count`; a reader copies slot
 `count-1` and keeps the copy only if the check says it is exactly sample `count-1`, else reads again.
+A reader's copies go to buffers recycled once nothing references them (`rio.recycle`): a camera frame
+read at every control tick costs a copy, not a copy plus page faults.
 The check, not the order in which memory becomes visible, is what makes a read safe, so the same code
 is correct on x86 and on ARM (see `rio.slot_check` for the argument). Request queue: many producers under
 a lock, one consumer that takes only checked, complete slots; a full queue makes `put` wait (bounded)
@@ -25,6 +27,7 @@ import numpy as np
 from . import clock, host, slot_check
 from .errors import QueueFull, RioError
 from .layout import TIMESTAMP, Layout
+from .recycle import BufferPool
 
 _HEADER = 64  # bytes; keeps slots cache-line aligned
 
@@ -61,6 +64,9 @@ class ThreadNotifier:
 #: A reader that finds no consistent sample for this long gives up (only a corrupted segment, or a
 #: writer that outruns every copy, can keep it from finding one).
 _CONSISTENT_S = 1.0
+#: How long `RingBuffer.find` waits for a sample another process has published to become visible here
+#: (microseconds on any CPU; the margin covers a reader descheduled between two looks).
+_VISIBLE_S = 0.02
 
 
 def _check_offset(layout: Layout, capacity: int) -> int:
@@ -79,6 +85,8 @@ class _Slots:
         self.raw = np.ndarray((capacity, layout.itemsize), np.uint8, buffer=buf, offset=_HEADER)
         self.checks = slot_check.checks_view(buf, capacity, _check_offset(layout, capacity))
         self.dtype, self.capacity = layout.dtype, capacity
+        #: where a reader's copies go: recycled once nothing holds them (no page faults per camera frame)
+        self._copies = BufferPool(layout.itemsize)
 
     def write(self, seq: int, rec: np.ndarray) -> None:
         i = seq % self.capacity
@@ -88,7 +96,8 @@ class _Slots:
     def read(self, seq: int) -> np.ndarray | None:
         """A copy of sample `seq` as a record, or None if the slot does not hold it (yet, or any more)."""
         i = seq % self.capacity
-        raw = self.raw[i].copy()
+        raw = self._copies.take()
+        np.copyto(raw, self.raw[i])
         return raw.view(self.dtype)[0] if slot_check.matches(self.checks, i, seq, raw) else None
 
     def read_many(self, seqs: list[int]) -> np.ndarray | None:
@@ -202,6 +211,39 @@ class RingBuffer:
             else:
                 out[n] = rec[n]
         return out
+
+    def find(self, timestamp: float) -> dict[str, Any] | None:
+        """The sample stamped exactly `timestamp` (a checked copy, like `get()`), or None when the ring
+        no longer holds it: overwritten by the writer (it keeps capacity-1 samples), or never written.
+
+        Slots are located by an unchecked peek at their timestamps; only the copy is trusted, and only if
+        its slot check says it is that very sample, so a slot rewritten during the copy is reported as gone
+        (None), never returned. A sample this process does not see yet (memory order) is waited for briefly."""
+        stamps = self._slots.records[TIMESTAMP]
+        n = self.capacity
+        deadline = 0.0
+        while True:
+            c = int(self._count[0])
+            oldest = max(c - n + 1, 0)  # the slot of c - n may be being rewritten with sample c
+            for seq in range(c - 1, oldest - 1, -1):
+                t = float(stamps[seq % n])
+                if t < timestamp:
+                    break
+                if t == timestamp:
+                    rec = self._slots.read(seq)
+                    if rec is not None:
+                        return self.layout.to_dict(rec, copy=False)
+                    if seq < int(self._count[0]) - n + 1:
+                        return None  # overwritten while we copied it
+                    break  # written, not yet visible here: look again
+            else:
+                if c:  # every live sample is newer: it was overwritten
+                    return None
+            now = clock.now()
+            deadline = deadline or now + _VISIBLE_S
+            if now > deadline:
+                return None
+            host.yield_cpu()
 
     def get_last_k(self, k: int, out: dict[str, np.ndarray] | None = None) -> dict[str, Any]:
         """The k newest samples, oldest first, each field with a leading axis of k. Before k samples

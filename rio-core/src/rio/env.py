@@ -4,6 +4,10 @@ It owns the clients of its embodiment's roles, of every camera and of every sens
 `__enter__` and closes them on `__exit__`. Every call is non-blocking: state comes from local ring
 buffers and `step` only enqueues commands, so the control loop keeps its own timing.
 
+A camera frame also says where it lives (`Camera.meta["source"]`: its camera node's ring, where the
+middleware lets another process of this machine read it in place), so a policy node can take it from
+there instead of receiving a copy in each request (`rio.policy.frames`).
+
 Sensors (`<name>_sensor` roles: a force-torque sensor, the sim world's ground truth) belong to no
 morphology, so they are not in the `Observation`: each step carries their latest numeric values in
 `meta["sensors"][name]`, which the recorder stores as `meta.sensors.<name>.<key>` columns.
@@ -113,11 +117,8 @@ class Env:
 
     @staticmethod
     def _camera(name: str, client: Any) -> Camera:
-        s = client.get_state()
-        depth: np.ndarray | None = None
-        if "depth" in s:
-            depth = s["depth"].astype(np.float32) * np.float32(s["depth_scale"])
-        meta: dict[str, Any] = {"timestamp": float(s["timestamp"])}
-        if "intrinsics" in s:
-            meta["intrinsics"] = np.asarray(s["intrinsics"])
-        return Camera(rgb=s["rgb"], depth=depth, meta=meta)
+        cam = Camera.from_sample(client.get_state())
+        source = getattr(client, "ring_ref", None)
+        if source is not None:  # a policy node on this machine reads the frame from there (rio.policy.frames)
+            cam.meta["source"] = source
+        return cam

@@ -30,6 +30,7 @@ from .config import error_lines
 from .errors import ConfigError, NodeDiedError, RioError
 from .middleware.base import Middleware, NodeLayouts, machine_id
 from .node import Node
+from .ring_ref import ring_reference
 from .runtime import Dispatcher, NodeRunner
 
 log = logging.getLogger("rio.manager")
@@ -95,8 +96,10 @@ def connect(cls: type[N], mw: str | Middleware, *, name: str | None = None, stat
     if addr is None:
         raise NodeDiedError(node.name, f"no '{mwo.name}' server for it is running in station '{mwo.station}' "
                                        "(start it with ServerManager, or pass address=)")
+    layouts = NodeLayouts.of(node)
+    transport = mwo.make_client(node, layouts, addr)
     # the proxy stands in for the node: typed as its class (see the docstring), not as NodeClient
-    return cast(N, NodeClient(node, mwo.make_client(node, NodeLayouts.of(node), addr)))
+    return cast(N, NodeClient(node, transport, ring_reference(mwo, layouts, addr)))
 
 
 # -- child process ----------------------------------------------------------------------------------

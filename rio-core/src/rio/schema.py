@@ -19,8 +19,21 @@ import numpy as np
 class Camera:
     rgb: np.ndarray | None = None
     depth: np.ndarray | None = None
-    #: e.g. {"timestamp": float, "intrinsics": (3, 3) array}
+    #: e.g. {"timestamp": float, "intrinsics": (3, 3) array, "source": where the frame lives (`rio.ring_ref`)}
     meta: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_sample(cls, s: dict) -> Camera:
+        """A camera node's sample (`rio.interfaces.camera`: rgb, intrinsics; depth in units of
+        `depth_scale`) as the schema's Camera (depth in float32 meters). The one conversion, used by
+        `Env` and by a policy node reading frames by reference, so both see the same values."""
+        depth: np.ndarray | None = None
+        if "depth" in s:
+            depth = s["depth"].astype(np.float32) * np.float32(s["depth_scale"])
+        meta: dict = {"timestamp": float(s["timestamp"])}
+        if "intrinsics" in s:
+            meta["intrinsics"] = np.asarray(s["intrinsics"])
+        return cls(rgb=s["rgb"], depth=depth, meta=meta)
 
 
 @dataclass

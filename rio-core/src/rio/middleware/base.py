@@ -95,6 +95,12 @@ class Middleware(Configurable, ABC):
     def release(self, resources: dict[str, Any]) -> None:  # noqa: B027 - default: nothing to destroy
         """Destroy what `prepare` created, even if the server was SIGKILLed."""
 
+    def ring_address(self, address: dict[str, Any]) -> dict[str, Any] | None:
+        """The part of a node's `address` through which another consumer reads the node's ring buffer
+        *in place* (`rio.ring_ref`: how a policy node takes camera frames by reference), or None where
+        clients read local mirrors of it (network middlewares, the default): there the data must travel."""
+        return None
+
     @abstractmethod
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> ServerTransport: ...
 

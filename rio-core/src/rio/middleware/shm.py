@@ -321,6 +321,13 @@ class ShmMiddleware(Middleware):
                 except FileNotFoundError:
                     pass
 
+    def ring_address(self, address: dict[str, Any]) -> dict[str, Any] | None:
+        """Any process of this machine maps the ring buffer's segment read in place; the request queue,
+        its lock and wake-up FIFO stay with the node's own clients (the fingerprint then covers the ring only)."""
+        out: dict[str, Any] = {k: address[k] for k in ("data", "data_size", "sock", "pid", "machine") if k in address}
+        out["fingerprint"] = [address["fingerprint"][0], 0]
+        return out
+
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> ShmServer:
         return ShmServer(node, layouts, resources)
 

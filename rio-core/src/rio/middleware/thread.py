@@ -64,6 +64,10 @@ class ThreadMiddleware(Middleware):
     name = "thread"
     process_per_node = False
 
+    def ring_address(self, address: dict[str, Any]) -> dict[str, Any] | None:
+        """Every node of this process shares its ring buffer object: a client of the same process reads it in place."""
+        return dict(address)
+
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> ThreadServer:
         return ThreadServer((self.station, node.name), layouts)
 

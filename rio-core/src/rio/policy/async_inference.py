@@ -5,7 +5,9 @@ arrive, and the command for each control tick. Nothing here waits for the policy
   newest chunk fall to `request_threshold` x its horizon (1.0: ask again the moment a chunk arrives,
   which keeps the model busy and the actions young; lower values trade action age for compute).
 - Arrival: `poll()` compares the policy's ring-buffer count with the last seen (a local read), and
-  schedules a new chunk on the `ChunkSchedule` (aligned to its observation's time, blended).
+  schedules a new chunk on the `ChunkSchedule` (aligned to its observation's time, blended). An empty
+  chunk answers a request whose camera frames were overwritten before the policy node read them
+  (`rio.policy.frames`): it is counted (`frame_misses`) and the next observation goes out at once.
 - Command: `command(t)` samples the schedule for time `t`, then the optional low-pass filter
   (`rio.control.LowPassFilter`). Before the first chunk, and whenever the policy is late, the caller
   gets the hold (or continued) command and the event is counted.
@@ -76,7 +78,7 @@ class AsyncInference:
         self._seen = policy.chunk_count()
         self._first_pending: dict[int, float] = {}  # seq -> forward pass of chunks not applied yet
         self.record = LatencyRecord()
-        self.requests = self.chunks = self.timeouts = 0
+        self.requests = self.chunks = self.timeouts = self.frame_misses = 0
         self.late_events = self.late_ticks = 0
         self._late = False
         self._reset_next = True
@@ -94,6 +96,10 @@ class AsyncInference:
         self._seen = count
         chunk = self.policy.latest_chunk()
         if chunk is None or self.in_flight is None or chunk.seq != self.in_flight[0]:
+            return None
+        if chunk.horizon == 0:  # not run: a referenced frame was gone; ask again with a fresh observation
+            self.frame_misses += 1
+            self.in_flight = None
             return None
         self.record.queue_in.append(chunk.t_recv - chunk.t_obs)
         self.record.forward.append(chunk.forward_s)
@@ -156,6 +162,7 @@ class AsyncInference:
 
         return {
             "requests": self.requests, "chunks": self.chunks, "timeouts": self.timeouts,
+            "frame_misses": self.frame_misses,
             "late_events": self.late_events, "late_ticks": self.late_ticks,
             "first_action_ms_p50": pct(r.first_action, 50), "first_action_ms_p99": pct(r.first_action, 99),
             "action_age_ms_p50": pct(r.action_age, 50), "action_age_ms_p99": pct(r.action_age, 99),

@@ -3,11 +3,16 @@ model is served through the middleware itself and no separate policy server is n
 
 The hot path uses the two channels every node already has, never a remote call:
 
-- observations in: the request queue. One request is one observation (`ObsLayout` record), camera
-  frames included; under `shm` it is one copy into shared memory, no serializer.
+- observations in: the request queue. One request is one observation (`ObsLayout` record). Camera
+  frames go by reference where the middleware shares rings (`shm`, `thread`): the request carries each
+  frame's timestamp and the node reads the frame from its camera's ring (`rio.policy.frames`); on network
+  middlewares they are copied into the request. `frames="copy"` forces copying everywhere.
 - chunks out: the ring buffer. Each inference publishes one fixed-size record (`actions` padded to
   `max_horizon` rows, `horizon`, the observation's `t_obs` and `seq`, and the times the request was
   received and inference ran). The client reads it locally, without blocking.
+
+A request whose frame the camera has already overwritten is answered with an empty chunk (horizon 0),
+never with another frame; `AsyncInference` counts it and asks again.
 
 The node is request-driven (`loop = "req"`): it sleeps until an observation arrives, so it costs
 nothing between inferences. An exception inside the policy ends the node, which every client then
@@ -21,7 +26,8 @@ layout from the station's first observation.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, cast
+import logging
+from typing import Any, ClassVar, Literal, cast
 
 import numpy as np
 from pydantic import Field, create_model
@@ -30,7 +36,10 @@ from ..errors import InvalidRequest
 from ..node import Node, NodeConfig, client_side, remote
 from ..schema import Observation
 from .base import ActionChunk, Policy, PolicyMetadata
+from .frames import CameraFrames, FrameGone
 from .obs_layout import ObsLayout
+
+log = logging.getLogger("rio.policy")
 
 
 class PolicyNodeConfig(NodeConfig):
@@ -38,6 +47,10 @@ class PolicyNodeConfig(NodeConfig):
 
     observation: dict[str, Any] | None = Field(None, description="the station's observation layout "
                                                                  "(`rio deploy` fills it in)")
+    frames: Literal["auto", "copy"] = Field(
+        "auto", description="camera frames: 'auto' reads them from the camera nodes' rings where the middleware "
+                            "shares them (shm, thread) and copies them into each request elsewhere; 'copy' always "
+                            "copies (a policy node on another machine than the cameras)")
 
 
 def node_config(policy_class: type[Policy], name: str) -> type[NodeConfig]:
@@ -65,6 +78,8 @@ class PolicyNode(Node):
         self.policy = self.policy_class(fields)
         observation = self.config.observation
         self.layout = ObsLayout.from_dict(observation) if observation else None
+        if self.layout is not None and self.config.frames == "copy":
+            self.layout = self.layout.copying()
         cfg = self.policy.config
         dim = self.layout.action_dim if self.layout is not None else 1
         self.example_data: dict[str, Any] = {
@@ -73,11 +88,16 @@ class PolicyNode(Node):
         self.example_request = self.layout.example_request() if self.layout is not None else {"seq": np.int64(0)}
         self._meta: PolicyMetadata | None = None
         self._request_rec: np.ndarray | None = None
+        self._frames: CameraFrames | None = None
+        #: Requests answered with an empty chunk because a referenced frame was gone (server side).
+        self.frame_misses = 0
 
     # -- server side --------------------------------------------------------------------------------
     def open(self) -> None:
         if self.layout is None:
             return
+        if self.layout.sources:
+            self._frames = CameraFrames(self.layout.sources)
         self.policy.load(self.layout)
         meta = self.policy._meta()
         if meta.action_dim != self.layout.action_dim:
@@ -86,6 +106,9 @@ class PolicyNode(Node):
         self._meta = meta
 
     def close(self) -> None:
+        if self._frames is not None:
+            self._frames.close()
+            self._frames = None
         if self.layout is not None:
             self.policy.close()
 
@@ -100,11 +123,27 @@ class PolicyNode(Node):
         if self.layout is None:
             raise InvalidRequest(self.name, None, "this policy node has no observation layout (start it with "
                                                   "`rio deploy`, or pass observation=ObsLayout.of(obs).to_dict())")
-        obs, instruction, t_obs, seq, reset = self.layout.decode(request)
-        if reset:
+        if request["reset"]:  # before the frames are read: a run's first request resets even if it misses
             self.policy.reset()
+        try:
+            obs, instruction, t_obs, seq, _ = self.layout.decode(request, self._frames)
+        except FrameGone as e:
+            self.frame_misses += 1
+            log.warning("policy node '%s': request %d not run: %s (%d so far)", self.name, int(request["seq"]), e,
+                        self.frame_misses)
+            self.publish(self._record(self._missed(request, t_recv)))
+            return
         chunk = self.policy(obs, instruction, t_obs, seq, t_recv=t_recv)
         self.publish(self._record(chunk))
+        if self._frames is not None:  # the next observation comes as soon as this chunk lands
+            self._frames.read_ahead()
+
+    def _missed(self, request: dict[str, Any], t_recv: float) -> ActionChunk:
+        """The answer to a request whose frames were gone: no actions (horizon 0), so the client asks again."""
+        meta = self.policy._meta()
+        empty = np.zeros((0, self.example_data["actions"].shape[1]))
+        return ActionChunk(empty, float(request["t_obs"]), meta.dt, meta.offset, int(request["seq"]), t_recv,
+                           t_recv, t_recv)
 
     def _record(self, chunk: ActionChunk) -> dict[str, Any]:
         actions = np.zeros_like(self.example_data["actions"])
@@ -148,6 +187,7 @@ class PolicyNode(Node):
 
     @client_side
     def latest_chunk(self) -> ActionChunk | None:
+        """The newest chunk (None before the first). Horizon 0: the request's frames were gone (not run)."""
         s = self.ring_buffer.get()
         if int(s["seq"]) < 0:
             return None

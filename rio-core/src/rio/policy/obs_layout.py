@@ -1,24 +1,34 @@
 """The station's observation as one fixed-size request record, so it reaches the policy process the
 way every RIO request travels: packed once into a slot of the node's request queue (shared memory
-under `shm`; raw bytes on network middlewares). Camera frames are copied in as uint8 arrays; nothing
-is pickled or re-serialized, and the policy process rebuilds the very same `Observation` subclass.
+under `shm`; raw bytes on network middlewares). Nothing is pickled or re-serialized, and the policy
+process rebuilds the very same `Observation` subclass.
+
+Camera frames travel one of two ways, fixed per camera when the layout is made:
+- by reference, when the observation's camera says where its frame lives (`Camera.meta["source"]`, set
+  by `Env` when the camera's middleware shares rings: `shm`, `thread`): the request carries only the
+  frame's timestamp and the policy node reads the frame from the camera's ring (`rio.policy.frames`);
+- by copy otherwise (network middlewares), or when asked (`copying()`, the policy node's `frames="copy"`):
+  the frames are copied into the request as uint8 arrays.
 
 `ObsLayout.of(observation)` reads the layout off a first observation (its class, every array or scalar
-field it fills, each camera's shapes), so one layout works for any embodiment. It is plain JSON, which
-is how it travels to the policy node's constructor (`observation=layout.to_dict()`).
+field it fills, each camera's shapes and source), so one layout works for any embodiment. It is plain
+JSON, which is how it travels to the policy node's constructor (`observation=layout.to_dict()`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import InvalidRequest
 from ..schema import Camera, Observation
 from ..specs import import_path
+
+if TYPE_CHECKING:
+    from .frames import CameraFrames
 
 #: Request field names: observation fields, camera images and their capture times, then the rest.
 _F, _RGB, _DEPTH, _CAM_T = "o.", "rgb.", "depth.", "tcam."
@@ -29,8 +39,9 @@ class ObsLayout:
     obs_type: str
     #: Observation fields (proprio first) -> shape; a scalar field has shape [].
     fields: dict[str, list[int]]
-    #: Camera name -> {"rgb": [H, W, 3]} plus "depth": [H, W] when the camera has depth.
-    cameras: dict[str, dict[str, list[int]]] = field(default_factory=dict)
+    #: Camera name -> {"rgb": [H, W, 3]} plus "depth": [H, W] when the camera has depth, plus "source": a
+    #: `rio.ring_ref` reference when its frames go by reference.
+    cameras: dict[str, dict[str, Any]] = field(default_factory=dict)
     instruction_bytes: int = 256
 
     # -- building -----------------------------------------------------------------------------------
@@ -52,6 +63,8 @@ class ObsLayout:
             cams[name] = {"rgb": list(np.asarray(cam.rgb).shape)}
             if cam.depth is not None:
                 cams[name]["depth"] = list(np.asarray(cam.depth).shape)
+            if cam.meta.get("source") is not None:
+                cams[name]["source"] = cam.meta["source"]
         t = type(obs)
         return cls(f"{t.__module__}:{t.__qualname__}", fields, cams, instruction_bytes)
 
@@ -61,6 +74,16 @@ class ObsLayout:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> ObsLayout:
         return cls(**d)
+
+    def copying(self) -> ObsLayout:
+        """This layout with every camera's frames copied into the request (no references)."""
+        cams = {name: {k: v for k, v in c.items() if k != "source"} for name, c in self.cameras.items()}
+        return dataclasses.replace(self, cameras=cams)
+
+    @property
+    def sources(self) -> dict[str, dict[str, Any]]:
+        """Camera name -> ring reference, for the cameras whose frames go by reference."""
+        return {name: c["source"] for name, c in self.cameras.items() if c.get("source") is not None}
 
     @property
     def action_dim(self) -> int:
@@ -74,9 +97,10 @@ class ObsLayout:
     def example_request(self) -> dict[str, Any]:
         ex: dict[str, Any] = {_F + k: np.zeros(s) for k, s in self.fields.items()}
         for name, c in self.cameras.items():
-            ex[_RGB + name] = np.zeros(c["rgb"], np.uint8)
-            if "depth" in c:
-                ex[_DEPTH + name] = np.zeros(c["depth"], np.float32)
+            if c.get("source") is None:
+                ex[_RGB + name] = np.zeros(c["rgb"], np.uint8)
+                if "depth" in c:
+                    ex[_DEPTH + name] = np.zeros(c["depth"], np.float32)
             ex[_CAM_T + name] = 0.0
         ex.update(instruction=np.zeros(self.instruction_bytes, np.uint8), instruction_len=0,
                   t_obs=0.0, seq=0, reset=False)
@@ -84,14 +108,22 @@ class ObsLayout:
 
     def encode(self, obs: Observation, instruction: str | None, t_obs: float, seq: int,
                reset: bool = False) -> dict[str, Any]:
-        """The request for `obs` (the values are referenced, not copied: the queue copies them once)."""
+        """The request for `obs` (the values are referenced, not copied: the queue copies them once). A
+        camera whose frames go by reference contributes only its frame's timestamp: the policy node reads
+        the frame the camera published then, not `cam.rgb` (edit images in the policy's `prepare`)."""
         req: dict[str, Any] = {_F + k: getattr(obs, k) for k in self.fields}
         for name, c in self.cameras.items():
             cam = obs.cameras[name]
-            req[_RGB + name] = cam.rgb
-            if "depth" in c:
-                req[_DEPTH + name] = cam.depth
-            req[_CAM_T + name] = float(cam.meta.get("timestamp", t_obs))
+            if c.get("source") is None:
+                req[_RGB + name] = cam.rgb
+                if "depth" in c:
+                    req[_DEPTH + name] = cam.depth
+                req[_CAM_T + name] = float(cam.meta.get("timestamp", t_obs))
+            elif "timestamp" not in cam.meta:
+                raise InvalidRequest("policy", _CAM_T + name, "a camera whose frames go by reference needs its "
+                                                               "frame's timestamp in meta['timestamp']")
+            else:
+                req[_CAM_T + name] = float(cam.meta["timestamp"])
         text = (instruction or "").encode()[: self.instruction_bytes]
         buf = np.zeros(self.instruction_bytes, np.uint8)
         buf[: len(text)] = np.frombuffer(text, np.uint8)
@@ -112,8 +144,10 @@ class ObsLayout:
             rec[k] = arr
         return rec
 
-    def decode(self, req: dict[str, Any]) -> tuple[Observation, str | None, float, int, bool]:
-        """A request back into (observation, instruction, t_obs, seq, reset)."""
+    def decode(self, req: dict[str, Any], frames: CameraFrames | None = None,
+               ) -> tuple[Observation, str | None, float, int, bool]:
+        """A request back into (observation, instruction, t_obs, seq, reset); frames that go by reference
+        are taken from `frames` (raises `rio.policy.frames.FrameGone` for one no longer there)."""
         cls = import_path(self.obs_type)
         values = {}
         for k, shape in self.fields.items():
@@ -121,8 +155,15 @@ class ObsLayout:
             values[k] = float(v) if not shape else v
         cams = {}
         for name, c in self.cameras.items():
+            t_cam = float(req[_CAM_T + name])
+            if c.get("source") is not None:
+                if frames is None:
+                    raise InvalidRequest("policy", _RGB + name, "its frames go by reference: decode needs the "
+                                                                "camera rings (rio.policy.frames.CameraFrames)")
+                cams[name] = frames.take(name, t_cam)
+                continue
             depth = req[_DEPTH + name] if "depth" in c else None
-            cams[name] = Camera(rgb=req[_RGB + name], depth=depth, meta={"timestamp": float(req[_CAM_T + name])})
+            cams[name] = Camera(rgb=req[_RGB + name], depth=depth, meta={"timestamp": t_cam})
         n = int(req["instruction_len"])
         text = bytes(np.asarray(req["instruction"])[:n]).decode(errors="replace") if n else None
         return cls(cameras=cams, **values), text, float(req["t_obs"]), int(req["seq"]), bool(req["reset"])

@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from ..schema import Observation
+from ..schema import Camera, Observation
+from ..slot_check import checksum
 from .base import Policy, PolicyConfig, PolicyMetadata
 from .node import PolicyNode
 
@@ -108,6 +109,37 @@ class CrashPolicy(SleepPolicy):
 CrashConfig = CrashPolicy.Config
 
 
+def frame_signature(cam: Camera) -> np.ndarray:
+    """A camera frame as 5 numbers: its timestamp and the 64-bit checksums of its rgb and depth arrays, each
+    as two exact 32-bit halves (-1, -1 without depth). Equal signatures: the same frame, bit for bit."""
+    def halves(a: np.ndarray | None) -> list[float]:
+        if a is None:
+            return [-1.0, -1.0]
+        h = checksum(0, np.ascontiguousarray(a))
+        return [float(h >> 32), float(h & 0xFFFFFFFF)]
+
+    return np.array([float(cam.meta["timestamp"]), *halves(cam.rgb), *halves(cam.depth)])
+
+
+class FrameEchoPolicy(_StandIn):
+    """Answers with what it was shown: one chunk row per camera (the layout's order) starting with that
+    frame's `frame_signature`, so a test in another process can check that the policy saw exactly the
+    frames the observation referenced. Needs an action size of at least 5."""
+
+    name = "testing.frame_echo"
+
+    def metadata(self) -> PolicyMetadata:
+        return PolicyMetadata(self.name, self.layout.action_dim, max(len(self.layout.cameras), 1),
+                              1.0 / self.config.rate_hz)
+
+    def infer(self, obs: Observation) -> np.ndarray:
+        self._sleep()
+        rows = np.zeros((max(len(obs.cameras), 1), self.layout.action_dim))
+        for i, cam in enumerate(obs.cameras.values()):
+            rows[i, :5] = frame_signature(cam)
+        return rows
+
+
 class SleepPolicyNode(PolicyNode):
     policy_class = SleepPolicy
 
@@ -118,3 +150,7 @@ class RampPolicyNode(PolicyNode):
 
 class CrashPolicyNode(PolicyNode):
     policy_class = CrashPolicy
+
+
+class FrameEchoPolicyNode(PolicyNode):
+    policy_class = FrameEchoPolicy
