@@ -18,6 +18,7 @@ import shutil
 import signal
 import tempfile
 import threading
+import time
 import uuid
 from dataclasses import dataclass, field
 from typing import Any, TypeVar, cast
@@ -34,6 +35,8 @@ from .ring_ref import ring_reference
 from .runtime import Dispatcher, NodeRunner
 
 log = logging.getLogger("rio.manager")
+#: The file in a running station's run directory that names its nodes (read by `rio top`).
+MANIFEST = "station.json"
 
 N = TypeVar("N", bound=Node)
 
@@ -165,7 +168,8 @@ class _ThreadHandle:
         self.name, self.mw = spec.name, mw
         self.node = _build_node(spec.cls, spec.name, spec.config)
         self.connect_timeout_s = _connect_timeout(self.node)
-        self.transport = mw.make_server(self.node, NodeLayouts.of(self.node), {})
+        self.layouts = NodeLayouts.of(self.node)
+        self.transport = mw.make_server(self.node, self.layouts, {})
         self.node.ring_buffer = self.transport.ring_buffer
         self.node.request_queue = self.transport.request_queue
         self.runner = NodeRunner(self.node)
@@ -202,7 +206,8 @@ class _ProcessHandle:
         self.name, self.mw = spec.name, mw
         node = _build_node(spec.cls, spec.name, spec.config)
         self.connect_timeout_s = _connect_timeout(node)
-        self.resources = mw.prepare(NodeLayouts.of(node), run_dir)
+        self.layouts = NodeLayouts.of(node)
+        self.resources = mw.prepare(self.layouts, run_dir)
         ctx = mp.get_context("spawn")
         self.conn, child_conn = ctx.Pipe(duplex=True)
         self.proc = ctx.Process(
@@ -314,6 +319,25 @@ class ServerManager:
         for h in self.handles:
             assert h.address is not None  # every handle is ready
             _ADDRESSES[(h.mw.name, h.mw.station, h.name)] = h.address
+        self._write_manifest()
+
+    def _write_manifest(self) -> None:
+        """`station.json` in the run directory: what `rio top` reads to find this station's nodes, their
+        processes and (where the middleware shares them) their ring buffers. Removed with the directory."""
+        if not self.run_dir:
+            return
+        pids = self.pids()
+        nodes = [{"name": h.name, "middleware": h.mw.name, "pid": pids.get(h.name, os.getpid()),
+                  "ring": ring_reference(h.mw, h.layouts, h.address or {})} for h in self.handles]
+        manifest = {"station": self.station, "run_id": self.run_id, "pid": os.getpid(), "started": time.time(),
+                    "nodes": nodes}
+        path = os.path.join(self.run_dir, MANIFEST)
+        try:
+            with open(path + ".tmp", "w") as f:
+                json.dump(manifest, f)
+            os.replace(path + ".tmp", path)
+        except (OSError, TypeError, ValueError) as e:  # only `rio top` needs it
+            log.warning("could not write %s: %s", path, e)
 
     def address(self, name: str) -> dict[str, Any]:
         for h in self.handles:

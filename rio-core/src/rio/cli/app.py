@@ -30,6 +30,7 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
         replay_cmd,
         run_cmd,
         stations_cmd,
+        top_cmd,
     )
 
     app = typer.Typer(name="rio", help="RIO: real-time robot I/O for robot learning.",
@@ -54,6 +55,7 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
     app.command("teleop")(teleop_cmd.teleop)
     app.command("deploy")(deploy_cmd.deploy)
     app.command("run")(run_cmd.run)
+    app.command("top")(top_cmd.top)
     if load_plugins:
         from ..plugins import get_registry
 

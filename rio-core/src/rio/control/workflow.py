@@ -36,7 +36,7 @@ class Session:
         """Tell the run about nodes a controller started itself (`ServerManager`): with `--profile`, their
         processes get a row in the stats table."""
         if self.profile is not None:
-            self.profile.watch_nodes(_node_pids(manager))
+            self.profile.watch_nodes(manager.pids())
 
     @property
     def middleware(self) -> Any:
@@ -90,8 +90,3 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
         summary.signal = stop.received
     return summary
 
-
-def _node_pids(manager: Any) -> dict[str, int]:
-    """{node name: process id} of a ServerManager's nodes that run in processes of their own."""
-    pids = {h.name: getattr(getattr(h, "proc", None), "pid", None) for h in manager.handles}
-    return {name: int(pid) for name, pid in pids.items() if pid is not None}
