@@ -327,8 +327,15 @@ class ServerManager:
         if not self.run_dir:
             return
         pids = self.pids()
-        nodes = [{"name": h.name, "middleware": h.mw.name, "pid": pids.get(h.name, os.getpid()),
-                  "ring": ring_reference(h.mw, h.layouts, h.address or {})} for h in self.handles]
+
+        def ring(h: _ThreadHandle | _ProcessHandle) -> dict[str, Any] | None:
+            try:
+                return ring_reference(h.mw, h.layouts, h.address or {})
+            except Exception:  # a middleware whose address lacks what a reference needs: process only
+                return None
+
+        nodes = [{"name": h.name, "middleware": h.mw.name, "pid": pids.get(h.name, os.getpid()), "ring": ring(h)}
+                 for h in self.handles]
         manifest = {"station": self.station, "run_id": self.run_id, "pid": os.getpid(), "started": time.time(),
                     "nodes": nodes}
         path = os.path.join(self.run_dir, MANIFEST)
