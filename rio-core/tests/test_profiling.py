@@ -13,11 +13,11 @@ import time
 
 import pytest
 import rio.profiling as prof
-from rio import Node, ServerManager, clock, connect, serve
+from rio import ServerManager, clock, connect, serve
 from rio.profiling import ProcessSampler, Profile, Trace, load_trace, merge_parts, write_timeline
 from rio.profiling.timeline import _rows
 from rio.profiling.trace import read_part
-from rio.testing import EchoNode, wait_until
+from rio.testing import Counter, EchoNode, wait_until
 
 REQUIRED = ("ph", "ts", "pid", "tid", "name")
 
@@ -29,14 +29,6 @@ def _profiling_off():
     prof.disable()
 
 
-class PubOnly(Node):
-    def setup(self):
-        self.example_data = {"i": 0}
-        self.i = 0
-
-    def read_state(self):
-        self.i += 1
-        return {"i": self.i}
 
 
 def _names(trace, what):
@@ -166,8 +158,8 @@ def test_parts_from_two_processes_merge_into_two_groups_on_one_clock(tmp_path):
 def test_a_thread_node_writes_read_state_spans_when_profiling_is_on(tmp_path):
     prof.enable(tmp_path)
     assert prof.active_dir() == tmp_path.resolve() and os.environ[prof.PROFILE_ENV] == str(tmp_path.resolve())
-    with ServerManager("thread", [serve(PubOnly, name="p", rate_hz=100)]):
-        with connect(PubOnly, "thread", name="p") as c:
+    with ServerManager("thread", [serve(Counter, name="p", rate_hz=100)]):
+        with connect(Counter, "thread", name="p") as c:
             assert wait_until(lambda: c.get_state()["i"] > 10, timeout=5)
     part, spans = _part(tmp_path, "node p")
     assert len(spans) > 5 and {(track, name) for track, name, _ in spans} == {("read_state", "read_state")}
@@ -194,8 +186,8 @@ def test_nothing_is_recorded_once_profiling_is_disabled(tmp_path):
     prof.enable(tmp_path)
     prof.disable()
     assert prof.active_dir() is None and prof.PROFILE_ENV not in os.environ
-    with ServerManager("thread", [serve(PubOnly, name="p", rate_hz=200)]):
-        with connect(PubOnly, "thread", name="p") as c:
+    with ServerManager("thread", [serve(Counter, name="p", rate_hz=200)]):
+        with connect(Counter, "thread", name="p") as c:
             assert wait_until(lambda: c.get_state()["i"] > 3, timeout=5)
     assert list(tmp_path.iterdir()) == []
 
@@ -264,8 +256,8 @@ def test_profile_writes_trace_timeline_and_stats_for_a_run(tmp_path):
     out = tmp_path / "profile"
     with Profile(out, period_s=0.05) as p:
         assert prof.active_dir() == (out / "parts").resolve()
-        with ServerManager("thread", [serve(PubOnly, name="p", rate_hz=100), serve(EchoNode, name="e", rate_hz=50)]):
-            with connect(PubOnly, "thread", name="p") as c, connect(EchoNode, "thread", name="e") as e:
+        with ServerManager("thread", [serve(Counter, name="p", rate_hz=100), serve(EchoNode, name="e", rate_hz=50)]):
+            with connect(Counter, "thread", name="p") as c, connect(EchoNode, "thread", name="e") as e:
                 for seq in range(20):
                     with p.trace.phase("loop", "step"):
                         c.get_state()

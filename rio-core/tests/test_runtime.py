@@ -8,17 +8,7 @@ import numpy as np
 import pytest
 import rio
 from rio import Node, ServerManager, client_side, connect, remote, serve
-from rio.testing import FakeArm, wait_until
-
-
-class PubOnly(Node):
-    def setup(self):
-        self.example_data = {"i": 0}
-        self.i = 0
-
-    def read_state(self):
-        self.i += 1
-        return {"i": self.i}
+from rio.testing import Counter, FakeArm, wait_until
 
 
 class ReqOnly(Node):
@@ -56,7 +46,7 @@ class Both(ReqOnly):
         self.send_request(v=v)
 
 
-class Crashes(PubOnly):
+class Crashes(Counter):
     def read_state(self):
         if self.i >= 5:
             raise RuntimeError("encoder read failed")
@@ -64,7 +54,7 @@ class Crashes(PubOnly):
 
 
 
-class SlowToConnect(PubOnly):
+class SlowToConnect(Counter):
     """A device that answers after `delay_s`, as a controller still booting does."""
 
     class Config(Node.Config):
@@ -85,8 +75,8 @@ def test_a_node_gets_its_own_connect_timeout_to_be_ready():
 
 
 def test_publish_only_loop_runs_at_its_rate():
-    with ServerManager("thread", [serve(PubOnly, name="p", rate_hz=100)]):
-        with connect(PubOnly, "thread", name="p") as c:
+    with ServerManager("thread", [serve(Counter, name="p", rate_hz=100)]):
+        with connect(Counter, "thread", name="p") as c:
             i0 = c.get_state()["i"]
             time.sleep(0.3)
             n = c.get_state()["i"] - i0
@@ -121,7 +111,7 @@ def test_error_in_loop_is_reported_by_name_to_clients():
 
 def test_duplicate_server_names_rejected():
     with pytest.raises(rio.errors.ConfigError, match="'x'"):
-        ServerManager("thread", [serve(PubOnly, name="x"), serve(PubOnly, name="x")])
+        ServerManager("thread", [serve(Counter, name="x"), serve(Counter, name="x")])
 
 
 def test_config_refused_by_setup_is_reported_with_the_node_name():
@@ -130,13 +120,13 @@ def test_config_refused_by_setup_is_reported_with_the_node_name():
 
 
 def test_bad_node_config_fails_in_caller():
-    with pytest.raises(rio.RioError, match=r"node 'x' \(PubOnly\) config:\n  nonsense: unknown field"):
-        serve(PubOnly, name="x", nonsense=1)
+    with pytest.raises(rio.RioError, match=r"node 'x' \(Counter\) config:\n  nonsense: unknown field"):
+        serve(Counter, name="x", nonsense=1)
 
 
 def test_get_state_k_and_out_on_client():
-    with ServerManager("thread", [serve(PubOnly, name="p", rate_hz=500)]):
-        with connect(PubOnly, "thread", name="p") as c:
+    with ServerManager("thread", [serve(Counter, name="p", rate_hz=500)]):
+        with connect(Counter, "thread", name="p") as c:
             assert wait_until(lambda: c.get_state()["i"] > 4), "timed out"
             out = {"i": np.zeros(3, np.int64)}
             c.get_state(k=3, out=out)

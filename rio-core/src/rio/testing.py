@@ -112,6 +112,18 @@ def lifecycle(node: Node) -> Iterator[Node]:
             node.close()
 
 
+class Counter(Node):
+    """The smallest node with state: publishes 1, 2, 3... at its rate (runtime and profiling tests)."""
+
+    def setup(self) -> None:
+        self.example_data = {"i": 0}
+        self.i = 0
+
+    def read_state(self) -> dict[str, Any]:
+        self.i += 1
+        return {"i": self.i}
+
+
 class EchoNode(Node):
     """Publishes a counter and the last request; `echo` returns its argument (latency benchmarks)."""
 
