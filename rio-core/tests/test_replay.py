@@ -39,7 +39,7 @@ def test_replay_on_fake_station(tmp_path):
     seen = []
     s = replay_episode(tmp_path / "ds", 0, str(tmp_path / "st.toml"), approach_s=0.2, log=None,
                        on_tick=lambda tick: seen.append(clock.now()))
-    assert s.ticks == 25 and s.reason == "the episode ended"
+    assert s.reason == "the episode ended" and (abs(s.ticks - 25) <= 1 or s.overruns), s.format()
     assert abs(s.seconds - 24 / 50) < 0.1  # at the recorded rate
     assert np.median(np.diff(seen)) == pytest.approx(1 / 50, abs=4e-3)
     assert s.arms[0].joint_err_rad is not None and s.arms[0].joint_err_rad[2] < 1e-6, s.format()
