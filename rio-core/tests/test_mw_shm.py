@@ -96,3 +96,20 @@ def test_a_forked_child_can_use_the_parents_client(manager):
         got = [tuple(x) for x in c.handled()[before:]]
         for cid in (7, 8):
             assert [s for k, s in got if k == cid] == list(range(n)), f"client {cid} lost or reordered requests"
+
+
+def test_a_node_process_that_cannot_start_leaves_no_shared_memory(monkeypatch):
+    """Seen on this machine: a script without a `__main__` guard makes every spawned node fail to start;
+    the segments made for it stayed in /dev/shm because the node was not yet the manager's to release."""
+    import multiprocessing.context
+
+    from rio.testing import Counter
+
+    def refuse(self):
+        raise RuntimeError("cannot start a process now")
+
+    monkeypatch.setattr(multiprocessing.context.SpawnProcess, "start", refuse)
+    manager = ServerManager("shm", [serve(Counter, name="c", rate_hz=10)])
+    with pytest.raises(RuntimeError, match="cannot start a process now"):
+        manager.__enter__()
+    assert not [n for n in os.listdir("/dev/shm") if f"_{manager.run_id}_" in n]

@@ -208,14 +208,18 @@ class _ProcessHandle:
         self.connect_timeout_s = _connect_timeout(node)
         self.layouts = NodeLayouts.of(node)
         self.resources = mw.prepare(self.layouts, run_dir)
-        ctx = mp.get_context("spawn")
-        self.conn, child_conn = ctx.Pipe(duplex=True)
-        self.proc = ctx.Process(
-            target=_child_main, name=f"rio-{spec.name}", daemon=False,
-            args=(spec.cls, spec.name, spec.config, type(mw), mw.station,
-                  mw.config.model_dump(), self.resources, child_conn, os.getpid()),
-        )
-        self.proc.start()
+        try:
+            ctx = mp.get_context("spawn")
+            self.conn, child_conn = ctx.Pipe(duplex=True)
+            self.proc = ctx.Process(
+                target=_child_main, name=f"rio-{spec.name}", daemon=False,
+                args=(spec.cls, spec.name, spec.config, type(mw), mw.station,
+                      mw.config.model_dump(), self.resources, child_conn, os.getpid()),
+            )
+            self.proc.start()
+        except BaseException:  # not a handle yet, so the manager cannot release what `prepare` made
+            mw.release(self.resources)
+            raise
         child_conn.close()
         self.address: dict[str, Any] | None = None
 
