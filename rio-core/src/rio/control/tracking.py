@@ -14,17 +14,26 @@ from typing import Any
 
 import numpy as np
 
+from ..embodiments.arm_group import ACTION_SPACES
 from .summary import ArmTracking, ObjectMotion
 
 ARM_ROLES = ("arm", "arm2")
-_SPACES = ("eef_pose", "joint_pos")
+
+
+def arm_labels(robot: Any) -> list[tuple[str, str]]:
+    """(action label, space) of each arm part of an embodiment's action (`<prefix>joint_pos` or
+    `<prefix>eef_pose`), in action order."""
+    return [(label, s) for label, _ in robot.action_parts() for s in ACTION_SPACES if label.endswith(s)]
+
+
+def arm_roles(robot: Any) -> list[str]:
+    """The embodiment's arm roles, in the order their parts appear in the action."""
+    return [r for r in ARM_ROLES if r in robot.clients]
 
 
 def arm_parts(robot: Any) -> list[tuple[str, str, str]]:
-    """(role, action label, space) of each arm of an embodiment, matched in order (`arm`, `arm2`)."""
-    labels = [(label, s) for label, _ in robot.action_parts() for s in _SPACES if label.endswith(s)]
-    roles = [r for r in ARM_ROLES if r in robot.clients]
-    return [(r, label, s) for r, (label, s) in zip(roles, labels, strict=False)]
+    """(role, action label, space) of each arm, parts matched to roles in order (what of them there is)."""
+    return [(r, label, s) for r, (label, s) in zip(arm_roles(robot), arm_labels(robot), strict=False)]
 
 
 class _Arm:

@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
+from ..control.tracking import arm_labels, arm_roles
+from ..embodiments.arm_group import ACTION_SPACES
 from ..errors import RioError
 
-ARM_ROLES = ("arm", "arm2")
-_SPACES = ("joint_pos", "eef_pose")
 #: A target further than this from what IK reaches is pulled back, so it never runs off.
 MAX_TARGET_LEAD_M = 0.03
 
@@ -80,8 +80,8 @@ def _ik_for(role: str, client: Any) -> Any:
 def bind_arms(robot: Any) -> list[ArmBinding]:
     """ArmBindings for an embodiment (`env.robot`), or a RioError saying why it cannot be teleoperated."""
     layout = robot.action_parts()
-    arm_parts = [(label, label[: -len(s)], s) for label, _ in layout for s in _SPACES if label.endswith(s)]
-    roles = [r for r in ARM_ROLES if r in robot.clients]
+    arm_parts = [(label, label[: -len(s)], s) for label, s in arm_labels(robot)]
+    roles = arm_roles(robot)
     if not arm_parts or len(arm_parts) != len(roles):
         raise RioError(f"end-effector teleop drives arms; embodiment '{robot.name}' has action parts "
                        f"{robot.describe_action()} (a humanoid needs a retargeting teleop)")
@@ -98,7 +98,7 @@ def bind_arms(robot: Any) -> list[ArmBinding]:
         if space == "joint_pos":
             b.ik = _ik_for(role, b.client)
         out.append(b)
-    known = {f"{b.prefix}{x}" for b in out for x in (*_SPACES, "gripper", "hand")}
+    known = {f"{b.prefix}{x}" for b in out for x in (*ACTION_SPACES, "gripper", "hand")}
     unknown = [label for label, _ in layout if label not in known]
     if unknown:
         raise RioError(f"teleop does not know how to fill action parts {unknown} of '{robot.name}'")

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..control.tracking import arm_labels, arm_roles
 from ..errors import RioError
 
 PAIRS = (("teleop", "arm", "gripper"), ("teleop2", "arm2", "gripper2"))
@@ -50,17 +51,18 @@ def find_pairs(station: Any) -> list[tuple[str, str, str | None]]:
     return pairs
 
 
-def _labels(robot: Any, arm_roles: list[str]) -> dict[str, tuple[str, str | None]]:
+def _labels(robot: Any, pair_roles: list[str]) -> dict[str, tuple[str, str | None]]:
     layout = dict(robot.action_parts())
-    joint_parts = [label for label in layout if label.endswith("joint_pos")]
-    if len(joint_parts) != len([r for r in ("arm", "arm2") if r in robot.clients]):
+    joint_parts = [label for label, space in arm_labels(robot) if space == "joint_pos"]
+    roles = arm_roles(robot)
+    if len(joint_parts) != len(roles):
         raise RioError(f"leader-follower needs joint-position actions; embodiment '{robot.name}' takes "
                        f"{robot.describe_action()} (set [embodiment] action_space = \"joint_pos\")")
     out = {}
-    for label, role in zip(joint_parts, [r for r in ("arm", "arm2") if r in robot.clients], strict=True):
+    for label, role in zip(joint_parts, roles, strict=True):
         prefix = label[: -len("joint_pos")]
         out[role] = (label, f"{prefix}gripper" if f"{prefix}gripper" in layout else None)
-    return {r: out[r] for r in arm_roles}
+    return {r: out[r] for r in pair_roles}
 
 
 def _step_towards(cmd: np.ndarray, goal: np.ndarray, max_delta: float) -> np.ndarray:
