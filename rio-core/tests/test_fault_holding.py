@@ -117,3 +117,28 @@ def test_a_node_disabled_when_the_link_dropped_stays_disabled():
         arm.read_state()
         arm.up = True
         assert arm.read_state()["connected"] and not arm.enabled
+
+
+class FlappingArm(LinkedArm):
+    """A link that drops again in the instant between the driver seeing it up and the node enabling (CI
+    saw it on the UR emulator: a sample read raised "the link is down" out of `read_state`)."""
+
+    flaps = 0
+
+    def set_enabled(self, enabled: bool) -> None:
+        if enabled and self.flaps:
+            self.flaps -= 1
+            self.seen_up = False  # gone again while enabling
+        super().set_enabled(enabled)
+
+
+def test_a_link_that_drops_again_while_coming_back_holds_then_comes_back():
+    with lifecycle(FlappingArm(dof=3)) as arm:
+        arm.up = False
+        arm.read_state()
+        arm.up, arm.flaps = True, 1
+        s = arm.read_state()  # never raises: a sample read holds and says so
+        assert not s["enabled"] and not arm.enabled
+        s = arm.read_state()  # the link is seen up again: enabled this time
+        assert s["connected"] and arm.enabled
+        arm.handle_request(request([0.1, 0.0, 0.0]))

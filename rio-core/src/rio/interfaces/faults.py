@@ -110,7 +110,13 @@ class FaultHolding:
             self.on_fault(fault)
             return
         log.warning("node '%s': %s is back; holding where it is", self.name, self.device_label)
-        self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable
+        try:
+            self.enable()  # type: ignore[attr-defined]  # CommandedNode.enable
+        except InvalidRequest as e:
+            # the link dropped again (or a fault appeared) between the driver's check and enabling: this is
+            # a sample read, never a request, so it holds and says so; a dropped link re-enables next time
+            self._enable_when_restored = not self.link_up()
+            log.warning("node '%s': not enabled again yet: %s", self.name, e.problem)
 
     def check_ready(self) -> None:
         if self.fault is not None:
