@@ -221,3 +221,41 @@ def test_sensor_roles_ride_along_in_step_meta_and_are_recorded(tmp_path):
             rec.keep()
     ep = Dataset(tmp_path / "data").episode(0)
     assert np.allclose(ep.column("meta.sensors.ft.value"), [1, 2, 3, 0, 0, 0])
+
+
+@pytest.mark.parametrize("mw", ["thread", "shm"])
+def test_observation_pixels_stay_in_the_camera_ring_until_read(reg, mw):
+    """A step's camera frames are complete in meta at once; the pixels are copied out of the camera's ring
+    (exactly that frame) only when read, and a frame read after the camera came round to its slot is an
+    error naming the camera, never another frame. Pickling (a recorder process) takes the pixels."""
+    import pickle
+
+    from rio.errors import FrameGone
+    from rio.schema import Camera, RingCamera
+
+    st = station(reg, {"arm": {"driver": "rio.fake_arm", "dof": 4},
+                       "top_camera": {"driver": "rio.fake_camera", "width": 16, "height": 8, "depth": True,
+                                      "rate_hz": 200.0}})
+    servers, clients, env = make_station(st, middleware=mw, registry=reg)
+    with ServerManager(servers), env:
+        cam = env.get_state().observation.cameras["top"]
+        assert isinstance(cam, RingCamera) and not cam.taken
+        ts = cam.meta["timestamp"]
+        assert cam.meta["intrinsics"].shape == (3, 3) and not cam.taken
+        with clients["top_camera"]() as direct:
+            sample = direct.get_state()
+            assert wait_until(lambda: direct.get_state()["timestamp"] > ts, timeout=10)  # a newer frame is out
+        rgb = cam.rgb
+        assert cam.taken and rgb.shape == (8, 16, 3) and cam.depth.dtype == np.float32
+        if sample["timestamp"] == ts:
+            np.testing.assert_array_equal(rgb, sample["rgb"])
+        again = pickle.loads(pickle.dumps(cam))
+        assert type(again) is Camera and np.array_equal(again.rgb, rgb) and again.meta["timestamp"] == ts
+
+        late = env.get_state().observation.cameras["top"]
+        late_ts = late.meta["timestamp"]
+        with clients["top_camera"]() as direct:  # the ring keeps 63 frames: wait for 64 newer ones
+            n0 = direct.published()
+            assert wait_until(lambda: direct.published() >= n0 + 64, timeout=30)
+        with pytest.raises(FrameGone, match=rf"camera 'top_camera': frame {late_ts:.6f} is no longer"):
+            _ = late.rgb

@@ -32,14 +32,16 @@ def _station(mw: str, camera_hz: float) -> Any:
 
 
 @contextlib.contextmanager
-def _running(mw: str, frames: str = "auto", camera_hz: float = 30.0) -> Iterator[tuple[Any, Any, dict]]:
+def _running(mw: str, frames: str = "auto", camera_hz: float = 30.0, forward_s: float = 0.0,
+             ) -> Iterator[tuple[Any, Any, dict]]:
     """The station's env, a connected FrameEcho policy node client and the policy's config, as `rio deploy`
     starts them: the layout from the first observation, the policy over the station's middleware."""
     st = _station(mw, camera_hz)
     servers, clients, env = make_station(st)
     mwo = next(iter(clients.values())).mw
     with ServerManager(servers, station=st.name), env:
-        kw = {"observation": ObsLayout.of(env.get_state().observation).to_dict(), "frames": frames}
+        kw = {"observation": ObsLayout.of(env.get_state().observation).to_dict(), "frames": frames,
+              "forward_s": forward_s}
         with ServerManager([serve(FrameEchoPolicyNode, mwo, name="policy", **kw)], station=st.name), \
                 connect(FrameEchoPolicyNode, mwo, name="policy", **kw) as policy:
             yield env, policy, kw
@@ -78,10 +80,10 @@ def test_the_policy_sees_exactly_the_frames_of_each_observation(mw, frames, by_r
         assert ("depth.wrist" not in request_fields) == by_reference
         seq = 0
         for _ in range(2):
-            older = env.get_state()  # taken as a chunk lands: most likely the frames the node read ahead
+            older = env.get_state()
             _wait_for_newer_frames(env, older)
             newer = env.get_state()
-            for step in (older, newer, older):  # the last: read ahead are frames newer than it names
+            for step in (older, newer, older):  # the last: older frames than the request before
                 seq += 1
                 policy.request(step.observation, None, step.meta["t_obs"], seq)
                 chunk = _answer(policy, seq)
@@ -128,6 +130,45 @@ def test_ring_find_returns_only_a_checked_sample():
     assert ring.find(3.5) is None and ring.find(9.0) is None  # never published
     ring._slots.raw[4 % 4, 0] ^= 0xFF  # sample 4's bytes changed under its check (a writer mid-copy)
     assert ring.find(4.0) is None
+
+
+def test_a_frame_overwritten_during_the_forward_pass_is_a_counted_miss():
+    """The policy reads the frames in place: a camera that comes round to their slot before the forward pass
+    ends (a 64-frame ring at 100 Hz, a 3 s forward pass) may have changed the pixels it saw, so the chunk is
+    dropped and counted, as if the frame had been gone from the start."""
+    with _running("shm", camera_hz=100.0, forward_s=3.0) as (env, policy, _kw):
+        inf = AsyncInference(policy, PolicyMetadata.from_dict(policy.metadata()))
+        step = env.get_state()
+        inf.request(step.observation, None, step.meta["t_obs"], clock.now())
+        _answer(policy, inf.seq, timeout=30.0)
+        assert inf.poll(clock.now()) is None and inf.stats()["frame_misses"] == 1 and inf.chunks == 0
+
+
+@pytest.mark.parametrize("stores_in_order", [True, False], ids=["x86", "reordering-cpu"])
+def test_ring_find_view_is_the_sample_in_place_until_its_slot_comes_round(monkeypatch, stores_in_order):
+    from rio import slot_check
+
+    monkeypatch.setattr(slot_check, "STORES_IN_ORDER", stores_in_order)
+    ring = RingBuffer(Layout({"rgb": np.zeros((4, 4, 3), np.uint8)}, owner="cam"), capacity=4)
+    for i in range(3):
+        ring.put({"rgb": np.full((4, 4, 3), i, np.uint8), "timestamp": float(i)})
+    found = ring.find_view(1.0)
+    assert found is not None
+    view, seq = found
+    assert seq == 1 and (view["rgb"] == 1).all() and not view["rgb"].flags.writeable
+    assert ring.holds(seq)
+    ring.put({"rgb": np.full((4, 4, 3), 3, np.uint8), "timestamp": 3.0})
+    assert ring.holds(seq) and (view["rgb"] == 1).all()
+    ring.put({"rgb": np.full((4, 4, 3), 4, np.uint8), "timestamp": 4.0})  # the next sample, 5, goes to slot 1:
+    assert not ring.holds(seq) and (view["rgb"] == 1).all()  # a writer may be at it now
+    ring.put({"rgb": np.full((4, 4, 3), 5, np.uint8), "timestamp": 5.0})
+    assert not ring.holds(seq) and (view["rgb"] == 5).all()  # what `holds` is there to catch
+    assert ring.find_view(1.0) is None
+    if stores_in_order:  # the check's sequence number is what says the slot is complete
+        ring._slots.checks[4 % 4, 0] = 0
+    else:  # sample 4's bytes changed under its check (or not yet visible here)
+        ring._slots.raw[4 % 4, 0] ^= 0xFF
+    assert ring.find_view(4.0) is None
 
 
 def test_a_ring_that_cannot_be_read_in_place_is_a_config_error():

@@ -148,7 +148,7 @@ def test_async_loop_commands_the_ramp_and_never_starves():
     for t_target, s in stream:
         np.testing.assert_allclose(s.action, V * t_target, atol=1e-12)
     # back-to-back requests: each chunk is first used right when it lands
-    assert np.allclose(inf.record.first_action, 0.09)  # 85 ms, seen at the next 10 ms tick
+    assert np.allclose(inf.record.first_action.values(), 0.09)  # 85 ms, seen at the next 10 ms tick
     assert inf.stats()["requests"] >= 10
 
 

@@ -100,6 +100,11 @@ class _Slots:
         np.copyto(raw, self.raw[i])
         return raw.view(self.dtype)[0] if slot_check.matches(self.checks, i, seq, raw) else None
 
+    def view(self, seq: int) -> np.ndarray | None:
+        """Sample `seq` in place (no copy), if its slot holds it now (checked over the live bytes)."""
+        i = seq % self.capacity
+        return self.records[i] if slot_check.in_place(self.checks, i, seq, self.raw[i]) else None
+
     def read_many(self, seqs: list[int]) -> np.ndarray | None:
         idx = [q % self.capacity for q in seqs]
         raw = self.raw[idx]  # fancy indexing copies
@@ -194,7 +199,7 @@ class RingBuffer:
             while True:
                 c = self._require(1)
                 i = (c - 1) % self.capacity
-                if slot_check.matches(self._slots.checks, i, c - 1, self._slots.raw[i]):
+                if slot_check.in_place(self._slots.checks, i, c - 1, self._slots.raw[i]):
                     break
                 retry.again()
             d = self.layout.to_dict(self._slots.records[i], copy=False)
@@ -219,6 +224,28 @@ class RingBuffer:
         Slots are located by an unchecked peek at their timestamps; only the copy is trusted, and only if
         its slot check says it is that very sample, so a slot rewritten during the copy is reported as gone
         (None), never returned. A sample this process does not see yet (memory order) is waited for briefly."""
+        found = self._search(timestamp, self._slots.read)
+        return None if found is None else self.layout.to_dict(found[0], copy=False)
+
+    def find_view(self, timestamp: float) -> tuple[dict[str, Any], int] | None:
+        """`find` without the copy: read-only views into the slot of the sample stamped `timestamp`, and its
+        sequence number. Checked when taken; the views stay that sample only while `holds(seq)`, so a reader
+        asks that after using them and drops what it computed if not (a reader's optimistic lock)."""
+        found = self._search(timestamp, self._slots.view)
+        if found is None:
+            return None
+        d = self.layout.to_dict(found[0], copy=False)
+        for v in d.values():
+            if isinstance(v, np.ndarray):
+                v.flags.writeable = False
+        return d, found[1]
+
+    def holds(self, seq: int) -> bool:
+        """Whether sample `seq`'s slot is untouched so far: the writer starts on the sample that replaces it,
+        `seq + capacity`, only once `count` has reached that."""
+        return int(self._count[0]) < seq + self.capacity
+
+    def _search(self, timestamp: float, take: Callable[[int], Any]) -> tuple[Any, int] | None:
         stamps = self._slots.records[TIMESTAMP]
         n = self.capacity
         deadline = 0.0
@@ -230,9 +257,9 @@ class RingBuffer:
                 if t < timestamp:
                     break
                 if t == timestamp:
-                    rec = self._slots.read(seq)
+                    rec = take(seq)
                     if rec is not None:
-                        return self.layout.to_dict(rec, copy=False)
+                        return rec, seq
                     if seq < int(self._count[0]) - n + 1:
                         return None  # overwritten while we copied it
                     break  # written, not yet visible here: look again

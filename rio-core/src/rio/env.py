@@ -4,7 +4,9 @@ It owns the clients of its embodiment's roles, of every camera and of every sens
 `__enter__` and closes them on `__exit__`. Every call is non-blocking: state comes from local ring
 buffers and `step` only enqueues commands, so the control loop keeps its own timing.
 
-A camera frame also says where it lives (`Camera.meta["source"]`: its camera node's ring, where the
+A camera's pixels stay in its node's ring buffer until something reads them (`rio.schema.RingCamera`:
+a recorder does at once; a policy node on this machine never needs the loop's copy). A camera frame
+also says where it lives (`Camera.meta["source"]`: its camera node's ring, where the
 middleware lets another process of this machine read it in place), so a policy node can take it from
 there instead of receiving a copy in each request (`rio.policy.frames`).
 
@@ -117,7 +119,8 @@ class Env:
 
     @staticmethod
     def _camera(name: str, client: Any) -> Camera:
-        cam = Camera.from_sample(client.get_state())
+        frame = getattr(client, "newest_frame", None)  # every CameraNode: pixels copied only when read
+        cam = frame() if frame is not None else Camera.from_sample(client.get_state())
         source = getattr(client, "ring_ref", None)
         if source is not None:  # a policy node on this machine reads the frame from there (rio.policy.frames)
             cam.meta["source"] = source

@@ -60,3 +60,13 @@ class QueueFull(RioError):
 
 class ConfigError(RioError, ValueError):
     """A station file, plugin spec or middleware option is wrong; the message names where."""
+
+
+class FrameGone(RioError):
+    """A camera frame taken by reference (its timestamp) is no longer in its camera node's ring buffer:
+    the camera overwrote it (a ring of N frames keeps N-1)."""
+
+    def __init__(self, camera: str, timestamp: float, capacity: int, hint: str = ""):
+        self.camera, self.timestamp = camera, timestamp
+        super().__init__(f"camera '{camera}': frame {timestamp:.6f} is no longer in its ring buffer (the camera "
+                         f"overwrote it; the ring keeps {capacity - 1} frames)" + (f"; {hint}" if hint else ""))

@@ -11,6 +11,7 @@ finger opening in meters; RGB images are HxWx3 uint8; depth images are HxW float
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -34,6 +35,57 @@ class Camera:
         if "intrinsics" in s:
             meta["intrinsics"] = np.asarray(s["intrinsics"])
         return cls(rgb=s["rgb"], depth=depth, meta=meta)
+
+
+class RingCamera(Camera):
+    """A frame still in its camera node's ring buffer: `meta` is complete at once, the pixels are copied
+    out (checked, exactly the frame of `meta["timestamp"]`) the first time `rgb` or `depth` is read.
+
+    Why: a control loop reads every camera each tick, but often nobody looks at the pixels — a policy
+    node on the same machine takes them from the ring itself (`rio.policy.frames`), a teleop run without
+    recording never does — and three 640x480 copies cost the tick ~0.5 ms before the observation can go
+    out. A ring of N frames keeps N-1 (64 slots: ~2 s at 30 Hz); pixels first read later than that raise
+    `rio.errors.FrameGone` rather than hand out another frame. Pickling takes the pixels."""
+
+    def __init__(self, load: Any, meta: dict):
+        self._load = load  # () -> Camera (the sample converted), raising FrameGone
+        self._rgb: np.ndarray | None = None
+        self._depth: np.ndarray | None = None
+        self.meta = meta
+
+    def _take(self) -> None:
+        load, self._load = self._load, None
+        if load is not None:
+            cam = load()
+            self._rgb, self._depth = cam.rgb, cam.depth
+
+    @property
+    def rgb(self) -> np.ndarray | None:
+        self._take()
+        return self._rgb
+
+    @rgb.setter
+    def rgb(self, value: np.ndarray | None) -> None:
+        self._take()
+        self._rgb = value
+
+    @property
+    def depth(self) -> np.ndarray | None:
+        self._take()
+        return self._depth
+
+    @depth.setter
+    def depth(self, value: np.ndarray | None) -> None:
+        self._take()
+        self._depth = value
+
+    @property
+    def taken(self) -> bool:
+        """Whether the pixels have been copied out of the ring."""
+        return self._load is None
+
+    def __reduce__(self) -> Any:
+        return Camera, (self.rgb, self.depth, self.meta)
 
 
 @dataclass

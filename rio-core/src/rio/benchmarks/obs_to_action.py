@@ -6,8 +6,10 @@ the framework): a station of a 6-joint arm, a gripper and three 640x480 RGB came
 86 ms sleep returning 50-action chunks at 50 Hz. `rio deploy`'s loop (`run_deploy`) runs it with
 continuous asynchronous inference (`--threshold 1`: the next observation goes out as each chunk
 lands) at `--rate` Hz for `--seconds`. Camera frames reach the policy node by reference where the
-middleware shares rings (shm, thread); `--frames copy` copies them into every request instead, the
-path network middlewares take, so both can be compared in one sitting.
+middleware shares rings (shm, thread), handed to the policy in place; `--frames copy` copies them into
+every request instead, the path network middlewares take, so both can be compared in one sitting. The
+stand-in reads no pixels: a real model's preprocessing reads them once either way, from the ring or from
+a copy, so what the figures leave out is the same for every path.
 
 Every figure is measured from the observation's time, `t_obs` (when the control loop read the
 state and camera ring buffers for it; the same instant LeRobot's client stamps):

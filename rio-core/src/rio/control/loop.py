@@ -35,6 +35,7 @@ import numpy as np
 
 from .. import clock
 from ..errors import NodeDiedError
+from .reservoir import Reservoir
 from .signals import StopSignals
 from .summary import RunSummary
 from .tracking import ArmTracker, ObjectWatch
@@ -129,7 +130,7 @@ class ControlLoop:
         if self.recorder is not None and "embodiment" not in self.recorder.info:
             self.recorder.describe_env(env)
         wait = getattr(ctl, "wait", None) or clock.precise_wait
-        lateness: list[float] = []
+        lateness = Reservoir()
         clock.set_timer_slack()  # this thread's sleeps wake on time (see rio.clock)
         with _scheduled(self.realtime, self.cpu, self.say), \
                 _collector_paused() if self.freeze_gc else contextlib.nullcontext():
@@ -143,7 +144,7 @@ class ControlLoop:
         return s
 
     def _loop(self, stop: StopSignals, wait: Callable[[float], Any], t_start: float, tracker: ArmTracker,
-              objects: ObjectWatch, lateness: list[float]) -> None:
+              objects: ObjectWatch, lateness: Reservoir) -> None:
         env, ctl, s, dt = self.env, self.controller, self.summary, self.dt
         it = 0
         s.reason = "duration reached"
@@ -158,7 +159,7 @@ class ControlLoop:
                     self._tick(Tick(now, now + dt / 2 + self.lead_s, t_start, it, False, self.obs, env),
                                tracker, objects)
                     continue
-                lateness.append(clock.now() - t_sample)
+                lateness.add(clock.now() - t_sample)
                 self._tick(Tick(t_sample, t_sample + dt / 2 + self.lead_s, t_start, it, True, self.obs, env),
                            tracker, objects)
                 it += 1
@@ -198,12 +199,12 @@ class ControlLoop:
         if action is not None:
             self.last_action = np.asarray(action, dtype=np.float64)
             tracker.commanded(self.last_action, tick.t_target)
-        tracker.measure(tick.t)
-        objects.update()
         tick.step, tick.action, self.obs = step, self.last_action, step
         after = getattr(ctl, "after", None)
-        if after is not None:
+        if after is not None:  # before the bookkeeping: deploy sends the fresh observation from here
             after(tick)
+        tracker.measure(tick.t)
+        objects.update()
         if self.recorder is not None and action is not None:
             with self.phase("record"):
                 self.recorder.add(step)
@@ -221,16 +222,15 @@ class ControlLoop:
         return out
 
     def _finish(self, tracker: ArmTracker, objects: ObjectWatch, counts0: dict[str, tuple[float, int]],
-                lateness: list[float]) -> None:
+                lateness: Reservoir) -> None:
         s = self.summary
         s.arms, s.objects = tracker.report(), objects.report()
         for role, (t1, n1) in self._published().items():
             if role in counts0 and t1 > counts0[role][0]:
                 s.node_rates_hz[role] = round((n1 - counts0[role][1]) / (t1 - counts0[role][0]), 1)
-        if lateness:
-            us = np.asarray(lateness) * 1e6
-            s.lateness_us = {"p50": round(float(np.percentile(us, 50)), 1),
-                             "p99": round(float(np.percentile(us, 99)), 1), "max": round(float(us.max()), 1)}
+        if len(lateness):
+            s.lateness_us = {"p50": round(float(lateness.percentile(50)) * 1e6, 1),
+                             "p99": round(float(lateness.percentile(99)) * 1e6, 1), "max": round(lateness.max * 1e6, 1)}
         finish = getattr(self.controller, "finish", None)
         if finish is not None:
             finish(s)

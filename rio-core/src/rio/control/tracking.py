@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..embodiments.arm_group import ACTION_SPACES
+from .reservoir import Reservoir
 from .summary import ArmTracking, ObjectMotion
 
 ARM_ROLES = ("arm", "arm2")
@@ -45,7 +46,7 @@ class _Arm:
         self.pending: collections.deque[tuple[float, np.ndarray]] = collections.deque()
         self.due: np.ndarray | None = None
         self.last_cmd: np.ndarray | None = None
-        self.errors: list[float] = []
+        self.errors = Reservoir()  # only max and mean are reported; both exact
         self.path = self.cmd_path = self.joint_path = self.cmd_joint_path = 0.0
 
     def command(self, part: np.ndarray, t_target: float) -> None:
@@ -73,14 +74,14 @@ class _Arm:
         while self.pending and self.pending[0][0] <= t:
             self.due = self.pending.popleft()[1]
         if self.due is not None:
-            self.errors.append(self._error(self.due, tool, q))
+            self.errors.add(self._error(self.due, tool, q))
 
     def report(self) -> ArmTracking:
         s = self.client.get_state()
         tool, q = np.asarray(s["eef_pose"], dtype=np.float64).copy(), np.asarray(s["joint_pos"], dtype=np.float64)
-        errs = np.asarray([e for e in self.errors if np.isfinite(e)])
+        errs = self.errors
         final = self._error(self.last_cmd, tool, q) if self.last_cmd is not None else float("nan")
-        stats = (float(errs.max()), float(errs.mean()), final) if errs.size else None
+        stats = (errs.max, errs.total / len(errs), final) if len(errs) else None
         g = None if self.gripper is None else float(self.gripper.get_state()["position"])
         return ArmTracking(self.role, self.space, self.start, tool,
                            self.last_cmd.copy() if self.space == "eef_pose" and self.last_cmd is not None else None,

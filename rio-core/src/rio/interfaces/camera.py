@@ -11,7 +11,9 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from ..node import Node, NodeConfig
+from ..errors import FrameGone
+from ..node import Node, NodeConfig, client_side
+from ..schema import Camera, RingCamera
 
 
 class CameraNode(Node):
@@ -29,6 +31,28 @@ class CameraNode(Node):
         if self.has_depth:
             self.example_data["depth"] = np.zeros((self.height, self.width), np.uint16)
             self.example_data["depth_scale"] = 0.001
+
+
+    @client_side
+    def newest_frame(self) -> Camera:
+        """The newest frame as the schema's `Camera` (depth in meters), its pixels left in the ring buffer
+        until first read (`rio.schema.RingCamera`): what `Env` puts in each observation."""
+        ring = self.ring_buffer
+        s = ring.get(copy=False)  # checked views; only the small fields are copied now
+        ts = float(s["timestamp"])
+        meta: dict[str, Any] = {"timestamp": ts}
+        if "intrinsics" in s:
+            meta["intrinsics"] = np.array(s["intrinsics"])
+        name = self.name
+
+        def load() -> Camera:
+            sample = ring.find(ts)
+            if sample is None:
+                raise FrameGone(name, ts, ring.capacity, "read an observation's pixels within that many frames, "
+                                "or copy the ones you keep")
+            return Camera.from_sample(sample)
+
+        return RingCamera(load, meta)
 
 
 CameraConfig = CameraNode.Config

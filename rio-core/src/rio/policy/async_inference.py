@@ -18,13 +18,13 @@ capture-to-first-applied-action time and the forward pass; for each applied acti
 
 from __future__ import annotations
 
+import collections
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from .. import clock
 from ..control.filters import LowPassFilter
+from ..control.reservoir import Reservoir
 from .base import ActionChunk, PolicyMetadata
 from .schedule import ChunkSchedule, Sample, ScheduleConfig
 
@@ -52,17 +52,18 @@ class AsyncConfig:
 
 @dataclass
 class LatencyRecord:
-    """Times in seconds, `rio.clock.now()` clock; one entry per chunk or per applied action."""
+    """Times in seconds, `rio.clock.now()` clock; one value per chunk or per applied action, kept in bounded
+    reservoirs (`rio.control.reservoir`: a deploy may run for hours at the control rate)."""
 
-    first_action: list[float] = field(default_factory=list)
+    first_action: Reservoir = field(default_factory=Reservoir)
     #: First action minus that chunk's own forward pass: what the framework added.
-    overhead: list[float] = field(default_factory=list)
-    forward: list[float] = field(default_factory=list)
+    overhead: Reservoir = field(default_factory=Reservoir)
+    forward: Reservoir = field(default_factory=Reservoir)
     #: Observation time -> request enqueued (main process), and -> taken in by the policy node.
-    sent: list[float] = field(default_factory=list)
-    queue_in: list[float] = field(default_factory=list)
-    action_age: list[float] = field(default_factory=list)
-    dropped: list[int] = field(default_factory=list)
+    sent: Reservoir = field(default_factory=Reservoir)
+    queue_in: Reservoir = field(default_factory=Reservoir)
+    action_age: Reservoir = field(default_factory=Reservoir)
+    dropped: Reservoir = field(default_factory=Reservoir)
 
 
 class AsyncInference:
@@ -82,6 +83,8 @@ class AsyncInference:
         self.late_events = self.late_ticks = 0
         self._late = False
         self._reset_next = True
+        #: request -> chunk seen, of the last few chunks: when the next one is due (`expected_arrival`)
+        self._round_trips: collections.deque[float] = collections.deque(maxlen=8)
 
     # -- chunks in ----------------------------------------------------------------------------------
     def arrived(self) -> bool:
@@ -101,13 +104,21 @@ class AsyncInference:
             self.frame_misses += 1
             self.in_flight = None
             return None
-        self.record.queue_in.append(chunk.t_recv - chunk.t_obs)
-        self.record.forward.append(chunk.forward_s)
-        self.record.dropped.append(self.schedule.add(chunk, t_now))
+        self._round_trips.append(clock.now() - self.in_flight[1])
+        self.record.queue_in.add(chunk.t_recv - chunk.t_obs)
+        self.record.forward.add(chunk.forward_s)
+        self.record.dropped.add(self.schedule.add(chunk, t_now))
         self._first_pending[chunk.seq] = chunk.forward_s
         self.in_flight = None
         self.chunks += 1
         return chunk
+
+    def expected_arrival(self) -> float | None:
+        """The earliest time the chunk in flight is likely to land (its request's time plus the quickest of
+        the last round trips), or None (nothing in flight, or no round trip seen yet)."""
+        if self.in_flight is None or not self._round_trips:
+            return None
+        return self.in_flight[1] + min(self._round_trips)
 
     # -- observations out ---------------------------------------------------------------------------
     def wants_request(self, t_now: float) -> bool:
@@ -125,7 +136,7 @@ class AsyncInference:
         """Send `obs` (taken at `t_obs`) for inference; the first request of a run resets the policy."""
         self.seq += 1
         self.policy.request(obs, instruction, t_obs, self.seq, reset=self._reset_next)
-        self.record.sent.append(clock.now() - t_obs)
+        self.record.sent.add(clock.now() - t_obs)
         self._reset_next = False
         self.in_flight = (self.seq, t_now)
         self.requests += 1
@@ -148,17 +159,18 @@ class AsyncInference:
 
     def applied(self, s: Sample, t_applied: float) -> None:
         """Record that `s` was sent to the robot at `t_applied`."""
-        self.record.action_age.append(t_applied - s.t_obs)
+        self.record.action_age.add(t_applied - s.t_obs)
         forward = self._first_pending.pop(s.seq, None)
         if forward is not None:
-            self.record.first_action.append(t_applied - s.t_obs)
-            self.record.overhead.append(t_applied - s.t_obs - forward)
+            self.record.first_action.add(t_applied - s.t_obs)
+            self.record.overhead.add(t_applied - s.t_obs - forward)
 
     def stats(self) -> dict[str, Any]:
         r = self.record
 
-        def pct(xs: list[float], q: float, scale: float = 1000.0) -> float | None:
-            return round(float(np.percentile(xs, q)) * scale, 3) if xs else None
+        def pct(xs: Reservoir, q: float, scale: float = 1000.0) -> float | None:
+            p = xs.percentile(q)
+            return None if p is None else round(p * scale, 3)
 
         return {
             "requests": self.requests, "chunks": self.chunks, "timeouts": self.timeouts,
@@ -169,5 +181,5 @@ class AsyncInference:
             "forward_ms_p50": pct(r.forward, 50),
             "overhead_ms_p50": pct(r.overhead, 50), "overhead_ms_p99": pct(r.overhead, 99),
             "obs_sent_ms_p50": pct(r.sent, 50), "obs_to_policy_ms_p50": pct(r.queue_in, 50),
-            "dropped_actions_p50": float(np.median(r.dropped)) if r.dropped else None,
+            "dropped_actions_p50": r.dropped.percentile(50),
         }

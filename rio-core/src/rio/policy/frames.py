@@ -4,35 +4,32 @@ camera node's ring buffer instead of receiving it inside the request.
 Under `shm` (and `thread`) the camera rings are readable in place from the policy node, so copying
 ~1 MB per camera into every request (and out again) is wasted work on the path from observation to
 action. The request then carries each frame's timestamp; here the frame with exactly that timestamp is
-found in the ring (`RingBuffer.find`) and copied once, under the ring's slot check.
+found in the ring and handed to the policy in place: read-only views into the ring slot
+(`RingBuffer.find_view`), checked when taken. Copying three 640x480 frames cost ~1 ms per request (even
+read ahead, on a 2-core machine the copy competed with the control loop building the next observation);
+the model's own preprocessing reads the pixels anyway, and reads them from there just as fast.
 
-Reading three 640x480 frames costs ~1 ms, so the node also reads ahead: right after publishing a chunk
-it copies each camera's newest frame (`read_ahead`), while the control loop takes in that chunk and builds
-its next observation, which most likely names those very frames; `take` then only compares timestamps.
-A copy read ahead is handed out once, and only for its own timestamp; any other frame is found in the ring.
+The views are that frame only while the camera has not come round to its slot again (a ring of N frames
+keeps N-1: ~2 s of a 64-slot ring at 30 Hz), so after the forward pass the node asks each ring whether it
+still holds them (`verify`); if not, the chunk is dropped as if the frame had been gone from the start. A
+policy that keeps frames across calls (an observation history) must copy them (its preprocessing usually
+does: tensors are copies).
 
-A frame the camera has overwritten by then (a ring of N frames keeps N-1; a policy node that falls that
-far behind) is never replaced by another one: `take` raises `FrameGone`, and the node answers the request
-with an empty chunk, which the client counts (`AsyncInference.stats()["frame_misses"]`) before asking
-again with a fresh observation.
+A frame the camera has overwritten before it is taken (a policy node that falls that far behind) is never
+replaced by another one: `take` raises `FrameGone`, and the node answers the request with an empty chunk,
+which the client counts (`AsyncInference.stats()["frame_misses"]`) before asking again with a fresh
+observation.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from ..errors import ConfigError
+from ..errors import ConfigError, FrameGone
 from ..ring_ref import SharedRing
 from ..schema import Camera
 
-
-class FrameGone(Exception):
-    """The referenced frame is no longer in its camera's ring buffer."""
-
-    def __init__(self, camera: str, timestamp: float, capacity: int):
-        self.camera, self.timestamp = camera, timestamp
-        super().__init__(f"camera '{camera}': frame {timestamp:.6f} is no longer in its ring buffer (the camera "
-                         f"overwrote it; the ring keeps {capacity - 1} frames)")
+__all__ = ["CameraFrames", "FrameGone"]
 
 
 class CameraFrames:
@@ -40,7 +37,7 @@ class CameraFrames:
 
     def __init__(self, sources: dict[str, dict[str, Any]]):
         self.rings: dict[str, SharedRing] = {}
-        self._ahead: dict[str, dict[str, Any]] = {}
+        self._taken: list[tuple[str, float, int]] = []
         try:
             for name, ref in sources.items():
                 self.rings[name] = SharedRing(ref)
@@ -53,27 +50,30 @@ class CameraFrames:
             raise
 
     def take(self, camera: str, timestamp: float) -> Camera:
-        """The frame `camera` published at `timestamp`, as the control loop's `Env` saw it."""
-        ahead = self._ahead.pop(camera, None)
-        if ahead is not None and float(ahead["timestamp"]) == timestamp:
-            return Camera.from_sample(ahead)
+        """The frame `camera` published at `timestamp`, as the control loop's `Env` saw it (in place)."""
         ring = self.rings[camera].ring_buffer
-        sample = ring.find(timestamp)
-        if sample is None:
+        found = ring.find_view(timestamp)
+        if found is None:
             raise FrameGone(camera, timestamp, ring.capacity)
+        sample, seq = found
+        self._taken.append((camera, timestamp, seq))
         return Camera.from_sample(sample)
 
-    def read_ahead(self) -> None:
-        """Copy each camera's newest frame now (checked, as any read), for the next `take` to find. Only
-        an optimization: a camera that cannot be read now is left to `take`, which reports it."""
-        for name, ring in self.rings.items():
-            try:
-                self._ahead[name] = ring.ring_buffer.get()
-            except Exception:
-                self._ahead.pop(name, None)
+    def forget(self) -> None:
+        """Start a request afresh: the frames taken so far are no longer in use."""
+        self._taken = []
+
+    def verify(self) -> None:
+        """After the frames taken since the last `verify` were used: raise `FrameGone` if any was overwritten
+        meanwhile (what was computed from it may have seen another frame's pixels)."""
+        taken, self._taken = self._taken, []
+        for camera, timestamp, seq in taken:
+            ring = self.rings[camera].ring_buffer
+            if not ring.holds(seq):
+                raise FrameGone(camera, timestamp, ring.capacity, "overwritten during the forward pass")
 
     def close(self) -> None:
-        self._ahead = {}
+        self._taken = []
         for ring in self.rings.values():
             ring.close()
         self.rings = {}

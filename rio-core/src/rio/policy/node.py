@@ -32,11 +32,11 @@ from typing import Any, ClassVar, Literal, cast
 import numpy as np
 from pydantic import Field, create_model
 
-from ..errors import InvalidRequest
+from ..errors import FrameGone, InvalidRequest
 from ..node import Node, NodeConfig, client_side, remote
 from ..schema import Observation
 from .base import ActionChunk, Policy, PolicyMetadata
-from .frames import CameraFrames, FrameGone
+from .frames import CameraFrames
 from .obs_layout import ObsLayout
 
 log = logging.getLogger("rio.policy")
@@ -125,18 +125,20 @@ class PolicyNode(Node):
                                                   "`rio deploy`, or pass observation=ObsLayout.of(obs).to_dict())")
         if request["reset"]:  # before the frames are read: a run's first request resets even if it misses
             self.policy.reset()
+        if self._frames is not None:
+            self._frames.forget()  # what an earlier request took (one that failed half-way) is not this one's
         try:
             obs, instruction, t_obs, seq, _ = self.layout.decode(request, self._frames)
+            chunk = self.policy(obs, instruction, t_obs, seq, t_recv=t_recv)
+            if self._frames is not None:  # the frames were read in place: were they still those frames?
+                self._frames.verify()
         except FrameGone as e:
             self.frame_misses += 1
             log.warning("policy node '%s': request %d not run: %s (%d so far)", self.name, int(request["seq"]), e,
                         self.frame_misses)
             self.publish(self._record(self._missed(request, t_recv)))
             return
-        chunk = self.policy(obs, instruction, t_obs, seq, t_recv=t_recv)
         self.publish(self._record(chunk))
-        if self._frames is not None:  # the next observation comes as soon as this chunk lands
-            self._frames.read_ahead()
 
     def _missed(self, request: dict[str, Any], t_recv: float) -> ActionChunk:
         """The answer to a request whose frames were gone: no actions (horizon 0), so the client asks again."""
