@@ -74,3 +74,20 @@ def test_summarize_is_one_way_and_trims_percentiles():
     assert s["p99_us"] == np.percentile(np.arange(1, 101), 99.0)
     kept = np.arange(2, 100)  # 1 is below the 1st percentile, 100 above the 99th
     assert math.isclose(s["mean_us"], kept.mean()) and math.isclose(s["std_us"], kept.std())
+
+
+def test_loop_jitter_runs_every_setup_and_repeat():
+    """The control-loop jitter benchmark, tiny: every setup and variant is there, each with one p99 per
+    repeat and the median of them reported (the timings themselves are not checked)."""
+    script = Path(__file__).resolve().parents[2] / "bench" / "loop_jitter.py"
+    proc = subprocess.run([sys.executable, str(script), "--json", "--seconds", "0.2", "--repeats", "2"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert set(out["results"]) == {"thread 500 Hz", "shm 500 Hz", "shm 50 Hz, 3 cameras 640x480"}
+    for variants in out["results"].values():
+        assert {"sleep", "rio"} <= set(variants)
+        for r in variants.values():
+            assert len(r["p99_us_runs"]) == 2 and abs(r["p99_us"] - float(np.median(r["p99_us_runs"]))) <= 0.05
+            assert r["ticks"] > 0 and r["max_us"] >= r["p99_us"]
+    assert set(out["meets_target"]) == {"thread 500 Hz", "shm 500 Hz"}

@@ -211,3 +211,23 @@ def test_a_deploy_profile_has_a_track_per_node_and_loop_phase_and_a_row_per_proc
     rows = {r["label"] for r in json.loads((tmp_path / "prof" / "stats.json").read_text())["processes"]}
     assert {"node arm", "node gripper", "node policy"} <= rows, rows
     assert "trace.json" in out.stdout  # the summary says where the profile went
+
+
+def test_the_loop_sets_the_gil_switch_interval_only_while_it_runs():
+    """`gil_switch_s` shortens the interpreter's switch interval for the run (a node thread of the loop's
+    process then hands over the GIL within it) and puts the old one back, whatever the loop's end."""
+    import sys
+
+    from rio.benchmarks.loop_jitter import Hold, _station
+    from rio.control.loop import ControlLoop
+    from rio.manager import ServerManager
+    from rio.station import make_station
+
+    before = sys.getswitchinterval()
+    seen: list[float] = []
+    servers, _clients, env = make_station(_station("thread", 100.0, 0))
+    with ServerManager(servers, station="gil-switch"), env:
+        s = ControlLoop(env, Hold(), rate_hz=100.0, duration=0.3, settle=False, log=None, gil_switch_s=1e-4,
+                        on_tick=lambda _t: seen.append(sys.getswitchinterval())).run()
+    assert s.ticks > 5 and seen and all(abs(x - 1e-4) < 1e-9 for x in seen)
+    assert sys.getswitchinterval() == before

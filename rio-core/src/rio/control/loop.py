@@ -27,6 +27,7 @@ from __future__ import annotations
 import contextlib
 import gc
 import os
+import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -93,7 +94,7 @@ class ControlLoop:
                  recorder: Any = None, on_tick: Callable[[Tick], None] | None = None, lead_s: float | None = None,
                  stop: StopSignals | None = None, trace: Any = None, settle: bool = True,
                  freeze_gc: bool = True, realtime: bool | None = None, cpu: int | None = None,
-                 log: Callable[[str], None] | None = print):
+                 gil_switch_s: float | None = None, log: Callable[[str], None] | None = print):
         if rate_hz <= 0:
             raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
         self.env, self.controller, self.recorder, self.on_tick = env, controller, recorder, on_tick
@@ -103,6 +104,10 @@ class ControlLoop:
         if realtime is None:  # where permitted, unless RIO_LOOP_REALTIME=0
             realtime = None if os.environ.get("RIO_LOOP_REALTIME", "") not in ("0", "false", "no") else False
         self.freeze_gc, self.realtime, self.cpu = freeze_gc, realtime, cpu
+        #: The interpreter's thread switch interval during the run (None: Python's 5 ms): how long the loop,
+        #: woken at its deadline, can wait for a Python thread of its own process (a node on the thread
+        #: middleware, a network middleware's receiver) to hand over the GIL.
+        self.gil_switch_s = gil_switch_s
         self.say = log or (lambda _m: None)
         self.summary = RunSummary(getattr(controller, "name", type(controller).__name__), env.station,
                                   rate_hz=self.rate_hz, instruction=env.instruction)
@@ -132,7 +137,7 @@ class ControlLoop:
         wait = getattr(ctl, "wait", None) or clock.precise_wait
         lateness = Reservoir()
         clock.set_timer_slack()  # this thread's sleeps wake on time (see rio.clock)
-        with _scheduled(self.realtime, self.cpu, self.say), \
+        with _scheduled(self.realtime, self.cpu, self.say), _switch_interval(self.gil_switch_s), \
                 _collector_paused() if self.freeze_gc else contextlib.nullcontext():
             self.t0 = t_start = clock.now()
             env.set_start_time(t_start)
@@ -271,6 +276,20 @@ def _scheduled(realtime: bool | None, cpu: int | None, say: Callable[[str], None
         for u in reversed(undo):
             with contextlib.suppress(OSError):
                 u()
+
+
+@contextlib.contextmanager
+def _switch_interval(seconds: float | None) -> Iterator[None]:
+    """`sys.setswitchinterval(seconds)` while the loop runs (process-wide; restored afterwards)."""
+    if seconds is None:
+        yield
+        return
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(seconds)
+    try:
+        yield
+    finally:
+        sys.setswitchinterval(old)
 
 
 @contextlib.contextmanager
