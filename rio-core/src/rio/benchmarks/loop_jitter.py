@@ -177,13 +177,15 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 r["p99_vs_sleep"] = round(r["p99_us"] / ref, 3) if ref > 0 else None
     checks = {k: results[k]["rio"]["p99_us"] <= TARGET_P99_US for k in results
               if k.startswith(("thread 500", "shm 500"))}
-    return {"seconds": args.seconds, "repeats": args.repeats, "cpus": os.cpu_count(), "load_1min": round(os.getloadavg()[0], 2),
+    return {"seconds": args.seconds, "repeats": args.repeats, "cpus": os.cpu_count(),
+            "load_1min": round(os.getloadavg()[0], 2),
             "realtime_permitted": realtime, "target_p99_us": TARGET_P99_US, "results": results,
             "meets_target": checks}
 
 
 def _table(out: dict[str, Any]) -> str:
-    lines = [f"control-loop wake-up lateness, {out['repeats']} x {out['seconds']:g} s per variant ({out['cpus']} CPUs, load "
+    lines = [f"control-loop wake-up lateness, {out['repeats']} x {out['seconds']:g} s per variant ({out['cpus']} CPUs, "
+             f"load "
              f"{out['load_1min']}); target: 500 Hz p99 <= {out['target_p99_us']:.0f} us",
              f"{'setup':34s} {'variant':22s} {'p50 us':>8s} {'p99 us':>8s} {'max us':>9s} {'overruns':>8s} "
              f"{'p99 / sleep':>11s}  p99 of each run"]
