@@ -235,7 +235,8 @@ class ControlLoop:
                 s.node_rates_hz[role] = round((n1 - counts0[role][1]) / (t1 - counts0[role][0]), 1)
         p50, p99 = lateness.percentile(50), lateness.percentile(99)
         if p50 is not None and p99 is not None:
-            s.lateness_us = {"p50": round(p50 * 1e6, 1), "p99": round(p99 * 1e6, 1), "max": round(lateness.max * 1e6, 1)}
+            s.lateness_us = {"p50": round(p50 * 1e6, 1), "p99": round(p99 * 1e6, 1),
+                             "max": round(lateness.max * 1e6, 1)}
         finish = getattr(self.controller, "finish", None)
         if finish is not None:
             finish(s)
