@@ -54,10 +54,9 @@ class RingCamera(Camera):
         self.meta = meta
 
     def _take(self) -> None:
-        load, self._load = self._load, None
-        if load is not None:
-            cam = load()
-            self._rgb, self._depth = cam.rgb, cam.depth
+        if self._load is not None:
+            cam = self._load()  # a frame gone raises now and at every later read, never gives None
+            self._rgb, self._depth, self._load = cam.rgb, cam.depth, None
 
     @property
     def rgb(self) -> np.ndarray | None:

@@ -32,7 +32,6 @@ class CameraNode(Node):
             self.example_data["depth"] = np.zeros((self.height, self.width), np.uint16)
             self.example_data["depth_scale"] = 0.001
 
-
     @client_side
     def newest_frame(self) -> Camera:
         """The newest frame as the schema's `Camera` (depth in meters), its pixels left in the ring buffer
