@@ -113,3 +113,24 @@ def test_a_node_process_that_cannot_start_leaves_no_shared_memory(monkeypatch):
     with pytest.raises(RuntimeError, match="cannot start a process now"):
         manager.__enter__()
     assert not [n for n in os.listdir("/dev/shm") if f"_{manager.run_id}_" in n]
+
+
+def test_a_deep_temp_directory_does_not_break_the_node_sockets(monkeypatch, tmp_path):
+    """A `TMPDIR` too deep for AF_UNIX socket paths (108 bytes on Linux) made every shm node fail to bind
+    ("AF_UNIX path too long"); run directories then go to /tmp, and `rio top` looks for them there too."""
+    import tempfile
+
+    from rio import host
+    from rio.profiling.top import running_stations
+    from rio.testing import Counter
+
+    deep = tmp_path / ("d" * 60) / ("e" * 60)
+    deep.mkdir(parents=True)
+    monkeypatch.setattr(tempfile, "tempdir", str(deep))
+    assert host.run_dir_base() == "/tmp"
+    with ServerManager("shm", [serve(Counter, name="c", rate_hz=50)]) as m, connect(Counter, "shm", name="c") as c:
+        assert m.run_dir.startswith("/tmp/rio-")
+        assert wait_until(lambda: c.get_state()["i"] >= 2, timeout=10)
+        assert any(s["pid"] == os.getpid() for s in running_stations())
+    monkeypatch.setattr(tempfile, "tempdir", "/tmp")
+    assert host.run_dir_base() == "/tmp"

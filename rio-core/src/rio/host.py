@@ -271,6 +271,23 @@ def _os_name(name: str) -> str:
     return "/" + name
 
 
+#: The longest AF_UNIX socket path (`sun_path`: 108 bytes on Linux, 104 on macOS and the BSDs, less the NUL).
+_SUN_PATH_MAX = 107 if sys.platform.startswith("linux") else 103
+#: What a run directory adds to its base: `/rio-<run id>-<8>` and a node's `/<run id>_<8>.sock`.
+_RUN_PATH_ROOM = 48
+
+
+def run_dir_base() -> str:
+    """Where `ServerManager` makes its run directories (sockets, FIFOs, the station manifest) and where
+    `rio top` looks for them: the temp directory, unless its path leaves no room for the AF_UNIX socket
+    paths a run keeps there (a deep `TMPDIR`: a socket bind then fails with "AF_UNIX path too long"), in
+    which case `/tmp`."""
+    base = tempfile.gettempdir()
+    if len(base) + _RUN_PATH_ROOM <= _SUN_PATH_MAX or not os.path.isdir("/tmp"):
+        return base
+    return "/tmp"
+
+
 def registry_dir() -> str:
     """Marker files of the shared-memory objects this user's RIO processes created (fallback only)."""
     path = os.path.join(tempfile.gettempdir(), f"rio-shm-{os.getuid() if hasattr(os, 'getuid') else 0}")
@@ -327,6 +344,7 @@ def shm_list(prefix: str = "") -> set[str]:
     return {n for n in os.listdir(where) if n.startswith(prefix)}
 
 
-__all__ = ["FALLBACK", "WINDOWS", "describe", "yield_cpu", "shm_dir", "anonymous_memory", "process_exit_watch",
+__all__ = ["FALLBACK", "WINDOWS", "describe", "yield_cpu", "shm_dir", "run_dir_base", "anonymous_memory",
+           "process_exit_watch",
            "pid_alive", "exit_with_parent", "try_lock", "FileLock", "has_shared_memory", "require_shared_memory",
            "shm_create", "shm_open", "shm_unlink", "shm_list", "registry_dir"]

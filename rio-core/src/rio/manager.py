@@ -295,7 +295,7 @@ class ServerManager:
         return self._mws[mw]
 
     def __enter__(self) -> ServerManager:
-        self.run_dir = tempfile.mkdtemp(prefix=f"rio-{self.run_id}-")
+        self.run_dir = tempfile.mkdtemp(prefix=f"rio-{self.run_id}-", dir=host.run_dir_base())
         try:
             for spec in self.specs:
                 mw = self._mw_for(spec)

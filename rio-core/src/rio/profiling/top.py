@@ -12,7 +12,6 @@ middlewares show their process only: their rings cannot be read from another pro
 from __future__ import annotations
 
 import json
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +24,7 @@ def running_stations(station: str | None = None, tmp: str | None = None) -> list
     from ..manager import MANIFEST
 
     out = []
-    for path in sorted(Path(tmp or tempfile.gettempdir()).glob(f"rio-*/{MANIFEST}")):
+    for path in sorted(Path(tmp or host.run_dir_base()).glob(f"rio-*/{MANIFEST}")):
         try:
             m = json.loads(path.read_text())
         except (OSError, ValueError):
