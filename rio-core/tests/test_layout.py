@@ -54,3 +54,25 @@ def test_fingerprint_tracks_layout():
     a, b = make(), make()
     c = Layout({"q": np.zeros(7, np.float32), "mode": 0, "on": False}, owner="arm")
     assert a.fingerprint == b.fingerprint != c.fingerprint
+
+
+@pytest.mark.parametrize("example, value, words", [
+    (np.int8(0), 300, "value 300 does not fit int8"),
+    (np.int8(0), -129, "value -129 does not fit int8"),
+    (np.int64(0), np.uint64(2**63), "does not fit int64"),
+    (np.uint16(0), np.array(-1), "value -1 does not fit uint16"),
+    (np.zeros(2, np.float32), np.array([1.0, 1e300]), "beyond float32's range"),
+])
+def test_a_value_that_does_not_fit_its_field_is_refused_not_wrapped(example, value, words):
+    """Seen by the hardening probe: 300 into int8 arrived as 44, 2**63 into int64 wrapped negative, 1e300
+    into float32 became inf."""
+    lay = Layout({"x": example}, owner="arm", what="request")
+    with pytest.raises(InvalidRequest, match=words) as ei:
+        lay.encode({"x": value}, fill_timestamp=0.0)
+    assert ei.value.field == "x"
+
+
+def test_values_that_fit_a_narrower_field_pass_unchanged():
+    lay = Layout({"small": np.int8(0), "f": np.zeros(2, np.float32), "u": np.uint8(0)}, owner="arm")
+    d = lay.to_dict(lay.encode({"small": -128, "f": np.array([1.5, -3e38]), "u": np.int64(255)}, fill_timestamp=0.0))
+    assert d["small"] == -128 and d["u"] == 255 and d["f"][1] == np.float32(-3e38)

@@ -19,6 +19,22 @@ from .errors import InvalidRequest
 TIMESTAMP = "timestamp"
 
 
+def _check_fits(v: np.ndarray, ft: np.dtype, owner: str, name: str) -> None:
+    """A value of a wider type than its field (an int64 into int8, a float64 into float32) must fit, or the
+    cast would silently change it (300 into int8 arrives as 44; 1e300 into float32 as inf)."""
+    if ft.kind in "iu" and v.size:
+        info = np.iinfo(ft)
+        lo, hi = v.min(), v.max()
+        if lo < info.min or hi > info.max:
+            bad = lo if lo < info.min else hi
+            raise InvalidRequest(owner, name, f"value {bad} does not fit {ft} (range {info.min}..{info.max})")
+    elif ft.kind == "f" and v.dtype.kind in "fiu":
+        with np.errstate(over="ignore"):
+            narrowed = v.astype(ft)
+        if not np.array_equal(np.isfinite(narrowed), np.isfinite(v)):
+            raise InvalidRequest(owner, name, f"value beyond {ft}'s range (max {np.finfo(ft).max:.3g})")
+
+
 def _field_of(name: str, value: Any, owner: str) -> tuple[str, np.dtype, tuple[int, ...]]:
     arr = np.asarray(value)
     if arr.dtype.kind not in "biufc":
@@ -75,10 +91,13 @@ class Layout:
             if v.shape != want:
                 raise InvalidRequest(self.owner, n, f"expected shape {want}, got {v.shape}")
             ft = self.dtype[n].base
-            if not np.can_cast(v.dtype, ft, casting="same_kind"):
+            integers = v.dtype.kind in "iu" and ft.kind in "iu"  # any integer that fits (checked below)
+            if not integers and not np.can_cast(v.dtype, ft, casting="same_kind"):
                 raise InvalidRequest(self.owner, n, f"expected dtype {ft}, got {v.dtype}")
             if check_finite and v.dtype.kind in "fc" and not np.isfinite(v).all():
                 raise InvalidRequest(self.owner, n, "contains NaN or inf")
+            if v.dtype != ft and not np.can_cast(v.dtype, ft, casting="safe"):
+                _check_fits(v, ft, self.owner, n)
             rec[n] = v
         return rec
 
