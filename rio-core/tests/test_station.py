@@ -195,3 +195,28 @@ def test_unknown_station_and_driver_say_which_plugin_provides_them(reg):
         load_station("sim-so100", registry=reg)
     with pytest.raises(ConfigError, match=r"components\.arm\.driver: unknown arm driver 'so101.follower'.*rio-so100"):
         parse_station({"name": "s", "components": {"arm": {"driver": "so101.follower", "port": "x"}}}, registry=reg)
+
+
+@pytest.mark.parametrize("content, words", [
+    (bytes(range(0xF2, 0xFF)) * 20, r"not UTF-8 text \(byte 0xf2 at offset 0\)"),
+    (b'name = "s"\nx = ' + b"[" * 5000 + b"]" * 5000 + b"\n", "nested too deeply"),
+    (b"# " + b"x" * (1 << 20) + b"\n", "too large for a station or config file"),
+])
+def test_any_bytes_end_in_one_line_naming_the_file(tmp_path, reg, content, words):
+    """The hardening probe's station files: random binary, a 5000-deep array, a huge file; each was a
+    traceback (UnicodeDecodeError, RecursionError) or a long parse."""
+    path = tmp_path / "bad.toml"
+    path.write_bytes(content)
+    with pytest.raises(ConfigError, match=words) as e:
+        load_station(path, registry=reg)
+    assert str(e.value).startswith(str(path)) and len(str(e.value).splitlines()) == 1
+
+
+@pytest.mark.parametrize("role", ["../../escaped_camera", "a/b_camera", "front cam_camera", "x.y_sensor",
+                                  "_camera", "1st_camera"])
+def test_camera_and_sensor_names_are_identifiers(reg, role):
+    """A role names files and columns in datasets: "../../escaped_camera" made the recorder write outside
+    the dataset directory."""
+    with pytest.raises(ConfigError, match=r"unknown role .*<name>: letters, digits, _"):
+        parse_station({"name": "s", "components": {"arm": {"driver": "rio.fake_arm"},
+                                                   role: {"driver": "rio.fake_camera"}}}, registry=reg)

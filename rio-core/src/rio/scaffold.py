@@ -217,7 +217,7 @@ class PluginDir:
 
 def find_plugin(path: str | Path = ".") -> PluginDir:
     """The plugin whose folder is `path` or contains it."""
-    from .station.toml import parse_toml
+    from .station.toml import read_toml
 
     start = Path(path).resolve()
     root = next((d for d in (start, *start.parents) if (d / "pyproject.toml").is_file()), None)
@@ -225,7 +225,7 @@ def find_plugin(path: str | Path = ".") -> PluginDir:
         raise RioError(f"{start} is not inside a plugin folder (no pyproject.toml here or above); run "
                        "`rio new driver` in the folder `rio new plugin` made, or pass --plugin DIR")
     pyproject = root / "pyproject.toml"
-    data = parse_toml(pyproject.read_text(encoding="utf-8"), str(pyproject))
+    data = read_toml(pyproject)
     project = data.get("project") or {}
     eps = (project.get("entry-points") or {}).get("rio") or {}
     if not eps:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import os
-from pathlib import Path
 from typing import Any
 
 from pydantic import ValidationError
@@ -27,9 +26,9 @@ from .node import PolicyNode
 def parse_policy_arg(text: str) -> tuple[str, dict[str, Any]]:
     """'name,k=v,...' -> (name, {k: v}); a .toml path -> its [policy] table's driver and fields."""
     if text.endswith(".toml") and os.path.isfile(text):
-        from ..station.toml import parse_toml
+        from ..station.toml import read_toml
 
-        table = dict(parse_toml(Path(text).read_text(encoding="utf-8"), text).get("policy") or {})
+        table = dict(read_toml(text).get("policy") or {})
         if "driver" not in table:
             raise ConfigError(f"{text}: needs a [policy] table with a driver = \"...\" line")
         return str(table.pop("driver")), table

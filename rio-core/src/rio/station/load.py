@@ -20,7 +20,7 @@ from ..plugins import Registry, get_registry
 from ..suggest import closest, unknown
 from . import roles as R
 from .model import Component, Station, StationFile
-from .toml import parse_toml
+from .toml import parse_toml, read_text
 
 
 def _looks_like_path(ref: str) -> bool:
@@ -33,7 +33,7 @@ def read_station_text(ref: str | os.PathLike, registry: Registry | None = None) 
         path = Path(ref)
         if not path.is_file():
             raise ConfigError(f"station file not found: {path}")
-        return path.read_text(encoding="utf-8"), str(path)
+        return read_text(path), str(path)
     reg = registry or get_registry()
     stations = {s.name: s for s in reg.specs("rio_stations")}
     if ref not in stations:
@@ -45,7 +45,7 @@ def read_station_text(ref: str | os.PathLike, registry: Registry | None = None) 
 def read_station_resource(target: str) -> tuple[str, str]:
     """Read a station spec's target: an absolute path, or 'package:relative/path.toml'."""
     if os.path.isabs(target):
-        return Path(target).read_text(encoding="utf-8"), target
+        return read_text(Path(target)), target
     pkg, _, res = target.partition(":")
     from importlib.resources import files
 

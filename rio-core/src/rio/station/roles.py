@@ -7,6 +7,8 @@ open-ended: any `<name>_camera` / `<name>_sensor`.
 
 from __future__ import annotations
 
+import re
+
 FIXED = {
     "arm": "arm", "arm2": "arm",
     "gripper": "gripper", "gripper2": "gripper",
@@ -17,7 +19,10 @@ FIXED = {
 }
 SUFFIXES = {"_camera": "camera", "_sensor": "sensor"}
 
-ALL_ROLES_TEXT = ", ".join([*FIXED, "<name>_camera", "<name>_sensor"])
+ALL_ROLES_TEXT = ", ".join([*FIXED, "<name>_camera", "<name>_sensor"]) + " (<name>: letters, digits, _)"
+#: What a `<name>_camera` / `<name>_sensor` name may be: it names files and columns in datasets, so no path
+#: separators, dots or spaces ("../../escaped_camera" made the recorder write outside the dataset).
+_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 
 def kind_of(role: str) -> str | None:
@@ -25,7 +30,7 @@ def kind_of(role: str) -> str | None:
     if role in FIXED:
         return FIXED[role]
     for suffix, kind in SUFFIXES.items():
-        if role.endswith(suffix) and len(role) > len(suffix):
+        if role.endswith(suffix) and _NAME.fullmatch(role[: -len(suffix)]):
             return kind
     return None
 
