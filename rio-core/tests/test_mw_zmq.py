@@ -258,3 +258,54 @@ def test_node_without_state_in_process_server():
             c.check_alive()  # heartbeats alone keep a state-less node alive
     finally:
         srv.close()
+
+
+def _peak_rss(pid: int) -> int:
+    """The process's peak resident memory so far (VmHWM), bytes."""
+    for line in open(f"/proc/{pid}/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) * 1024
+    raise AssertionError("no VmHWM")
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="peak memory is read from /proc (Linux)")
+def test_a_peer_claiming_a_huge_message_is_disconnected_before_the_node_allocates_it():
+    """A hostile peer on the rpc port: one 300 MB message (the probe saw a node grow from 52 to 352 MB) is
+    refused by its header, the node's peak memory does not grow by it, and real clients are served throughout."""
+    import zmq
+
+    with ServerManager("zmq", [serve(EchoNode, name="victim")]) as mgr:
+        addr = mgr.address("victim")
+        pid = int(addr["pid"])
+        with connect(EchoNode, "zmq", name="victim") as client:
+            assert client.echo(1) == 1
+            peak0 = _peak_rss(pid)
+            ctx = zmq.Context()
+            bad = ctx.socket(zmq.DEALER)
+            bad.setsockopt(zmq.LINGER, 0)
+            bad.connect(f"tcp://{addr['host']}:{addr['rpc_port']}")
+            bad.send(b"c" + bytes(300 << 20))
+            time.sleep(1.5)
+            assert client.echo(2) == 2
+            assert _peak_rss(pid) - peak0 < 100 << 20
+            bad.close()
+            ctx.term()
+
+
+def test_the_message_limit_fits_the_nodes_requests():
+    from rio.middleware.zmq import ZmqServer
+    from rio.node import Node
+
+    class Big(Node):
+        def setup(self):
+            self.example_request = {"img": np.zeros((2000, 1000, 3), np.uint8)}  # 6 MB: over the default 4 MiB
+
+    from rio.middleware.base import NodeLayouts
+
+    node = Big()
+    layouts = NodeLayouts.of(node)
+    server = ZmqServer(node, layouts, ZmqMiddleware.Config())
+    try:
+        assert server.max_message_bytes >= layouts.request.itemsize + 1 > 4 << 20
+    finally:
+        server.close()

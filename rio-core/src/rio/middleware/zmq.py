@@ -11,6 +11,7 @@ Server sockets (bound to loopback unless `host` says otherwise):
   thread wake-ups, which doubled the call latency. The price is that while a long API call runs,
   new handshakes and incoming requests wait; the node is stalled anyway then, because the
   Dispatcher holds the node's lock for the call and the node loop needs it for every request.
+  A message larger than `max_message_bytes` disconnects its sender before anything is allocated.
 
 Client: a SUB socket drained by a receive thread into a local ring-buffer mirror (reads never block
 and never touch the network), one DEALER for calls and the handshake, and a second DEALER for
@@ -57,6 +58,10 @@ _HELLO, _REQ, _CALL = b"h", b"r", b"c"
 #: reader then gets recent samples instead of a growing backlog (the PUB drops beyond it).
 _HWM_BYTES = 4 << 20
 _POLL_MS = 50  # how often blocking loops look at their stop flag / the server's liveness
+#: Added to the request record's size for `max_message_bytes` (the kind byte, and room to spare).
+_MESSAGE_HEADROOM = 4096
+#: Messages of one peer the ROUTER holds before TCP pushes back (bounds a flood to this x the max size).
+_ROUTER_HWM = 16
 _WILDCARD = ("0.0.0.0", "*", "", "::")
 
 
@@ -81,6 +86,13 @@ class ZmqServer(ServerTransport):
         self._router = self._ctx.socket(zmq.ROUTER)
         self._router.setsockopt(zmq.LINGER, 0)
         self._router.setsockopt(zmq.RCVTIMEO, _POLL_MS)  # the rpc thread looks at its stop flag
+        # A peer cannot make the node allocate what it claims: libzmq disconnects a peer whose message
+        # header announces more than this, before reading it; and a flooding peer is throttled by TCP once
+        # `_ROUTER_HWM` of its messages wait (the rpc thread drains real clients' few messages at once).
+        self.max_message_bytes = max(config.max_message_bytes, (layouts.request.itemsize if layouts.request else 0)
+                                     + _MESSAGE_HEADROOM)
+        self._router.setsockopt(zmq.MAXMSGSIZE, self.max_message_bytes)
+        self._router.setsockopt(zmq.RCVHWM, _ROUTER_HWM)
         self._pub_lock = threading.Lock()  # node loop, SDK callbacks and the heartbeat share the PUB
         self._last: tuple[int, bytes] | None = None  # newest (seq, record bytes) sent, for handshakes
         self._stop = threading.Event()
@@ -426,6 +438,9 @@ class ZmqMiddleware(Middleware):
         #: anything (heartbeat or sample) before it reports the node dead.
         heartbeat_s: float = Field(0.05, gt=0, le=1.0)
         heartbeat_timeout: float = Field(0.5, gt=0)
+        #: Largest message (API call or request) a node accepts; a peer sending more is disconnected
+        #: before anything is allocated. Raised to fit the node's request record where that is larger.
+        max_message_bytes: int = Field(4 << 20, ge=1024)
 
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> ZmqServer:
         return ZmqServer(node, layouts, self.config)
