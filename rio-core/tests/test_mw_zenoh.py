@@ -217,3 +217,27 @@ def test_through_a_router():
                     "timed out waiting for request via router")
     finally:
         router.close()
+
+
+def test_a_flood_of_calls_on_made_up_clients_does_not_starve_a_real_client():
+    """Seen by the hardening probe: each call on a client id nobody listens to cost the node's API thread
+    0.5 s, and 10,000 of them left the real client timing out for the rest of the run. Now such calls wait
+    aside (bounded) while real clients are answered, and the excess is dropped."""
+    import zenoh
+    from rio import wire
+
+    with ServerManager("zenoh", [serve(EchoNode, name="flooded")], station="flood") as mgr:
+        addr = mgr.address("flooded")
+        with connect(EchoNode, "zenoh", name="flooded", station="flood") as c:
+            assert c.echo(1) == 1
+            hostile = zenoh.open(_config("peer", [], addr["endpoints"], 5.0))
+            try:
+                call = wire.pack_call(1, "echo", (0,), {})
+                for i in range(3000):
+                    hostile.put(f"{addr['prefix']}/call/{i:x}", call)
+                t0 = time.monotonic()
+                for k in range(20):  # the default call timeout is 10 s: any starvation fails here
+                    assert c.echo(k) == k
+                assert time.monotonic() - t0 < 8.0
+            finally:
+                hostile.close()

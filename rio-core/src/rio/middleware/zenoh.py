@@ -58,6 +58,12 @@ _REPLY_PUBS_MAX = 64  # reply publishers a server keeps declared (one per recent
 # its call must not stall the API thread for long.
 _REPLY_MATCH_WAIT_S = 0.5
 _CID = re.compile(r"^[0-9a-f]{1,32}$")
+#: Calls waiting for the API thread; beyond this a call is dropped (a flood must not grow the node).
+_CALLS_MAX = 256
+#: Clients whose reply subscription is not known here yet (their calls wait, the API thread does not),
+#: and calls each may have waiting. A flood of calls on made-up client ids fills these and is dropped.
+_PARKED_CLIENTS_MAX = 16
+_PARKED_CALLS_MAX = 8
 
 
 def _zenoh() -> Any:
@@ -172,6 +178,10 @@ class ZenohServer(ServerTransport):
                               if layouts.request is not None else None)
         self._calls: queue.SimpleQueue[tuple[str, bytes] | None] = queue.SimpleQueue()
         self._reply_pubs: OrderedDict[str, Any] = OrderedDict()
+        #: cid -> (its reply publisher, until when to wait for its subscription, its waiting calls)
+        self._parked: dict[str, tuple[Any, float, list[bytes]]] = {}
+        self.calls_dropped = 0
+        self._listening: set[str] = set()  # clients whose reply subscription was seen (read by _on_call)
         self._subs: list[Any] = []
         self._threads: list[threading.Thread] = []
         self.dispatch: Any = None
@@ -214,8 +224,19 @@ class ZenohServer(ServerTransport):
 
     def _on_call(self, sample: Any) -> None:
         cid = str(sample.key_expr).rsplit("/", 1)[-1]
-        if _CID.match(cid):
-            self._calls.put((cid, sample.payload.to_bytes()))
+        if not _CID.match(cid):
+            return
+        waiting = self._calls.qsize()  # a client known to listen for replies gets room a flood cannot take
+        if waiting >= (4 * _CALLS_MAX if cid in self._listening else _CALLS_MAX):
+            self._drop(f"{waiting} calls already wait")
+            return
+        self._calls.put((cid, sample.payload.to_bytes()))
+
+    def _drop(self, why: str) -> None:
+        self.calls_dropped += 1
+        if self.calls_dropped & (self.calls_dropped - 1) == 0:  # 1st, 2nd, 4th, 8th...: a flood logs little
+            log.warning("node '%s': dropped an API call (%s; %d dropped so far)", self.layouts.name, why,
+                        self.calls_dropped)
 
     def _on_hello(self, query: Any) -> None:
         rb = self.ring_buffer
@@ -225,48 +246,80 @@ class ZenohServer(ServerTransport):
     # -- threads -----------------------------------------------------------------------------------
     def _serve_calls(self) -> None:
         """API calls run here, not in zenoh's callback thread: a slow method must not hold up the
-        delivery of requests (measured cost of the hand-off: ~10 us)."""
-        while (item := self._calls.get()) is not None:
+        delivery of requests (measured cost of the hand-off: ~10 us). A call from a client whose reply
+        subscription is not known here yet waits aside (`_parked`) while other clients' calls run: a client
+        that never listens (gone, or made up by a flood) costs the thread nothing."""
+        while True:
+            try:
+                item = self._calls.get(timeout=0.005 if self._parked else None)
+            except queue.Empty:
+                item = ("", b"")  # only look at the parked clients again
+            if item is None:
+                return
             cid, data = item
-            try:
-                call_id, method, args, kwargs = wire.unpack_call(data)
-            except Exception as e:
-                log.warning("node '%s': dropped a malformed API call: %s", self.layouts.name, e)
-                continue
-            try:
-                reply = wire.pack_reply(call_id, True, self.dispatch(method, args, kwargs))
-            except Exception as e:
-                reply = wire.pack_reply(call_id, False, wire.error_payload(e))
-            try:
-                pub = self._reply_pub(cid)
-                if pub is not None:
-                    pub.put(reply)
-            except Exception:  # keep answering other calls
-                if not self._closed.is_set():
-                    log.exception("node '%s': could not send an API reply", self.layouts.name)
+            if cid:
+                self._take(cid, data)
+            if self._parked:
+                self._unpark()
 
-    def _reply_pub(self, cid: str) -> Any:
-        """The publisher answering client `cid`, declared on its first call and kept for reuse; its
-        first reply waits until the client's reply subscription is known here."""
+    def _take(self, cid: str, data: bytes) -> None:
         pub = self._reply_pubs.get(cid)
         if pub is not None:
             self._reply_pubs.move_to_end(cid)
-            return pub
+            self._run(pub, data)
+            return
+        parked = self._parked.get(cid)
+        if parked is not None:
+            if len(parked[2]) >= _PARKED_CALLS_MAX:
+                self._drop(f"client {cid} has {_PARKED_CALLS_MAX} calls waiting")
+            else:
+                parked[2].append(data)
+            return
+        if len(self._parked) >= _PARKED_CLIENTS_MAX:
+            self._drop(f"{_PARKED_CLIENTS_MAX} clients not yet listening for replies")
+            return
         z = _zenoh()
         pub = self.session.declare_publisher(
             f"{self.prefix}/reply/{cid}", congestion_control=z.CongestionControl.BLOCK,
             priority=z.Priority.INTERACTIVE_HIGH)
-        deadline = clock.now() + _REPLY_MATCH_WAIT_S
-        while not pub.matching_status.matching:
-            if clock.now() > deadline or self._closed.is_set():
-                log.warning("node '%s': client %s does not listen for replies; reply dropped", self.layouts.name, cid)
+        self._parked[cid] = (pub, clock.now() + _REPLY_MATCH_WAIT_S, [data])
+        self._unpark()
+
+    def _unpark(self) -> None:
+        """Run the waiting calls of clients now listening for replies; give up on those past their wait."""
+        now = clock.now()
+        for cid, (pub, until, calls) in list(self._parked.items()):
+            if pub.matching_status.matching:
+                del self._parked[cid]
+                self._reply_pubs[cid] = pub
+                self._listening.add(cid)
+                if len(self._reply_pubs) > _REPLY_PUBS_MAX:
+                    old_cid, old_pub = self._reply_pubs.popitem(last=False)
+                    self._listening.discard(old_cid)
+                    _undeclare(old_pub)
+                for data in calls:
+                    self._run(pub, data)
+            elif now > until or self._closed.is_set():
+                del self._parked[cid]
                 _undeclare(pub)
-                return None
-            clock.precise_wait(clock.now() + 0.0005)
-        self._reply_pubs[cid] = pub
-        if len(self._reply_pubs) > _REPLY_PUBS_MAX:
-            _undeclare(self._reply_pubs.popitem(last=False)[1])
-        return pub
+                log.warning("node '%s': client %s does not listen for replies; %d call(s) not run",
+                            self.layouts.name, cid, len(calls))
+
+    def _run(self, pub: Any, data: bytes) -> None:
+        try:
+            call_id, method, args, kwargs = wire.unpack_call(data)
+        except Exception as e:
+            log.warning("node '%s': dropped a malformed API call: %s", self.layouts.name, e)
+            return
+        try:
+            reply = wire.pack_reply(call_id, True, self.dispatch(method, args, kwargs))
+        except Exception as e:
+            reply = wire.pack_reply(call_id, False, wire.error_payload(e))
+        try:
+            pub.put(reply)
+        except Exception:  # keep answering other calls
+            if not self._closed.is_set():
+                log.exception("node '%s': could not send an API reply", self.layouts.name)
 
     def _beat(self) -> None:
         while not self._closed.wait(_HEARTBEAT_S):
@@ -296,7 +349,8 @@ class ZenohServer(ServerTransport):
         self._calls.put(None)
         for t in self._threads:
             t.join(timeout=2.0)
-        _undeclare(*self._subs, *self._reply_pubs.values(), self._state_pub, self._hb_pub)
+        _undeclare(*self._subs, *self._reply_pubs.values(), *(p[0] for p in self._parked.values()), self._state_pub,
+                   self._hb_pub)
         self._subs.clear()
         self._reply_pubs.clear()
         self.session.close()
