@@ -143,7 +143,7 @@ def test_sigkill_reported_within_1s():
 def test_heartbeat_detects_silent_remote_server():
     """Address not on this machine (no pid): a stopped server is noticed through the long poll."""
     host = socket.gethostbyname(socket.gethostname())
-    with ServerManager(MW, [serve(EchoNode, name="echo")], mw_options={"host": "0.0.0.0"}) as mgr:
+    with ServerManager(MW, [serve(EchoNode, name="echo")], mw_options={"host": "0.0.0.0", "insecure": True}) as mgr:
         addr = {"host": host, "port": mgr.address("echo")["port"]}
         with connect(EchoNode, PortalMiddleware(), name="echo", address=addr) as c:
             assert c._transport._watch is None  # watched by heartbeat, not by pid

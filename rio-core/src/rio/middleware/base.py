@@ -18,7 +18,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from .. import clock, host
 from ..config import Config, Configurable
@@ -109,6 +109,58 @@ class Middleware(Configurable, ABC):
 
 
 MiddlewareConfig = Middleware.Config
+
+
+class NetworkConfig(MiddlewareConfig):
+    """Fields of the middlewares that reach other machines (zmq, zenoh, portal).
+
+    They have no authentication or encryption yet: whoever reaches a node's port can read its state,
+    send it commands and call its API. So a node serves only this machine (loopback) unless the station
+    says `insecure = true`, and then every start says so (`warn_if_exposed`). Reach other machines
+    through a tunnel (ssh -L, WireGuard) that keeps the node on loopback, or a network you trust."""
+
+    insecure: bool = Field(False, description="allow serving or connecting beyond this machine without "
+                                              "authentication (anyone who reaches the port controls the node)")
+
+    def exposed(self) -> list[str]:
+        """The non-loopback addresses this config binds or connects to (each middleware says which)."""
+        return []
+
+    @model_validator(mode="after")
+    def _loopback_unless_insecure(self) -> NetworkConfig:
+        exposed = self.exposed()
+        if exposed and not self.insecure:
+            raise ValueError(f"{', '.join(exposed)} is reachable from other machines and this middleware has no "
+                             "authentication yet: keep nodes on 127.0.0.1 (reach them through an ssh tunnel or "
+                             "a VPN), or set insecure = true in [middleware] to accept that anyone who can reach "
+                             "the port can command the robot")
+        return self
+
+
+def is_loopback(host_or_endpoint: str) -> bool:
+    """Whether an address ("127.0.0.1", "localhost", "::1", "tcp/127.0.0.1:7447") stays on this machine;
+    a wildcard ("0.0.0.0", "*", "::") or another machine's address does not."""
+    import ipaddress
+
+    h = host_or_endpoint.split("/", 1)[1] if "/" in host_or_endpoint else host_or_endpoint
+    if h.startswith("["):  # [::1]:port
+        h = h[1:h.index("]")]
+    elif h.count(":") == 1:  # host:port
+        h = h.rsplit(":", 1)[0]
+    if h == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(h).is_loopback
+    except ValueError:
+        return False  # a name, a wildcard: assume it is reachable from elsewhere
+
+
+def warn_if_exposed(config: NetworkConfig, node: str, log: Any) -> None:
+    """Every start of a node that `insecure = true` lets serve or connect beyond loopback says so."""
+    exposed = config.exposed()
+    if exposed:
+        log.warning("node '%s': on %s WITHOUT authentication (insecure = true): anyone who can reach it can "
+                    "read its state, command it and call its API", node, ", ".join(exposed))
 
 
 def machine_id() -> str:

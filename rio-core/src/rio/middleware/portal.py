@@ -49,7 +49,16 @@ from .. import clock, wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
 from ..node import Node
-from .base import ClientTransport, Middleware, MiddlewareConfig, NodeLayouts, ServerTransport, local_process_watch
+from .base import (
+    ClientTransport,
+    Middleware,
+    NetworkConfig,
+    NodeLayouts,
+    ServerTransport,
+    is_loopback,
+    local_process_watch,
+    warn_if_exposed,
+)
 
 log = logging.getLogger("rio.middleware.portal")
 
@@ -174,6 +183,7 @@ class PortalServer(ServerTransport):
     def start(self, dispatch: Any) -> dict[str, Any]:
         portal = _portal()
         self._dispatch = dispatch
+        warn_if_exposed(self.config, self.name, log)
         opts = self.config
         ipv6 = ":" in opts.host
         self._server = server = portal.Server(
@@ -515,8 +525,9 @@ class PortalClient(ClientTransport):
 
 class PortalMiddleware(Middleware):
     name = "portal"
-    class Config(MiddlewareConfig):
-        #: Interface the server binds; "0.0.0.0" (or a machine's address) to serve other machines.
+    class Config(NetworkConfig):
+        #: Interface the server binds; "0.0.0.0" (or a machine's address) to serve other machines, only
+        #: with `insecure = true` (no authentication; prefer a tunnel).
         host: str = "127.0.0.1"
         #: TCP port; None picks a free one (reported in the address). One port serves one node.
         port: int | None = Field(default=None, ge=0, le=65535)
@@ -530,6 +541,9 @@ class PortalMiddleware(Middleware):
         max_batch_bytes: int = Field(default=8 * 1024 * 1024, ge=1)
         #: Requests a client may have unacknowledged before `send_request` waits (back-pressure).
         max_inflight_requests: int = Field(default=64, ge=1)
+
+        def exposed(self) -> list[str]:
+            return [] if is_loopback(self.host) else [self.host]
 
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> PortalServer:
         return PortalServer(node, layouts, self.config)

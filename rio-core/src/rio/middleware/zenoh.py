@@ -41,11 +41,13 @@ from ..node import Node
 from .base import (
     ClientTransport,
     Middleware,
-    MiddlewareConfig,
+    NetworkConfig,
     NodeLayouts,
     ProcessWatch,
     ServerTransport,
+    is_loopback,
     local_process_watch,
+    warn_if_exposed,
 )
 
 log = logging.getLogger("rio.zenoh")
@@ -331,6 +333,7 @@ class ZenohServer(ServerTransport):
 
     def start(self, dispatch: Any) -> dict[str, Any]:
         self.dispatch = dispatch
+        warn_if_exposed(self.config, self.layouts.name, log)
         s, p = self.session, self.prefix
         if self.request_queue is not None:
             self._subs.append(s.declare_subscriber(f"{p}/req", self._on_request))
@@ -514,8 +517,9 @@ class ZenohClient(ClientTransport):
 
 class ZenohMiddleware(Middleware):
     name = "zenoh"
-    class Config(MiddlewareConfig):
-        #: Interface the server listens on (peer mode). "0.0.0.0" for other machines to connect.
+    class Config(NetworkConfig):
+        #: Interface the server listens on (peer mode). "0.0.0.0" for other machines to connect, only with
+        #: `insecure = true` (no authentication yet); so are routers on other machines in `connect`.
         host: str = "127.0.0.1"
         #: TCP port to listen on; None picks a free one (each node needs its own, so only fix it for
         #: a station that serves a single node with these options).
@@ -529,6 +533,10 @@ class ZenohMiddleware(Middleware):
         connect_timeout: float = 5.0
         #: A remote server (another machine) is declared dead after this long without a heartbeat.
         heartbeat_timeout: float = 0.5
+
+        def exposed(self) -> list[str]:
+            out = [] if self.mode == "client" or is_loopback(self.host) else [self.host]
+            return out + [e for e in self.connect if not is_loopback(e)]
 
     def _prefix(self, node: Node) -> str:
         for part in (self.station, node.name):

@@ -42,7 +42,16 @@ from .. import clock, wire
 from ..buffers import RequestQueue, RequestSender, RingBuffer
 from ..errors import ConfigError, NodeDiedError, NodeError, NodeTimeout, RioError
 from ..node import Node
-from .base import ClientTransport, Middleware, MiddlewareConfig, NodeLayouts, ServerTransport, local_process_watch
+from .base import (
+    ClientTransport,
+    Middleware,
+    NetworkConfig,
+    NodeLayouts,
+    ServerTransport,
+    is_loopback,
+    local_process_watch,
+    warn_if_exposed,
+)
 
 log = logging.getLogger("rio.middleware.zmq")
 
@@ -110,6 +119,7 @@ class ZmqServer(ServerTransport):
 
     def start(self, dispatch: Any) -> dict[str, Any]:
         self._dispatch = dispatch
+        warn_if_exposed(self.config, self.name, log)
         state_port = self._bind(self._pub, self.config.state_port, "state_port")
         rpc_port = self._bind(self._router, self.config.rpc_port, "rpc_port")
         for target, what in ((self._serve_rpc, "rpc"), (self._beat, "heartbeat")):
@@ -428,8 +438,9 @@ class ZmqMiddleware(Middleware):
     """pyzmq over TCP: PUB/SUB for state (mirrored client-side), ROUTER/DEALER for the rest."""
 
     name = "zmq"
-    class Config(MiddlewareConfig):
-        #: Interface to bind. "0.0.0.0" serves other machines (they pass the address with a real host).
+    class Config(NetworkConfig):
+        #: Interface to bind. "0.0.0.0" serves other machines (they pass the address with a real host);
+        #: only with `insecure = true` (no authentication yet).
         host: str = "127.0.0.1"
         #: Ports of the PUB (state) and ROUTER (requests, calls) sockets; None picks a free port.
         state_port: int | None = Field(None, ge=1, le=65535)
@@ -441,6 +452,9 @@ class ZmqMiddleware(Middleware):
         #: Largest message (API call or request) a node accepts; a peer sending more is disconnected
         #: before anything is allocated. Raised to fit the node's request record where that is larger.
         max_message_bytes: int = Field(4 << 20, ge=1024)
+
+        def exposed(self) -> list[str]:
+            return [] if is_loopback(self.host) else [self.host]
 
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> ZmqServer:
         return ZmqServer(node, layouts, self.config)
