@@ -88,6 +88,6 @@ def test_loop_jitter_runs_every_setup_and_repeat():
     for variants in out["results"].values():
         assert {"sleep", "rio"} <= set(variants)
         for r in variants.values():
-            assert len(r["p99_us_runs"]) == 2 and abs(r["p99_us"] - float(np.median(r["p99_us_runs"]))) <= 0.05
+            assert len(r["p99_us_runs"]) == 2 and abs(r["p99_us"] - float(np.median(r["p99_us_runs"]))) <= 0.06
             assert r["ticks"] > 0 and r["max_us"] >= r["p99_us"]
     assert set(out["meets_target"]) == {"thread 500 Hz", "shm 500 Hz"}
