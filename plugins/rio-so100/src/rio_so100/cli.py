@@ -14,6 +14,7 @@ import time
 from typing import Annotated
 
 import typer
+from rio.cli.args import positive
 
 app = typer.Typer(help="SO-100 / SO-101 arms on the Feetech bus: calibrate, virtual bus, torque, scan "
                        "(leader-follower teleop: `rio teleop STATION`).",
@@ -108,7 +109,8 @@ def calibrate(
 def virtual_bus(
     ids: Annotated[str, typer.Option(help="servo ids on the bus, comma separated")] = "1,2,3,4,5,6",
     motion: Annotated[str, typer.Option(help="none, or wave: a scripted hand moves torque-off servos")] = "none",
-    seconds: Annotated[float | None, typer.Option(help="stop after this long (default: until Ctrl+C)")] = None,
+    seconds: Annotated[float | None, typer.Option(callback=positive,
+                                                  help="stop after this long (default: until Ctrl+C)")] = None,
 ) -> None:
     """Serve emulated STS3215 servos on a pseudo-terminal; use the printed path as a port."""
     from .virtual import VirtualBus
@@ -154,7 +156,7 @@ def torque(
 @app.command()
 def scan(
     port: Port,
-    max_id: Annotated[int, typer.Option(help="highest id to ping")] = 12,
+    max_id: Annotated[int, typer.Option(min=1, max=253, help="highest id to ping")] = 12,
 ) -> None:
     """Ping ids 1..MAX_ID and list the servos that answer (model, position, voltage, temperature)."""
     from .feetech import control_table as T

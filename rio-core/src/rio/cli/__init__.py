@@ -11,18 +11,7 @@ import sys
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the `rio` script. A RioError (bad station, unknown name, ...) is printed as one
-    clear message with exit status 1, never as a traceback."""
-    from ..errors import RioError
-    from .app import build_app
-    from .output import error
+    """Entry point of the `rio` script; returns the exit status (rio.cli.app.RioGroup says which)."""
+    from .app import run
 
-    app = build_app()
-    try:
-        app(args=sys.argv[1:] if argv is None else list(argv), prog_name="rio", standalone_mode=True)
-    except SystemExit as e:
-        return e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
-    except RioError as e:
-        error(str(e))
-        return 1
-    return 0
+    return run(sys.argv[1:] if argv is None else argv)

@@ -1,10 +1,93 @@
-"""Assembles the root typer app: built-in command groups, then whatever plugins add."""
+"""Assembles the root typer app: built-in command groups, then whatever plugins add; and how every
+command ends (`RioGroup.main`)."""
 
 from __future__ import annotations
 
-from typing import Annotated
+import sys
+from collections.abc import Sequence
+from typing import Annotated, Any
 
 import typer
+from typer.core import TyperGroup
+
+#: Exit status of a command ended by Ctrl-C (128 + SIGINT), like a shell's.
+EXIT_INTERRUPTED = 130
+
+
+class Interrupted(Exception):
+    """Ctrl-C inside a command, carried past typer (which would end it silently) to `_exit_status`."""
+
+
+class RioGroup(TyperGroup):
+    """The root command. Every way a command can fail ends here, once, as one line on stderr and an
+    exit status, never a traceback: a bad argument or usage (2, the line names the option), a
+    RioError (1), Ctrl-C at any moment, start-up included ("interrupted", 130)."""
+
+    def main(self, args: Sequence[str] | None = None, prog_name: str | None = None,
+             complete_var: str | None = None, standalone_mode: bool = True, windows_expand_args: bool = True,
+             **extra: Any) -> Any:
+        code = _exit_status(lambda: super(RioGroup, self).main(args, prog_name, complete_var, standalone_mode=False,
+                                                               windows_expand_args=windows_expand_args, **extra))
+        if standalone_mode:
+            sys.exit(code)
+        return code
+
+    def invoke(self, ctx: Any) -> Any:
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            raise Interrupted() from None
+
+
+def run(argv: Sequence[str]) -> int:
+    """The `rio` command line: build the app (plugins add their commands), run it, return its exit
+    status. Ctrl-C while plugins load is an interruption like any other."""
+    try:
+        app = build_app()
+        app(args=list(argv), prog_name="rio", standalone_mode=True)
+    except KeyboardInterrupt:
+        return _interrupted()
+    except SystemExit as e:
+        return e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
+    return 0
+
+
+def _exit_status(invoke: Any) -> int:
+    """Run `invoke` (the command line, not in standalone mode) and turn how it ended into a status."""
+    from typer._click.exceptions import ClickException, NoArgsIsHelpError
+
+    from ..errors import RioError
+    from .output import error
+
+    try:
+        result = invoke()
+    except NoArgsIsHelpError as e:  # the help is printed already
+        return e.exit_code
+    except ClickException as e:
+        error(" ".join(e.format_message().splitlines()) + _help_hint(e))
+        return e.exit_code
+    except RioError as e:
+        error(str(e))
+        return 1
+    except (KeyboardInterrupt, Interrupted):
+        return _interrupted()
+    except typer.Abort:  # a confirmation answered no, or stdin closed at a prompt
+        error("aborted")
+        return 1
+    return result if isinstance(result, int) else 0
+
+
+def _interrupted() -> int:
+    from .output import error
+
+    error("interrupted")
+    return EXIT_INTERRUPTED
+
+
+def _help_hint(e: Any) -> str:
+    """Where a usage error can be read about: ` (see 'rio teleop --help')`."""
+    ctx = getattr(e, "ctx", None)
+    return f" (see '{ctx.command_path} --help')" if ctx is not None else ""
 
 
 def _version(value: bool) -> None:
@@ -33,7 +116,7 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
         top_cmd,
     )
 
-    app = typer.Typer(name="rio", help="RIO: real-time robot I/O for robot learning.",
+    app = typer.Typer(name="rio", help="RIO: real-time robot I/O for robot learning.", cls=RioGroup,
                       no_args_is_help=True, add_completion=False, rich_markup_mode="rich",
                       pretty_exceptions_enable=False)
 

@@ -7,34 +7,43 @@ from typing import Annotated
 
 import typer
 
-from .run_cmd import JsonOption, ProfileOption
+from .args import fraction, non_negative, not_empty, one_of, positive
+from .run_cmd import (
+    DurationOption,
+    JsonOption,
+    MiddlewareOption,
+    ProfileOption,
+    RateOption,
+    RecordOption,
+    StationArgument,
+)
 
 
 def deploy(
-    station: Annotated[str, typer.Argument(help="Station name (`rio stations list`) or path of a .toml file.")],
+    station: StationArgument,
     policy: Annotated[str | None, typer.Option(
-        "--policy", "-p", help="NAME[,key=value...] of a registered policy (`rio plugins list`), "
+        "--policy", "-p", callback=not_empty, help="NAME[,key=value...] of a registered policy (`rio plugins list`), "
                                "module:PolicyNodeClass[,key=value...], or a .toml file with a \\[policy] table. "
                                "Default: the station's \\[components.policy].")] = None,
     instruction: Annotated[str | None, typer.Option(
         "--instruction", "-i", help="Task text given to the policy.")] = None,
-    record: Annotated[str | None, typer.Option(
-        "--record", help="Record the rollout as an episode of the dataset DIR.")] = None,
-    duration: Annotated[float | None, typer.Option(
-        "--duration", "-d", min=0.1, help="Stop after this many seconds.")] = None,
-    rate: Annotated[float | None, typer.Option("--rate", help="Control rate (Hz; default: the station's).")] = None,
+    record: RecordOption = None,
+    duration: DurationOption = None,
+    rate: RateOption = None,
     threshold: Annotated[float, typer.Option(
-        "--threshold", min=0.0, max=1.0,
+        "--threshold", callback=fraction,
         help="Ask for the next chunk when this fraction of the current one is left (1: ask continuously).")] = 0.5,
     blend: Annotated[str, typer.Option(
-        "--blend", help="Overlapping chunks: latest, crossfade or ensemble.")] = "crossfade",
-    crossfade: Annotated[float, typer.Option("--crossfade", min=0.0, help="Cross-fade length (s).")] = 0.1,
+        "--blend", callback=one_of("latest", "crossfade", "ensemble"),
+        help="Overlapping chunks: latest, crossfade or ensemble.")] = "crossfade",
+    crossfade: Annotated[float, typer.Option(
+        "--crossfade", callback=non_negative, help="Cross-fade length (s).")] = 0.1,
     on_late: Annotated[str, typer.Option(
-        "--on-late", help="Policy late: hold, or continue along the last chunk.")] = "hold",
+        "--on-late", callback=one_of("hold", "continue"),
+        help="Policy late: hold, or continue along the last chunk.")] = "hold",
     lowpass: Annotated[float | None, typer.Option(
-        "--lowpass", min=0.1, help="Low-pass cutoff on commands (Hz).")] = None,
-    middleware: Annotated[str | None, typer.Option(
-        "--middleware", "-m", help="Override the station's middleware.")] = None,
+        "--lowpass", callback=positive, help="Low-pass cutoff on commands (Hz).")] = None,
+    middleware: MiddlewareOption = None,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
 ) -> None:

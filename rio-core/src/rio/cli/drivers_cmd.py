@@ -6,12 +6,15 @@ from typing import Annotated
 
 import typer
 
+from .args import not_empty
+
 app = typer.Typer(help="Registered device drivers and policies.", no_args_is_help=True)
 
 
 @app.command("list")
 def list_drivers(
-    kind: Annotated[str | None, typer.Option("--kind", "-k", help="Only this kind (arm, camera, ...).")] = None,
+    kind: Annotated[str | None, typer.Option("--kind", "-k", callback=not_empty,
+                                             help="Only this kind (arm, camera, ...).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
 ) -> None:
     """List drivers (and policies) by name, kind and plugin."""
@@ -37,7 +40,8 @@ def list_drivers(
 
 
 @app.command("show")
-def show(name: Annotated[str, typer.Argument(help="Registered driver or policy name, e.g. rio.fake_arm.")]) -> None:
+def show(name: Annotated[str, typer.Argument(callback=not_empty,
+                                             help="Registered driver or policy name, e.g. rio.fake_arm.")]) -> None:
     """The station-file fields a driver accepts (its class's `Config`): name, type, default, description.
     Imports the driver's module (not its SDK: drivers import that in `open()`)."""
     from pydantic_core import PydanticUndefined

@@ -13,13 +13,25 @@ from typing import Annotated, Any
 
 import typer
 
+from .args import known_station, not_empty, output_dir, positive
+
 #: The run's arm did not follow its commands.
 EXIT_NOT_FOLLOWED = 3
 
 JsonOption = Annotated[bool, typer.Option("--json", help="Print the summary as JSON (stdout).")]
 ProfileOption = Annotated[str | None, typer.Option(
-    "--profile", help="Write a trace (Perfetto / chrome://tracing), a timeline PNG and a CPU/RAM/GPU table to "
-                      "this directory.")]
+    "--profile", callback=output_dir,
+    help="Write a trace (Perfetto / chrome://tracing), a timeline PNG and a CPU/RAM/GPU table to this directory.")]
+StationArgument = Annotated[str, typer.Argument(
+    callback=known_station, help="Station name (`rio stations list`) or path of a .toml file.")]
+DurationOption = Annotated[float | None, typer.Option(
+    "--duration", "-d", callback=positive, help="Stop after this many seconds.")]
+RateOption = Annotated[float | None, typer.Option(
+    "--rate", callback=positive, help="Control rate (Hz; default: the station's).")]
+RecordOption = Annotated[str | None, typer.Option(
+    "--record", callback=output_dir, help="Record the run as an episode of the dataset DIR (created if absent).")]
+MiddlewareOption = Annotated[str | None, typer.Option(
+    "--middleware", "-m", callback=not_empty, help="Override the station's middleware.")]
 
 
 def exit_code(summary: Any) -> int:
@@ -46,19 +58,22 @@ def load_controller(spec: str) -> type:
     """'package.module:Class' -> the class (a clear error naming what is missing)."""
     import importlib
 
+    hint = "'--controller'"
     module, sep, attr = spec.partition(":")
     if not sep or not module or not attr:
-        raise typer.BadParameter(f"'{spec}': write module:Class (e.g. my_lab.controllers:Wave)")
+        raise typer.BadParameter(f"'{spec}': write module:Class (e.g. my_lab.controllers:Wave)",
+                                 param_hint=hint)
     try:
         mod = importlib.import_module(module)
     except ImportError as e:
-        raise typer.BadParameter(f"cannot import '{module}': {e}") from e
+        raise typer.BadParameter(f"cannot import '{module}': {e}", param_hint=hint) from e
     cls = getattr(mod, attr, None)
     if cls is None:
-        raise typer.BadParameter(f"module '{module}' has no '{attr}'")
+        raise typer.BadParameter(f"module '{module}' has no '{attr}'", param_hint=hint)
     missing = [m for m in ("reset", "step", "done") if not callable(getattr(cls, m, None))]
     if missing:
-        raise typer.BadParameter(f"{spec} is not a controller: it lacks {missing} (docs/controllers.md)")
+        raise typer.BadParameter(f"{spec} is not a controller: it lacks {missing} (docs/controllers.md)",
+                                 param_hint=hint)
     return cls
 
 
@@ -69,7 +84,7 @@ def _options(pairs: list[str]) -> dict[str, Any]:
     for p in pairs:
         key, sep, value = p.partition("=")
         if not sep or not key:
-            raise typer.BadParameter(f"--set '{p}': write key=value")
+            raise typer.BadParameter(f"'{p}': write key=value", param_hint="'--set'")
         try:
             out[key] = json.loads(value)
         except ValueError:
@@ -78,20 +93,17 @@ def _options(pairs: list[str]) -> dict[str, Any]:
 
 
 def run(
-    station: Annotated[str, typer.Argument(help="Station name (`rio stations list`) or path of a .toml file.")],
-    controller: Annotated[str, typer.Option("--controller", "-c", help="module:Class of your controller "
-                                                                       "(docs/controllers.md).")],
+    station: StationArgument,
+    controller: Annotated[str, typer.Option("--controller", "-c", callback=not_empty,
+                                            help="module:Class of your controller (docs/controllers.md).")],
     option: Annotated[list[str] | None, typer.Option("--set", help="key=value given to the controller's "
                                                                    "constructor (JSON values; repeatable).")] = None,
-    duration: Annotated[float | None, typer.Option("--duration", "-d", min=0.1,
-                                                   help="Stop after this many seconds.")] = None,
-    rate: Annotated[float | None, typer.Option("--rate", help="Control rate (Hz; default: the station's).")] = None,
+    duration: DurationOption = None,
+    rate: RateOption = None,
     instruction: Annotated[str | None, typer.Option("--instruction", "-i", help="Task text stored with every "
                                                                                "step.")] = None,
-    record: Annotated[str | None, typer.Option("--record", help="Record the run as an episode of the dataset "
-                                                              "DIR.")] = None,
-    middleware: Annotated[str | None, typer.Option("--middleware", "-m",
-                                                   help="Override the station's middleware.")] = None,
+    record: RecordOption = None,
+    middleware: MiddlewareOption = None,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
 ) -> None:

@@ -6,6 +6,8 @@ from typing import Annotated
 
 import typer
 
+from .run_cmd import MiddlewareOption, StationArgument
+
 app = typer.Typer(help="Station files.", no_args_is_help=True)
 
 
@@ -28,8 +30,8 @@ def list_stations(as_json: Annotated[bool, typer.Option("--json", help="Machine-
 
 @app.command("check")
 def check(
-    station: Annotated[str, typer.Argument(help="Station name (see `rio stations list`) or path of a .toml file.")],
-    middleware: Annotated[str | None, typer.Option("--middleware", "-m", help="Use this middleware instead.")] = None,
+    station: StationArgument,
+    middleware: MiddlewareOption = None,
 ) -> None:
     """Validate a station completely (drivers, their fields, middleware options, embodiment) and show
     what it contains; imports the drivers' code but starts nothing."""

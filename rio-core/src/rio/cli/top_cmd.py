@@ -8,22 +8,25 @@ from typing import Annotated
 
 import typer
 
+from .args import positive
+
 
 def top(
     station: Annotated[str | None, typer.Argument(help="Only this station (default: every running one).")] = None,
-    interval: Annotated[float, typer.Option("--interval", "-n", min=0.1, help="Seconds between updates.")] = 1.0,
+    interval: Annotated[float, typer.Option("--interval", "-n", callback=positive,
+                                            help="Seconds between updates.")] = 1.0,
     once: Annotated[bool, typer.Option("--once", help="Measure one interval, print, exit.")] = False,
     json_out: Annotated[bool, typer.Option("--json", help="With --once: the rows as JSON.")] = False,
 ) -> None:
     """Watch running stations like htop: each node's publishing rate, the age of its newest sample, and
     its process's CPU and memory. Read-only: it never sends a node anything."""
     from ..profiling.top import StationTop, format_rows
-    from .output import print_json
+    from .output import error, print_json
 
     with StationTop(station) as watch:
         if not watch.watched:
-            typer.echo("no running station" + (f" named '{station}'" if station else "") + " on this machine "
-                       "(stations started by this user, with the same TMPDIR)", err=True)
+            error("no running station" + (f" named '{station}'" if station else "") + " on this machine "
+                  "(stations started by this user, with the same TMPDIR)")
             raise typer.Exit(1)
         try:
             while True:

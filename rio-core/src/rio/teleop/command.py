@@ -7,34 +7,54 @@ from typing import Annotated
 
 import typer
 
-from ..cli.run_cmd import JsonOption, ProfileOption
+from ..cli.args import not_empty, one_of, positive
+from ..cli.run_cmd import (
+    DurationOption,
+    JsonOption,
+    MiddlewareOption,
+    ProfileOption,
+    RateOption,
+    RecordOption,
+    StationArgument,
+)
+
+
+def _mode(value: str) -> str:
+    """--mode is checked while parsing, with the aliases the loop accepts (`2d`, `full`, ...)."""
+    from ..control.teleop import TeleopMode  # here: listing commands must not import numpy
+
+    try:
+        TeleopMode.parse(value)
+    except ValueError as e:
+        raise typer.BadParameter(str(e)) from None
+    return value
 
 
 def teleop(
-    station: Annotated[str, typer.Argument(help="Station name (`rio stations list`) or path of a .toml file.")],
-    device: Annotated[str | None, typer.Option("--teleop", "-t",
+    station: StationArgument,
+    device: Annotated[str | None, typer.Option("--teleop", "-t", callback=not_empty,
                                                help="Teleop device: keyboard, scripted, or any registered teleop "
                                                     "driver (default: the station's own).")] = None,
     instruction: Annotated[str | None, typer.Option("--instruction", "-i",
                                                     help="Task text stored with every step.")] = None,
     viz: Annotated[bool, typer.Option("--viz", help="Stream cameras, joints and tool poses to rerun "
                                                     "(saved to an .rrd file when there is no display).")] = False,
-    duration: Annotated[float | None, typer.Option("--duration", "-d", min=0.1,
-                                                   help="Stop after this many seconds.")] = None,
-    mode: Annotated[str, typer.Option("--mode", help="translation, translation_rotation, planar (2-D) or "
-                                                     "rotation; the device's mode button cycles it.")] = "translation",
-    max_pos_speed: Annotated[float, typer.Option(help="Tool speed limit (m/s).")] = 0.15,
-    max_rot_speed: Annotated[float, typer.Option(help="Tool rotation speed limit (rad/s).")] = 1.0,
-    rate: Annotated[float | None, typer.Option("--rate", help="Control rate (Hz; default: the station's).")] = None,
-    middleware: Annotated[str | None, typer.Option("--middleware", "-m",
-                                                   help="Override the station's middleware.")] = None,
-    record: Annotated[str | None, typer.Option("--record", help="Record each run as an episode of this "
-                                                              "dataset directory (created if absent).")] = None,
+    duration: DurationOption = None,
+    mode: Annotated[str, typer.Option("--mode", callback=_mode,
+                                      help="translation, translation_rotation, planar (2-D) or rotation; the "
+                                           "device's mode button cycles it.")] = "translation",
+    max_pos_speed: Annotated[float, typer.Option(callback=positive, help="Tool speed limit (m/s).")] = 0.15,
+    max_rot_speed: Annotated[float, typer.Option(callback=positive,
+                                                 help="Tool rotation speed limit (rad/s).")] = 1.0,
+    rate: RateOption = None,
+    middleware: MiddlewareOption = None,
+    record: RecordOption = None,
     episodes: Annotated[int, typer.Option("--episodes", min=1, help="With --record: episodes to keep.")] = 1,
-    on_end: Annotated[str, typer.Option("--on-end", help="With --record, after each run: ask (keys k/d/r in a "
-                                                         "terminal), keep or discard. Default: ask when "
-                                                         "interactive, else keep.")] = "auto",
-    align_speed: Annotated[float, typer.Option(help="Leader arms: follower speed while aligning to its leader "
+    on_end: Annotated[str, typer.Option("--on-end", callback=one_of("auto", "ask", "keep", "discard"),
+                                        help="With --record, after each run: ask (keys k/d/r in a terminal), keep "
+                                             "or discard. Default: ask when interactive, else keep.")] = "auto",
+    align_speed: Annotated[float, typer.Option(callback=positive,
+                                               help="Leader arms: follower speed while aligning to its leader "
                                                     "(rad/s).")] = 0.5,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
@@ -67,8 +87,6 @@ def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, i
     from ..recording import Recorder
     from .loop import prepare_station
 
-    if on_end not in ("auto", "ask", "keep", "discard"):
-        raise typer.BadParameter("--on-end must be ask, keep or discard")
     ask = on_end == "ask" or (on_end == "auto" and sys.stdin.isatty())
     st = prepare_station(station)
     with Recorder(root, fps=rate or st.rate_hz, station=st.name, instruction=instruction, cameras=st.has_cameras,

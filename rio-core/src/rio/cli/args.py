@@ -1,0 +1,98 @@
+"""Checks on command-line values, run by typer while it parses (`typer.Option(callback=...)`): a bad value
+ends the command with one line naming the option before any station, process or file is touched.
+
+Why callbacks and not `min=`: a range lets `nan` through (every comparison with it is false) and `inf`
+past any minimum, and `--rate nan` or `--max-pos-speed -1` must not reach a control loop (unthrottled,
+frozen or reversed arm). One helper per meaning, used by every command that takes such a value.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TypeVar
+
+import typer
+
+N = TypeVar("N", int, float, None)
+P = TypeVar("P", str, Path, None)
+
+
+def _number(value: N, ok: bool, what: str) -> N:
+    if value is not None and not (math.isfinite(value) and ok):
+        raise typer.BadParameter(f"must be {what}, not {value}")
+    return value
+
+
+def positive(value: N) -> N:
+    """A rate, speed, duration or interval: finite and > 0 (None: not given)."""
+    return _number(value, value is not None and value > 0, "a finite number > 0")
+
+
+def non_negative(value: N) -> N:
+    """A length of time that may be zero (a cross-fade, an approach): finite and >= 0."""
+    return _number(value, value is not None and value >= 0, "a finite number >= 0")
+
+
+def fraction(value: N) -> N:
+    """A share of something: finite, between 0 and 1."""
+    return _number(value, value is not None and 0 <= value <= 1, "a number from 0 to 1")
+
+
+def not_empty(value: P) -> P:
+    """A name or path given as '' is always a mistake (an unset shell variable); say so at once."""
+    if value is not None and not str(value).strip():
+        raise typer.BadParameter("must not be empty")
+    return value
+
+
+def one_of(*choices: str):
+    """A callback for a word from a fixed set (`--blend crossfade`): a typo is named at once, not when
+    the run has started."""
+
+    def check(value: str | None) -> str | None:
+        if value is not None and value not in choices:
+            raise typer.BadParameter(f"'{value}' is not one of {', '.join(choices)}")
+        return value
+
+    return check
+
+
+def output_dir(value: P) -> P:
+    """A directory to write into (a dataset to record into, a profile): absent (created later) or a
+    directory, never an existing file, checked before the station starts rather than after."""
+    not_empty(value)
+    if value is not None and Path(value).exists() and not Path(value).is_dir():
+        raise typer.BadParameter(f"'{value}' is a file, not a directory")
+    return value
+
+
+def existing_dir(value: P) -> P:
+    """A directory that must already exist (a plugin's folder)."""
+    not_empty(value)
+    if value is not None and not Path(value).is_dir():
+        raise typer.BadParameter(f"'{value}' is not a directory" if Path(value).exists() else
+                                 f"'{value}' does not exist")
+    return value
+
+
+def existing_path(value: P) -> P:
+    """A file or directory to read (a dataset to import): it must exist."""
+    not_empty(value)
+    if value is not None and not Path(value).exists():
+        raise typer.BadParameter(f"'{value}' does not exist")
+    return value
+
+
+def known_station(value: P) -> P:
+    """A station name or .toml path that can be found (`rio stations list`), before anything opens."""
+    not_empty(value)
+    if value is not None:
+        from ..errors import RioError
+        from ..station.load import read_station_text
+
+        try:
+            read_station_text(str(value))
+        except RioError as e:
+            raise typer.BadParameter(str(e)) from None
+    return value

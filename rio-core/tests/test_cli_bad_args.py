@@ -1,0 +1,280 @@
+"""Every `rio` command (enumerated from the app, plugins' commands and nested groups included) against a
+table of bad arguments: each must end with a non-zero status and one line on stderr starting with
+"error:" that names the option or the value, never a traceback, and before anything starts.
+
+Why a table generated from the app rather than hand-written cases: a new command or option is covered
+the day it is added (its numbers, paths and station names get the same bad values). What would start
+something — nodes of a station, an installer — is replaced by `_Started`, so a bad value that slips
+through fails the case instead of starting a station. Plugins' commands that talk to devices or serve
+forever (`SUBPROCESS`) run in a subprocess with a deadline instead: their code is not core's to
+patch."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import typer
+from rio.cli.app import EXIT_INTERRUPTED, build_app
+from typer.testing import CliRunner
+
+#: Where a value stands for a fixture's path (filled in by `_fill`).
+STATION, DIR, FILE, MISSING = "{station}", "{dir}", "{file}", "{missing}"
+
+#: A valid value for each required argument / option, by parameter name: how any command (a new one
+#: too) gets a command line whose only fault is the bad value under test.
+REQUIRED = {
+    "station": STATION, "dataset": DIR, "src": DIR, "out": "{tmp}/out", "name": "acme", "specs": "rio-acme",
+    "names": "rio-acme", "controller": "rio.teleop.twist:TwistTeleop", "fmt": "zarr", "ip": "192.0.2.1",
+    "port": "{missing}", "state": "on", "program": "x.urp",
+}
+#: Options a command line also needs (not required by typer, but the command stops without them).
+EXTRA = {("teleop",): ["--teleop", "scripted"], ("top",): ["--once"], ("plugins", "uninstall"): ["--yes"]}
+
+#: Bad numbers; an option that accepts one of them says so here (`(command, option): {values}`).
+BAD_NUMBERS = ("abc", "nan", "inf", "-5", "0")
+ACCEPTS = {
+    ("deploy", "--threshold"): {"0"}, ("deploy", "--crossfade"): {"0"}, ("replay", "--approach"): {"0"},
+    ("replay", "--episode"): {"0"}, ("ur", "emulator", "--exit-with"): {"0", "-5"},
+}
+#: Parameters that are paths of directories to write into / read from, or station names, by name.
+STATION_PARAMS = {"station"}
+DATASET_PARAMS = {"dataset", "src"}
+OUTPUT_DIR_PARAMS = {"record", "profile", "output"}
+EXISTING_DIR_PARAMS = {"plugin_dir"}
+#: Strings for which '' is a fair value.
+EMPTY_OK = {"instruction", "name"}
+
+#: Commands that serve until stopped when a bad value slips through: a subprocess with a deadline.
+SUBPROCESS = {("so100", "virtual-bus"), ("ur", "emulator"), ("ufactory", "emulator")}
+SUBPROCESS_DEADLINE_S = 10
+class _Started(BaseException):  # noqa: N818 - not an error: the marker that something was started
+    """Raised where a station's nodes or an installer would start: a bad value got that far."""
+
+
+@dataclass(frozen=True)
+class Case:
+    command: tuple[str, ...]
+    param: str
+    argv: tuple[str, ...]  # the command line after `rio` (placeholders still in)
+    value: str
+    subprocess: bool  # run in a subprocess with a deadline (SUBPROCESS), else in-process
+
+    @property
+    def id(self) -> str:
+        return " ".join(self.argv).replace("{", "").replace("}", "")
+
+
+def _leaves(group: typer.main.TyperGroup, path: tuple[str, ...] = ()):
+    for name, cmd in sorted(group.commands.items()):
+        if hasattr(cmd, "commands"):
+            yield from _leaves(cmd, (*path, name))
+        else:
+            yield (*path, name), cmd
+
+
+def _annotation(param) -> str:
+    ann = param.type_descriptor.annotation
+    return ann.__name__ if isinstance(ann, type) else str(ann)
+
+
+def _base(path: tuple[str, ...], cmd) -> list[str] | None:
+    """A command line for `path` that is valid except for what a case changes (None: a parameter
+    this table has no valid value for; `test_table_knows_every_required_parameter` names it)."""
+    argv = [*path]
+    for p in cmd.params:
+        if not p.required:
+            continue
+        if p.name not in REQUIRED:
+            return None
+        argv += [REQUIRED[p.name]] if p.param_type_name == "argument" else [p.opts[0], REQUIRED[p.name]]
+    return [*argv, *EXTRA.get(path, [])]
+
+
+def _with(base: list[str], param, value: str) -> tuple[str, ...]:
+    """`base` with `param` set to `value` (replacing its valid value when it has one)."""
+    argv = list(base)
+    if param.param_type_name == "argument" and param.required:
+        argv[argv.index(REQUIRED[param.name])] = value
+        return tuple(argv)
+    if param.param_type_name == "argument":  # an optional argument: the only one (`rio top [STATION]`)
+        return (*argv, value)
+    if param.opts[0] in argv:
+        argv[argv.index(param.opts[0]) + 1] = value
+        return tuple(argv)
+    return (*argv, param.opts[0], value)
+
+
+def _values(path: tuple[str, ...], param) -> list[str]:
+    """The bad values for one parameter, from its type and name."""
+    ann, name = _annotation(param), param.name
+    opt = param.opts[0] if param.param_type_name == "option" else name
+    if ann in ("float", "int"):
+        return [v for v in BAD_NUMBERS if v not in ACCEPTS.get((*path, opt), set())]
+    if ann == "bool" or path[0] not in CORE_GROUPS:
+        return []  # plugins' string options: their values mean something only to the device
+    out = [] if name in EMPTY_OK or param.multiple or param.nargs != 1 else [""]
+    if name in STATION_PARAMS:
+        out += ["no-such-station", DIR, MISSING + ".toml"]
+    if name in DATASET_PARAMS:
+        out += [MISSING, FILE]
+    if name in OUTPUT_DIR_PARAMS:
+        out += [FILE]
+    if name in EXISTING_DIR_PARAMS:
+        out += [MISSING, FILE]
+    return out
+
+
+APP = build_app()
+CORE_GROUPS = {name for name in typer.main.get_command(build_app(load_plugins=False)).commands}
+
+
+def _cases() -> list:
+    params = []
+    for path, cmd in _leaves(typer.main.get_command(APP)):
+        base = _base(path, cmd)
+        if base is None or path == ("bench", "middleware"):  # bench parses its own arguments
+            continue
+        for param in cmd.params:
+            opt = param.opts[0] if param.param_type_name == "option" else param.name
+            for value in _values(path, param):
+                case = Case(path, opt, _with(base, param, value), value, path in SUBPROCESS)
+                params.append(pytest.param(case, id=case.id))
+    return params
+
+
+@pytest.fixture(scope="module")
+def paths(tmp_path_factory) -> dict[str, str]:
+    tmp = tmp_path_factory.mktemp("bad_args")
+    station = tmp / "station.toml"
+    station.write_text('name = "bad-args"\n[middleware]\nname = "thread"\n[components.arm]\ndriver = "rio.fake_arm"\n')
+    (tmp / "dir").mkdir()
+    (tmp / "file").write_text("not a directory\n")
+    return {"{station}": str(station), "{dir}": str(tmp / "dir"), "{file}": str(tmp / "file"),
+            "{missing}": str(tmp / "missing"), "{tmp}": str(tmp)}
+
+
+@pytest.fixture
+def nothing_starts(monkeypatch, tmp_path):
+    """What a command would start (a station's nodes, an installer) raises `_Started` instead; and a
+    command that takes '' for '.' writes into an empty directory, not into the checkout."""
+    monkeypatch.chdir(tmp_path)
+    from rio.cli import plugins_cmd
+    from rio.manager import ServerManager
+
+    def started(*_a, **_k):
+        raise _Started
+
+    monkeypatch.setattr(ServerManager, "__enter__", started)
+    monkeypatch.setattr(plugins_cmd, "_run_installer", started)
+
+
+def _fill(argv: tuple[str, ...], paths: dict[str, str]) -> list[str]:
+    out = []
+    for a in argv:
+        for key, value in paths.items():
+            a = a.replace(key, value)
+        out.append(a)
+    return out
+
+
+def _run(case: Case, paths: dict[str, str]) -> tuple[int, str, str]:
+    argv = _fill(case.argv, paths)
+    if not case.subprocess:
+        r = CliRunner().invoke(APP, argv, catch_exceptions=True)
+        if r.exception is not None and not isinstance(r.exception, SystemExit):
+            raise AssertionError(f"rio {' '.join(argv)} raised {r.exception!r}") from r.exception
+        return r.exit_code, r.stdout, r.stderr
+    try:
+        p = subprocess.run([sys.executable, "-m", "rio", *argv], capture_output=True, text=True,
+                           timeout=SUBPROCESS_DEADLINE_S, env={**os.environ, "COLUMNS": "200"})
+    except subprocess.TimeoutExpired:
+        raise AssertionError(f"rio {' '.join(argv)} did not fail fast: still running after "
+                             f"{SUBPROCESS_DEADLINE_S} s") from None
+    return p.returncode, p.stdout, p.stderr
+
+
+@pytest.mark.parametrize("case", _cases())
+def test_bad_argument_fails_fast_with_one_line(case: Case, paths, nothing_starts):
+    code, out, err = _run(case, paths)
+    shown = f"rio {' '.join(_fill(case.argv, paths))}\n--- stdout\n{out}--- stderr\n{err}"
+    assert "Traceback" not in out + err, shown
+    assert code != 0, shown
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), shown
+    # the line names the option; a word or path may be named instead (a number: the option, always)
+    named = case.value and case.value not in BAD_NUMBERS and _fill((case.value,), paths)[0] in lines[0]
+    assert case.param in lines[0] or named, shown
+
+
+def test_table_knows_every_required_parameter():
+    """A command whose required parameter has no valid value in REQUIRED would be left out silently."""
+    unknown = [(path, [p.name for p in cmd.params if p.required and p.name not in REQUIRED])
+               for path, cmd in _leaves(typer.main.get_command(APP)) if _base(path, cmd) is None]
+    assert unknown == []
+
+
+def test_table_covers_every_command_group():
+    covered = {case.values[0].command[0] for case in _cases()}
+    assert covered >= CORE_GROUPS - {"bench", "cameras", "doctor", "plugins"} | {"datasets", "export", "replay"}
+
+
+# --- Ctrl-C -----------------------------------------------------------------------------------------
+
+
+def test_ctrl_c_in_a_command_is_one_line_and_130(monkeypatch):
+    from rio import plugins
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plugins, "get_registry", interrupted)
+    r = CliRunner().invoke(APP, ["doctor"])
+    assert (r.exit_code, r.stderr.strip(), r.stdout) == (EXIT_INTERRUPTED, "error: interrupted", "")
+
+
+def test_ctrl_c_during_station_start_up_is_one_line_and_130(monkeypatch, paths):
+    from rio.manager import ServerManager
+
+    def interrupted(*_a):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(ServerManager, "__enter__", interrupted)
+    r = CliRunner().invoke(APP, ["teleop", paths["{station}"], "--teleop", "scripted"])
+    assert r.exit_code == EXIT_INTERRUPTED and "Traceback" not in r.output, r.output
+    assert r.stderr.strip().splitlines()[-1] == "error: interrupted", r.stderr
+
+
+def test_ctrl_c_while_plugins_load_is_one_line_and_130(monkeypatch, capsys):
+    from rio.cli import app, main
+
+    def interrupted(**_k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(app, "build_app", interrupted)
+    assert main(["plugins", "list"]) == EXIT_INTERRUPTED
+    assert capsys.readouterr().err == "error: interrupted\n"
+
+
+def test_sigint_during_start_up_of_a_real_station(paths):
+    """The real thing, once: SIGINT to the `rio` process group (what Ctrl-C in a terminal sends) while
+    the station starts: one line from rio, no traceback from it or from any node process."""
+    station = Path(paths["{tmp}"]) / "sigint.toml"  # shm: the nodes are processes, which get the SIGINT too
+    station.write_text('name = "sigint"\n[middleware]\nname = "shm"\n[components.arm]\ndriver = "rio.fake_arm"\n'
+                       '[embodiment]\naction_space = "eef_pose"\n')
+    p = subprocess.Popen([sys.executable, "-m", "rio", "teleop", str(station), "--teleop", "scripted"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 30
+    assert p.stderr is not None
+    while time.monotonic() < deadline and "starting station" not in (line := p.stderr.readline()):
+        assert line, "rio teleop ended before starting its station"
+    os.killpg(p.pid, signal.SIGINT)
+    out, err = p.communicate(timeout=30)
+    assert "Traceback" not in out + err, err
+    assert p.returncode == EXIT_INTERRUPTED, (p.returncode, out, err)
