@@ -1,6 +1,6 @@
 """SIGKILL a real recording process at chosen moments: every finished episode must stay readable
-and byte-identical, the index valid, and the interrupted episode recoverable by repair (or cleanly
-absent). Also kills the encoder process with it (power-cut-like torn video)."""
+and byte-identical, the index valid, and the interrupted episode recoverable by repair (its steps are
+kept even when no video frame survived). Also kills the encoder process with it (power-cut-like torn video)."""
 
 from __future__ import annotations
 
@@ -71,7 +71,10 @@ def test_sigkill_leaves_finished_episodes_intact(tmp_path, when, group):
     for ep in ds:
         steps = list(ep.steps())
         assert len(steps) == len(ep) > 0
-        assert all(s.observation.cameras["front"].rgb is not None for s in steps)
+        if "front.rgb" in ep.streams:
+            assert all(s.observation.cameras["front"].rgb is not None for s in steps)
+        else:  # killed with the encoder before it wrote a frame: the steps are kept, state-only
+            assert "front.rgb" in ep.meta["missing_streams"] and ep.meta["repaired"]
     if when is not None:
         ep2 = ds.episode(2)
         assert ep2.meta["repaired"] and 0 < len(ep2) <= 60

@@ -50,3 +50,51 @@ def test_replay_refuses_other_action_layout(tmp_path):
     _record(tmp_path / "ds", dim=3)
     with pytest.raises(RioError, match="3 values"):
         replay_episode(tmp_path / "ds", 0, str(tmp_path / "st.toml"), approach_s=0, log=None)
+
+
+def test_replay_refuses_a_damaged_episode_before_the_robot_moves(tmp_path, monkeypatch):
+    """An all-zero steps.bin (fails its recorded sha256) must never be sent to a robot as zero actions."""
+    import rio.control.workflow as workflow
+    from rio.recording import DamagedEpisode, DamagedEpisodeWarning
+
+    (tmp_path / "st.toml").write_text(STATION)
+    _record(tmp_path / "ds")
+    steps = tmp_path / "ds" / "episode_000000" / "steps.bin"
+    steps.write_bytes(bytes(steps.stat().st_size))
+    started = []
+    monkeypatch.setattr(workflow, "run_workflow", lambda *a, **k: started.append(a))
+    with pytest.raises(DamagedEpisode, match=r"episode_000000.*steps\.bin: changed since it was recorded"):
+        replay_episode(tmp_path / "ds", 0, str(tmp_path / "st.toml"), approach_s=0, log=None)
+    assert not started
+    with pytest.warns(DamagedEpisodeWarning, match="steps.bin"):  # allowed: used anyway, with a warning
+        replay_episode(tmp_path / "ds", 0, str(tmp_path / "st.toml"), approach_s=0, log=None, allow_damaged=True)
+    assert len(started) == 1
+
+
+@pytest.mark.parametrize("args,why,code", [(["--speed", "0"], "'--speed': must be a finite number > 0", 2),
+                                           (["--speed", "-2"], "'--speed'", 2), (["--speed", "nan"], "'--speed'", 2),
+                                           (["--approach", "-1"], "'--approach': must be a finite number >= 0", 2),
+                                           (["--episode", "7"], "no episode 7", 1)])
+def test_replay_bad_arguments_are_one_line(tmp_path, capsys, args, why, code):
+    """Bad values are usage errors (2) naming the option, refused before anything opens; a missing
+    episode is found in the dataset (1)."""
+    from rio.cli import main as rio_main
+
+    (tmp_path / "st.toml").write_text(STATION)
+    _record(tmp_path / "ds", n=5)
+    assert rio_main(["replay", str(tmp_path / "ds"), "-s", str(tmp_path / "st.toml"), *args]) == code
+    err = capsys.readouterr().err
+    assert why in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_replay_of_a_damaged_episode_is_one_line_in_the_cli(tmp_path, capsys):
+    from rio.cli import main as rio_main
+
+    (tmp_path / "st.toml").write_text(STATION)
+    _record(tmp_path / "ds", n=5)
+    steps = tmp_path / "ds" / "episode_000000" / "steps.bin"
+    steps.write_bytes(bytes(steps.stat().st_size))
+    assert rio_main(["replay", str(tmp_path / "ds"), "-s", str(tmp_path / "st.toml")]) == 1
+    err = " ".join(capsys.readouterr().err.split())
+    assert "episode_000000: damaged episode: steps.bin: changed since it was recorded" in err
+    assert "--allow-damaged" in err and "Traceback" not in err

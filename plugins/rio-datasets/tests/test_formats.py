@@ -108,3 +108,39 @@ def test_lerobot_loads_the_export(native, tmp_path, monkeypatch):
         item = ds[i]
         assert tuple(item["observation.images.front"].shape) == (3, 48, 64)
         assert item["task"] == "pick up the cube"
+
+
+def test_cli_export_refuses_damaged_episodes_and_leaves_no_output(native, tmp_path, capsys):
+    """An all-zero steps.bin is refused in one line naming episode and file (no output written);
+    --allow-damaged exports it with a warning."""
+    import shutil
+
+    pytest.importorskip("zarr")
+    ds = tmp_path / "ds"
+    shutil.copytree(native, ds)
+    steps = ds / "episode_000001" / "steps.bin"
+    steps.write_bytes(bytes(steps.stat().st_size))
+    out = tmp_path / "x.zarr"
+    assert rio_main(["export", str(ds), "-f", "zarr", str(out)]) == 1
+    err = " ".join(capsys.readouterr().err.split())
+    assert "episode_000001: damaged episode: steps.bin: changed since it was recorded" in err
+    assert "Traceback" not in err and not out.exists()
+    assert rio_main(["export", str(ds), "-f", "zarr", str(out), "--episodes", "0"]) == 0
+    capsys.readouterr()
+    assert rio_main(["export", str(ds), "-f", "zarr", str(tmp_path / "y.zarr"), "--allow-damaged"]) == 0
+    assert "damaged episode used anyway" in " ".join(capsys.readouterr().err.split())
+
+
+def test_a_failing_export_removes_its_partial_output(native, tmp_path, monkeypatch):
+    from rio.recording.format import export_dataset
+
+    pytest.importorskip("zarr")
+
+    def boom(ep):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr("rio_datasets.zarr_format.lowdim", boom)
+    out = tmp_path / "x.zarr"
+    with pytest.raises(OSError):
+        export_dataset(get_format("zarr"), Dataset(native), out)
+    assert not out.exists()

@@ -15,9 +15,13 @@ class ExportError(RioError):
 
 
 def select(ds: Dataset, episodes: list[int] | None) -> list[Episode]:
+    """The episodes to export, each verified first: a damaged one raises DamagedEpisode before
+    anything is written (unless `ds` allows damaged episodes; the check is cached per dataset)."""
     eps = [ds.episode(k) for k in episodes] if episodes is not None else list(ds)
     if not eps:
         raise ExportError(f"{ds.root}: no episodes to export")
+    for ep in eps:
+        ep.check()
     return eps
 
 

@@ -1,31 +1,46 @@
 """`rio export DATASET --format lerobot|zarr|hdf5 OUT`: a native dataset to another format, with a
-progress bar. Formats come from plugins (`rio_dataset_formats` hook; rio-datasets ships these)."""
+progress bar. Formats come from plugins (`rio_dataset_formats` hook; rio-datasets ships these).
+
+The episodes are verified first: a damaged one (a file differing from its recorded sha256) is refused
+in one line naming it, unless `--allow-damaged` (then a warning per damaged episode). A failed export
+leaves no partial output behind (`rio.recording.format.export_dataset`)."""
 
 from __future__ import annotations
 
+import re
 from typing import Annotated
 
 import typer
+
+from ..errors import ConfigError
+from .args import not_empty, output_dir
+
+_EPISODE_PART = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+)\s*)?$")
 
 
 def parse_options(items: list[str] | None) -> dict[str, str]:
     out = {}
     for item in items or []:
         key, sep, value = item.partition("=")
-        if not sep:
-            raise typer.BadParameter(f"'{item}' is not key=value")
+        if not sep or not key.strip():
+            raise ConfigError(f"--option '{item}' is not key=value")
         out[key.strip()] = value.strip()
     return out
 
 
 def parse_episodes(text: str | None) -> list[int] | None:
-    """'0,2,5-7' -> [0, 2, 5, 6, 7]."""
-    if not text:
+    """'0,2,5-7' -> [0, 2, 5, 6, 7]; anything else is one ConfigError quoting the bad part."""
+    if text is None:
         return None
     out: list[int] = []
     for part in text.split(","):
-        a, sep, b = part.partition("-")
-        out.extend(range(int(a), int(b) + 1) if sep else [int(a)])
+        m = _EPISODE_PART.match(part)
+        if m is None:
+            raise ConfigError(f"--episodes '{text}': '{part}' is not an episode index or a range like 5-7")
+        a, b = int(m.group(1)), int(m.group(2) if m.group(2) is not None else m.group(1))
+        if b < a:
+            raise ConfigError(f"--episodes '{text}': the range '{part.strip()}' ends before it starts")
+        out.extend(k for k in range(a, b + 1) if k not in out)
     return out
 
 
@@ -42,28 +57,41 @@ def run_with_progress(label: str, fn):
         def progress(done: int, total: int, what: str) -> None:
             bar.update(task, completed=done, total=total, description=f"{label}: {what}")
 
-        return fn(progress)
+        try:
+            return fn(progress)
+        except BaseException:
+            bar.live.transient = True  # a failure ends in its one error line, not under a half-drawn bar
+            raise
 
 
 def export(
-    dataset: Annotated[str, typer.Argument(help="Native RIO dataset directory.")],
-    out: Annotated[str, typer.Argument(help="Where to write the exported dataset.")],
-    fmt: Annotated[str, typer.Option("--format", "-f", help="Dataset format (see `rio datasets formats`).")],
+    dataset: Annotated[str, typer.Argument(callback=not_empty, help="Native RIO dataset directory.")],
+    out: Annotated[str, typer.Argument(callback=output_dir, help="Where to write the exported dataset.")],
+    fmt: Annotated[str, typer.Option("--format", "-f", callback=not_empty,
+                                     help="Dataset format (see `rio datasets formats`).")],
     episodes: Annotated[str | None, typer.Option("--episodes", "-e", help="Only these episodes: 0,2,5-7.")] = None,
     option: Annotated[list[str] | None,
                       typer.Option("--option", "-o", help="Format option key=value (repeat).")] = None,
+    allow_damaged: Annotated[bool, typer.Option("--allow-damaged",
+                                                help="Export episodes whose files fail their sha256.")] = False,
 ) -> None:
     """Export a recorded dataset (e.g. `rio export data/pick --format lerobot out/pick_lerobot`)."""
     from pathlib import Path
 
     from ..recording import Dataset
-    from ..recording.format import get_format
+    from ..recording.format import export_dataset, get_format
+    from .datasets_cmd import damaged_warnings
     from .output import console
 
-    ds = Dataset(dataset)
-    f = get_format(fmt, parse_options(option))
-    result = run_with_progress(f"export {fmt}", lambda p: f.export(ds, Path(out), episodes=parse_episodes(episodes),
-                                                                   progress=p))
+    chosen = parse_episodes(episodes)
+    opts = parse_options(option)
+    ds = Dataset(dataset, allow_damaged=allow_damaged)
+    f = get_format(fmt, opts)
+    if not f.can_export:
+        raise ConfigError(f"format '{fmt}' cannot export")
+    with damaged_warnings():
+        result = run_with_progress(f"export {fmt}", lambda p: export_dataset(f, ds, Path(out), episodes=chosen,
+                                                                             progress=p))
     console().print(f"exported {result.get('episodes')} episodes to {out} ({fmt})", markup=False)
     for key, value in result.items():
         if key not in ("episodes", "path"):

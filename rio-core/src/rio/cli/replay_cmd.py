@@ -1,4 +1,7 @@
-"""`rio replay DATASET --episode K --station STATION`: play recorded actions back at the recorded rate."""
+"""`rio replay DATASET --episode K --station STATION`: play recorded actions back at the recorded rate.
+
+A damaged episode (a file differing from its recorded sha256) is refused before the robot moves;
+`--allow-damaged` replays it anyway, with a warning."""
 
 from __future__ import annotations
 
@@ -6,23 +9,33 @@ from typing import Annotated
 
 import typer
 
-from .run_cmd import JsonOption, ProfileOption
+from .args import known_station, non_negative, not_empty, positive
+from .run_cmd import JsonOption, MiddlewareOption, ProfileOption
 
 
 def replay(
-    dataset: Annotated[str, typer.Argument(help="Native RIO dataset directory.")],
-    station: Annotated[str, typer.Option("--station", "-s", help="Station name or .toml path (same morphology).")],
-    episode: Annotated[int, typer.Option("--episode", "-e", help="Episode index.")] = 0,
-    middleware: Annotated[str | None, typer.Option("--middleware", "-m", help="Use this middleware instead.")] = None,
-    speed: Annotated[float, typer.Option("--speed", help="Playback speed (1 = as recorded).")] = 1.0,
-    approach_s: Annotated[float, typer.Option("--approach", help="Seconds to move to the first action.")] = 2.0,
+    dataset: Annotated[str, typer.Argument(callback=not_empty, help="Native RIO dataset directory.")],
+    station: Annotated[str, typer.Option("--station", "-s", callback=known_station,
+                                         help="Station name or .toml path (same morphology).")],
+    episode: Annotated[int, typer.Option("--episode", "-e", min=0, help="Episode index.")] = 0,
+    middleware: MiddlewareOption = None,
+    speed: Annotated[float, typer.Option("--speed", callback=positive,
+                                         help="Playback speed (1 = as recorded).")] = 1.0,
+    approach_s: Annotated[float, typer.Option("--approach", callback=non_negative,
+                                              help="Seconds to move to the first action.")] = 2.0,
+    allow_damaged: Annotated[bool, typer.Option("--allow-damaged",
+                                                help="Replay an episode whose files fail their sha256.")] = False,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
 ) -> None:
     """Replay an episode's actions on a station (checks the morphology and action layout first)."""
+    from ..recording import Dataset
     from ..recording.replay import replay_episode
+    from .datasets_cmd import damaged_warnings
     from .run_cmd import finish
 
-    summary = replay_episode(dataset, episode, station, middleware=middleware, speed=speed, approach_s=approach_s,
-                             profile=profile, log=lambda m: typer.echo(m, err=True))
+    with damaged_warnings():
+        summary = replay_episode(Dataset(dataset, allow_damaged=allow_damaged), episode, station,
+                                 middleware=middleware, speed=speed, approach_s=approach_s, profile=profile,
+                                 log=lambda m: typer.echo(m, err=True))
     finish(summary, json_out)

@@ -2,18 +2,21 @@
 
 - `Recorder`: Steps of a control loop into the native, crash-safe layout (`paths` documents it);
   camera streams are video-encoded by a separate process while recording.
-- `Dataset` / `Episode`: read it back (columns, decoded frames, rebuilt `Step`s).
+- `Dataset` / `Episode`: read it back (columns, decoded frames, rebuilt `Step`s); damaged files are
+  refused (`DamagedEpisode`) unless `allow_damaged=True`.
 - `repair_dataset`: turn what a crash left into finished episodes, rebuild the index.
+- `export_dataset`: export through a format, leaving no partial output behind when it fails.
 - `replay_episode`: play an episode's actions back on any station of the same morphology.
 - `DatasetFormat` / `get_format`: export and import through plugins' `rio_dataset_formats` hook.
 """
 
-from .dataset import Dataset, DatasetError, Episode
-from .recorder import Recorder, RecordingError
+from .dataset import DamagedEpisode, DamagedEpisodeWarning, Dataset, DatasetError, Episode
+from .recorder import DiskFull, Recorder, RecordingError
 from .video import VideoOptions
 
-__all__ = ["Recorder", "RecordingError", "Dataset", "DatasetError", "Episode", "VideoOptions",
-           "repair_dataset", "replay_episode", "DatasetFormat", "get_format"]
+__all__ = ["Recorder", "RecordingError", "DiskFull", "Dataset", "DatasetError", "DamagedEpisode",
+           "DamagedEpisodeWarning", "Episode", "VideoOptions", "repair_dataset", "replay_episode", "DatasetFormat",
+           "get_format", "export_dataset"]
 
 
 def __getattr__(name: str):
@@ -25,7 +28,7 @@ def __getattr__(name: str):
         from .replay import replay_episode
 
         return replay_episode
-    if name in ("DatasetFormat", "get_format"):
+    if name in ("DatasetFormat", "get_format", "export_dataset"):
         from . import format as F
 
         return getattr(F, name)

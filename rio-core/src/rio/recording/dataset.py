@@ -5,22 +5,30 @@
     ep = ds.episode(0)
     ep.columns["action"]          # (T, action_dim), exactly as recorded
     for rgb in ep.step_frames("front"): ...   # one frame per step (the frame that step saw)
+
+Reading refuses damaged data: before a file's contents are first used it is checked against the size
+and sha256 its episode.json recorded, and a mismatch raises `DamagedEpisode` naming the episode and
+file (an all-zero steps.bin must never reach an export or a robot as zero actions). `allow_damaged=True`
+reads it anyway, with one `DamagedEpisodeWarning` per episode. Damaged metadata (dataset.json,
+episode.json, steps.json) is a one-line ConfigError naming the file.
 """
 
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..errors import RioError
+from ..errors import ConfigError, RioError
 from ..schema import Camera, Step
 from . import index as I
 from . import paths as L
-from .durable import sha256_file
+from .durable import read_json, sha256_file
 from .episode_writer import FRAME_RECORD
 from .flatten import StepSchema
 from .video import read_frames
@@ -30,18 +38,52 @@ class DatasetError(RioError):
     pass
 
 
+class DamagedEpisode(DatasetError):
+    """An episode's files differ from the sizes and sha256 its episode.json recorded."""
+
+    def __init__(self, path: Path, problems: list[str]):
+        self.path, self.problems = Path(path), list(problems)
+        super().__init__(f"{self.path}: damaged episode: {'; '.join(self.problems)} (refused; "
+                         "--allow-damaged / allow_damaged=True uses it anyway)")
+
+
+class DamagedEpisodeWarning(UserWarning):
+    """A damaged episode read anyway (allow_damaged=True)."""
+
+
+@dataclass
+class Verification:
+    """What was checked of one episode's files (name -> problem or None), shared by the Episode
+    objects one Dataset hands out, so a file is hashed once however often it is read."""
+
+    results: dict[str, str | None] = field(default_factory=dict)
+    warned: bool = False
+
+
+def load_schema(path: Path) -> StepSchema:
+    """An episode directory's steps.json; damaged is one ConfigError naming it."""
+    schema_path = path / L.STEPS_SCHEMA
+    raw = read_json(schema_path)
+    try:
+        return StepSchema.from_json(raw)
+    except (KeyError, TypeError, ValueError) as e:
+        raise ConfigError(f"{schema_path}: damaged (not a step layout: {type(e).__name__}: {e})") from None
+
+
 class Episode:
-    def __init__(self, path: Path, meta: dict[str, Any] | None = None):
+    def __init__(self, path: Path, meta: dict[str, Any] | None = None, *, allow_damaged: bool = False,
+                 verification: Verification | None = None):
         self.path = Path(path)
         self.partial = self.path.name.endswith(L.PARTIAL_SUFFIX)
-        meta_path = self.path / L.EPISODE_META
         if meta is None:
-            if not meta_path.exists():
+            if not (self.path / L.EPISODE_META).exists():
                 raise DatasetError(f"{self.path} is not a finished episode (no {L.EPISODE_META}); "
                                    "run `rio datasets repair` on its dataset")
-            meta = json.loads(meta_path.read_text())
+            meta = I.load_episode_meta(self.path)
         self.meta = meta
-        self.schema = StepSchema.from_json(json.loads((self.path / L.STEPS_SCHEMA).read_text()))
+        self.schema = load_schema(self.path)
+        self.allow_damaged = allow_damaged
+        self.verification = verification or Verification()
         self._columns: np.ndarray | None = None
 
     @property
@@ -75,6 +117,7 @@ class Episode:
     def columns(self) -> np.ndarray:
         """All steps as one structured array (field names: see `rio.recording.flatten`)."""
         if self._columns is None:
+            self.require_intact(L.STEPS_SCHEMA, L.STEPS)
             data = np.fromfile(self.path / L.STEPS, self.schema.dtype, count=self.length)
             if len(data) != self.length:
                 raise DatasetError(f"{self.path / L.STEPS}: {len(data)} steps, episode.json says {self.length}")
@@ -92,6 +135,7 @@ class Episode:
         out = []
         path = self.path / L.EVENTS
         if path.exists():
+            self.require_intact(L.EVENTS)
             for line in path.read_text().splitlines():
                 try:
                     out.append(json.loads(line))
@@ -118,11 +162,13 @@ class Episode:
     def frame_times(self, camera: str, kind: str = "rgb") -> np.ndarray:
         """(N,) records (t: capture time, step: first step that saw the frame)."""
         info = self.stream(camera, kind)
+        self.require_intact(info["frames_file"])
         return np.fromfile(self.path / info["frames_file"], FRAME_RECORD, count=info["frames"])
 
     def frames(self, camera: str, kind: str = "rgb") -> Iterator[np.ndarray]:
         """Every encoded frame of a stream, in order (depth: uint16 in `depth_unit_m` units)."""
         info = self.stream(camera, kind)
+        self.require_intact(info["file"])
         yield from read_frames(self.path / info["file"], kind, info["height"], info["width"])
 
     def step_frame_index(self, camera: str, kind: str = "rgb") -> np.ndarray:
@@ -167,29 +213,68 @@ class Episode:
             meta.setdefault("t_obs", float(rec["t"]))
             yield Step(int(rec["timestep"]), self.schema.observation(rec, cams), instr[i], action, meta)
 
+    # -- integrity ----------------------------------------------------------------------------------
+    def file_problem(self, name: str) -> str | None:
+        """Why file `name` differs from what episode.json recorded (None: intact, or not recorded)."""
+        want = self.meta.get("files", {}).get(name)
+        p = self.path / name
+        if not isinstance(want, dict):
+            return None
+        if not p.exists():
+            return f"{name}: missing"
+        if p.stat().st_size != want.get("bytes") or sha256_file(p) != want.get("sha256"):
+            return f"{name}: changed since it was recorded"
+        return None
+
     def verify(self) -> list[str]:
         """Files whose size or sha256 differ from episode.json (empty: the episode is intact)."""
-        bad = []
-        for name, want in self.meta.get("files", {}).items():
-            p = self.path / name
-            if not p.exists():
-                bad.append(f"{name}: missing")
-            elif p.stat().st_size != want["bytes"] or sha256_file(p) != want["sha256"]:
-                bad.append(f"{name}: changed since it was recorded")
-        return bad
+        return [bad for name in self.meta.get("files", {}) if (bad := self.file_problem(name))]
+
+    def require_intact(self, *names: str) -> None:
+        """Refuse to read damaged data: files `names` (default: all of them) are checked once against
+        episode.json; a mismatch raises DamagedEpisode naming them, or with `allow_damaged` warns once."""
+        results = self.verification.results
+        for name in names or tuple(self.meta.get("files", {})):
+            if name not in results:
+                results[name] = self.file_problem(name)
+        bad = [p for n in (names or results) if (p := results.get(n))]
+        if not bad:
+            return
+        if not self.allow_damaged:
+            raise DamagedEpisode(self.path, bad)
+        if not self.verification.warned:
+            self.verification.warned = True
+            warnings.warn(DamagedEpisodeWarning(f"{self.path}: damaged episode used anyway: {'; '.join(bad)}"),
+                          stacklevel=2)
+
+    def check(self) -> None:
+        """`require_intact` for every file: what export and replay call before using an episode."""
+        self.require_intact()
+
+
+def episode_problems(path: Path) -> list[str]:
+    """What is wrong with a finished episode directory: its metadata cannot be read, or files differ
+    from what episode.json recorded (empty: intact). Never raises, so a report covers every episode."""
+    try:
+        return Episode(path).verify()
+    except RioError as e:
+        return [str(e)]
 
 
 class Dataset:
-    """A native dataset directory (`dataset.json` + episode directories)."""
+    """A native dataset directory (`dataset.json` + episode directories). Reading a damaged episode's
+    data raises DamagedEpisode unless `allow_damaged` (see the module docstring)."""
 
-    def __init__(self, root: str | Path):
+    def __init__(self, root: str | Path, *, allow_damaged: bool = False):
         self.root = Path(root)
+        self.allow_damaged = allow_damaged
         if not (self.root / L.INDEX).exists():
             if not self.root.is_dir():
                 raise DatasetError(f"no dataset at {self.root}")
             if not any(L.scan(self.root)):
                 raise DatasetError(f"{self.root} is not a RIO dataset (no {L.INDEX})")
         self.index = I.load(self.root)
+        self._verification: dict[int, Verification] = {}
 
     @property
     def episodes(self) -> list[dict[str, Any]]:
@@ -202,23 +287,36 @@ class Dataset:
     def fps(self) -> float | None:
         return self.index.get("fps")
 
+    def _open(self, entry: dict[str, Any]) -> Episode:
+        v = self._verification.setdefault(entry["index"], Verification())
+        return Episode(self.root / entry["dir"], allow_damaged=self.allow_damaged, verification=v)
+
     def episode(self, k: int) -> Episode:
         """Episode by its index (the number in its directory name)."""
         for e in self.episodes:
             if e["index"] == k:
-                return Episode(self.root / e["dir"])
+                return self._open(e)
         raise DatasetError(f"{self.root}: no episode {k} (episodes: {[e['index'] for e in self.episodes]})")
 
     def __iter__(self) -> Iterator[Episode]:
         for e in self.episodes:
-            yield Episode(self.root / e["dir"])
+            yield self._open(e)
+
+    def damaged(self) -> dict[str, list[str]]:
+        """{episode directory: problems} for every indexed episode that is not intact (hashes every file)."""
+        out = {}
+        for e in self.episodes:
+            if bad := episode_problems(self.root / e["dir"]):
+                out[e["dir"]] = bad
+        return out
 
     def partials(self) -> list[Path]:
         return [p for p, partial in L.scan(self.root).values() if partial]
 
     def summary(self) -> dict[str, Any]:
         eps = self.episodes
-        size = sum(f.stat().st_size for e in eps for f in (self.root / e["dir"]).iterdir() if f.is_file())
+        dirs = [self.root / e["dir"] for e in eps]
+        size = sum(f.stat().st_size for d in dirs if d.is_dir() for f in d.iterdir() if f.is_file())
         cams = sorted({k for e in eps for k in e.get("cameras", {})})
         return {"path": str(self.root), "episodes": len(eps), "steps": self.index.get("total_steps", 0),
                 "fps": self.fps, "station": self.index.get("station"), "embodiment": self.index.get("embodiment"),

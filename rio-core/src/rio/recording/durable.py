@@ -1,4 +1,5 @@
-"""Durability primitives: fsync files and directories, replace a JSON file atomically, hash files.
+"""Durability primitives: fsync files and directories, replace a JSON file atomically, read one
+back (a damaged file is one error naming it), hash files, move something aside without deleting it.
 
 A rename is atomic but not durable until the directory holding it is fsynced; a file's bytes are
 not durable until the file is. Everything the recorder calls "finished" went through these.
@@ -6,11 +7,18 @@ not durable until the file is. Everything the recorder calls "finished" went thr
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import os
+import time
 from pathlib import Path
 from typing import Any
+
+from ..errors import ConfigError
+
+#: os.write errors that mean "no space left" (a full disk, or the user's quota)
+DISK_FULL_ERRNOS = (errno.ENOSPC, errno.EDQUOT)
 
 
 def fsync_file(path: str | os.PathLike) -> None:
@@ -48,6 +56,38 @@ def write_json_atomic(path: str | os.PathLike, obj: Any) -> None:
         os.close(fd)
     os.replace(tmp, path)
     fsync_dir(path.parent)
+
+
+def read_json(path: str | os.PathLike) -> Any:
+    """A JSON file's contents. Anything that cannot be read as JSON (torn, zeroed, not UTF-8, nested too
+    deeply, unreadable) is one ConfigError naming the file, so no dataset command ends in a traceback."""
+    path = Path(path)
+    try:
+        return json.loads(path.read_bytes())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: missing") from None
+    except OSError as e:
+        raise ConfigError(f"{path}: cannot be read ({e.strerror or e})") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: damaged (nested too deeply to be RIO metadata)") from None
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"{path}: damaged (not UTF-8 text at byte {e.start})") from None
+    except json.JSONDecodeError as e:
+        raise ConfigError(f"{path}: damaged (not valid JSON: {e.msg} at line {e.lineno}, column {e.colno})") from None
+
+
+def move_aside(path: Path, folder: Path, name: str | None = None) -> Path:
+    """Move `path` into `folder` (created if needed) as `NAME-YYYYmmdd-HHMMSS[~k]`, a name no earlier
+    move used, and make it durable. How the recorder discards and repair quarantines: never a delete."""
+    folder.mkdir(exist_ok=True)
+    base = f"{name or path.name}-{time.strftime('%Y%m%d-%H%M%S')}"
+    dest, k = folder / base, 1
+    while dest.exists():
+        dest, k = folder / f"{base}~{k}", k + 1
+    os.rename(path, dest)
+    fsync_dir(path.parent)
+    fsync_dir(folder)
+    return dest
 
 
 def sha256_file(path: str | os.PathLike, chunk: int = 1 << 20) -> str:

@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import clock
 from . import paths as L
-from .durable import AppendFile, describe_files, fsync_dir, write_json_atomic
+from .durable import AppendFile, describe_files, fsync_dir, move_aside, write_json_atomic
 from .encoder import EncoderProcess
 from .flatten import StepSchema, flat_meta
 from .video import VideoOptions
@@ -267,15 +267,23 @@ class EpisodeWriter:
         if not keep_copy or self.length == 0:
             shutil.rmtree(self.dir, ignore_errors=True)
             return None
-        trash = self.root / L.DISCARDED
-        trash.mkdir(exist_ok=True)
-        dest = trash / f"{L.episode_dir_name(self.index)}-{time.strftime('%Y%m%d-%H%M%S')}"
-        k = 1
-        while dest.exists():
-            dest, k = dest.with_name(f"{dest.name.split('~')[0]}~{k}"), k + 1
-        os.rename(self.dir, dest)
-        fsync_dir(self.root)
-        return dest
+        return move_aside(self.dir, self.root / L.DISCARDED, L.episode_dir_name(self.index))
+
+    def leave_partial(self) -> Path:
+        """Stop writing and leave the `.partial` directory as it is, for `rio datasets repair` (what the
+        recorder does when the disk is full: finishing would need space there is not). Never raises."""
+        if self.streams:
+            try:
+                self.encoder.abort_streams(list(self.streams))  # the encoder closes its files, deletes nothing
+            except Exception:  # noqa: BLE001 - the episode is left for repair whatever the encoder does
+                pass
+        for f in [self.steps, self.events, *(s.file for s in self.streams.values())]:
+            if f is not None:
+                try:
+                    f.close(sync=True)
+                except OSError:
+                    pass
+        return self.dir
 
 
 def seal(root: Path, partial: Path, meta: dict[str, Any]) -> Path:

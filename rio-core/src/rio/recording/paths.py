@@ -15,6 +15,8 @@
         front.depth.mkv             depth in integer units (default 1 mm), FFV1, lossless
       episode_000001.partial/       the episode being recorded (or left by a crash: repair it)
       .discarded/                   discarded episodes, kept until the user deletes them
+      .quarantine/                  what `rio datasets repair` could not use (unreadable metadata, an
+                                    interrupted episode with no usable step): moved here, never deleted
 
 A file appended while recording is only ever appended to, in whole records, so whatever a crash
 leaves is a readable prefix; `rio datasets repair` turns it into a finished episode.
@@ -31,6 +33,7 @@ VERSION = 1
 INDEX = "dataset.json"
 LOCK = ".lock"
 DISCARDED = ".discarded"
+QUARANTINE = ".quarantine"
 PARTIAL_SUFFIX = ".partial"
 
 EPISODE_META = "episode.json"
@@ -54,6 +57,13 @@ def parse_episode_dir(name: str) -> tuple[int, bool] | None:
     """(index, is_partial) for an episode directory name, else None."""
     m = _EPISODE_RE.match(name)
     return (int(m.group(1)), m.group(2) is not None) if m else None
+
+
+def set_aside_index(name: str) -> int | None:
+    """The episode index of an entry of .discarded/ or .quarantine/ ('episode_000003.partial-20240101-120000'),
+    so a new episode never reuses its number."""
+    parsed = parse_episode_dir(name.split("-")[0])
+    return parsed[0] if parsed else None
 
 
 def stream_key(camera: str, kind: str) -> str:

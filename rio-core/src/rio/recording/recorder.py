@@ -9,11 +9,18 @@
 separate, lower-priority process, so it never blocks the control loop, and `keep` (flush the
 encoders, fsync, rename, rewrite the index) takes well under a second. One recorder at a time may
 write a dataset (an flock on DATASET/.lock, released even if the process is killed).
+
+Disk space is checked before each episode starts and about once a second while recording
+(`free_bytes`). Below `min_free_bytes` the episode in progress is kept (finishing it needs a little
+space, hence the margin) and `DiskFull` raised; if a write fails for lack of space (ENOSPC), the
+episode is left as `episode_N.partial` for `rio datasets repair`. Either way: one error naming the
+dataset and the space left, never a chain of tracebacks, and nothing already written is lost.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 import threading
 import time
 from pathlib import Path
@@ -23,13 +30,34 @@ from .. import host
 from ..errors import RioError
 from . import index as I
 from . import paths as L
+from .durable import DISK_FULL_ERRNOS
 from .encoder import EncoderProcess
 from .episode_writer import EpisodeWriter
 from .video import VideoOptions, video_problem
 
+#: free space below which no episode starts and one in progress is ended (kept while it still can be)
+MIN_FREE_BYTES = 64 << 20
+
 
 class RecordingError(RioError):
     pass
+
+
+class DiskFull(RecordingError):
+    """The dataset's disk is (nearly) full: recording stopped, what was written is kept or repairable."""
+
+
+def free_bytes(path: str | os.PathLike) -> int:
+    """Free space for the dataset at `path` (the probe the recorder checks; tests replace it)."""
+    return shutil.disk_usage(path).free
+
+
+def _size(n: int) -> str:
+    return f"{n / 1e6:.1f} MB" if n < 10**9 else f"{n / 1e9:.2f} GB"
+
+
+def _disk_full(err: BaseException) -> bool:
+    return isinstance(err, OSError) and err.errno in DISK_FULL_ERRNOS
 
 
 class Recorder:
@@ -37,7 +65,8 @@ class Recorder:
                  video: VideoOptions | dict | str | None = None, camera_fps: float | dict[str, float] | None = None,
                  episodes: int | None = None, instruction: str | None = None, metadata: dict | None = None,
                  station: str | None = None, on_exit: str = "keep", keep_discarded: bool = True,
-                 buffer_frames: int = 60, encoder_nice: int = 10, cameras: bool | None = None):
+                 buffer_frames: int = 60, encoder_nice: int = 10, cameras: bool | None = None,
+                 min_free_bytes: int = MIN_FREE_BYTES):
         """
         root:        dataset directory (created if missing; new episodes are appended)
         fps:         the control rate the steps arrive at (default: `env.rate_hz`)
@@ -48,6 +77,7 @@ class Recorder:
         on_exit:     what leaving the `with` block does to an episode in progress: "keep" or "discard"
         cameras:     whether camera streams will be recorded (default: whether `env` has cameras); when
                      true, `open()` refuses if they could not be encoded (PyAV or its encoder missing)
+        min_free_bytes: free disk space below which recording stops (DiskFull), keeping what was written
         """
         self.root = Path(root)
         if fps is None and env is not None:
@@ -62,6 +92,8 @@ class Recorder:
         self.camera_fps, self.target, self.instruction = camera_fps, episodes, instruction
         self.metadata, self.on_exit, self.keep_discarded = dict(metadata or {}), on_exit, keep_discarded
         self.buffer_frames, self.encoder_nice = buffer_frames, encoder_nice
+        self.min_free_bytes = int(min_free_bytes)
+        self._space_every = max(1, round(self.fps))  # steps between free-space checks (about a second)
         self.info: dict[str, Any] = {"station": station}
         self.action_dim: int | None = None
         if cameras is None and env is not None:
@@ -122,7 +154,7 @@ class Recorder:
             try:
                 if self.writer is not None:
                     if self.on_exit == "keep" and self.writer.length > 0:
-                        self.keep(ended_by=f"recorder closed ({reason})" if reason else "recorder closed")
+                        self._keep_or_leave(ended_by=f"recorder closed ({reason})" if reason else "recorder closed")
                     else:
                         self.discard()
             finally:
@@ -135,12 +167,12 @@ class Recorder:
 
     # -- episodes -----------------------------------------------------------------------------------
     def next_index(self) -> int:
-        """Never reuses a number, not even a discarded episode's (its copy in .discarded/ keeps it)."""
+        """Never reuses a number, not even a discarded or quarantined episode's (its copy keeps it)."""
         assert self.index is not None  # read by open()
         used = set(L.scan(self.root)) | {e["index"] for e in self.index["episodes"]}
-        trash = self.root / L.DISCARDED
-        if trash.is_dir():
-            used |= {p[0] for p in (L.parse_episode_dir(d.name.split("-")[0]) for d in trash.iterdir()) if p}
+        for aside in (self.root / L.DISCARDED, self.root / L.QUARANTINE):
+            if aside.is_dir():
+                used |= {k for k in (L.set_aside_index(d.name) for d in aside.iterdir()) if k is not None}
         return max(used) + 1 if used else 0
 
     def start_episode(self, instruction: str | None = None, metadata: dict | None = None) -> int:
@@ -155,10 +187,20 @@ class Recorder:
             if not self.encoder.alive():
                 raise RecordingError(f"the encoder process died ({self.encoder.exit_reason()}); close this recorder "
                                      "and start a new one")
-            self.writer = EpisodeWriter(
-                self.root, self.next_index(), self.encoder, fps=self.fps, video=self.video,
-                camera_fps=self.camera_fps, instruction=instruction or self.instruction, info=self.info,
-                action_dim=self.action_dim, buffer_frames=self.buffer_frames)
+            free = free_bytes(self.root)
+            if free < self.min_free_bytes:
+                raise DiskFull(f"{self.root}: not starting an episode: {_size(free)} free on its disk, the recorder "
+                               f"needs {_size(self.min_free_bytes)}; free some space")
+            try:
+                self.writer = EpisodeWriter(
+                    self.root, self.next_index(), self.encoder, fps=self.fps, video=self.video,
+                    camera_fps=self.camera_fps, instruction=instruction or self.instruction, info=self.info,
+                    action_dim=self.action_dim, buffer_frames=self.buffer_frames)
+            except OSError as e:
+                if not _disk_full(e):
+                    raise
+                raise DiskFull(f"{self.root}: not starting an episode: the disk is full "
+                               f"({_size(free_bytes(self.root))} free); free some space") from None
             self._episode_metadata = {**self.metadata, **(metadata or {})}
             return self.writer.index
 
@@ -168,7 +210,48 @@ class Recorder:
             if self.writer is None:
                 self.start_episode()
             assert self.writer is not None  # made by start_episode()
-            self.writer.add(step)
+            try:
+                self.writer.add(step)
+            except OSError as e:
+                if not _disk_full(e):
+                    raise
+                self._stop_on_full_disk(keep=False)
+            if self.writer.length % self._space_every == 0 and free_bytes(self.root) < self.min_free_bytes:
+                self._stop_on_full_disk(keep=True)
+
+    def _stop_on_full_disk(self, keep: bool) -> None:
+        """End the episode in progress because the disk is (nearly) full, and raise DiskFull saying
+        where it is: kept if `keep` and finishing it still fits, else left `.partial` for repair."""
+        assert self.writer is not None
+        index, steps = self.writer.index, self.writer.length
+        where = self._keep_or_leave("disk almost full") if keep else self._leave_partial()
+        raise DiskFull(f"{self.root}: the disk is full ({_size(free_bytes(self.root))} free, the recorder needs "
+                       f"{_size(self.min_free_bytes)}): recording stopped; episode {index} ({steps} steps) {where}"
+                       ) from None  # the OSError (ENOSPC) it replaces says less: no chained traceback
+
+    def _keep_or_leave(self, ended_by: str) -> str:
+        """keep() the episode in progress; if the disk fills while finishing it, leave it for repair
+        and raise DiskFull (not the OSError). Returns where the episode is, in words."""
+        assert self.writer is not None
+        w = self.writer
+        try:
+            meta = self.keep(ended_by=ended_by)
+        except OSError as e:
+            if not _disk_full(e):
+                raise
+            self.writer = w
+            raise DiskFull(f"{self.root}: the disk filled up while finishing episode {w.index} "
+                           f"({_size(free_bytes(self.root))} free): it {self._leave_partial()}") from None
+        return f"was kept as {meta['dir']}" if meta else "had no step and was dropped"
+
+    def _leave_partial(self) -> str:
+        """Leave the episode in progress as its .partial directory (repairable); where it is, in words."""
+        assert self.writer is not None
+        w, self.writer = self.writer, None
+        path = w.leave_partial()
+        if not path.name.endswith(L.PARTIAL_SUFFIX):  # the disk filled after it was sealed: only the index is behind
+            return f"was kept as {L.episode_dir_name(w.index)}; `rio datasets repair {self.root}` updates the index"
+        return f"was left as {path.name}: free some space, then run `rio datasets repair {self.root}`"
 
     def keep(self, metadata: dict | None = None, *, ended_by: str = "keep") -> dict[str, Any] | None:
         """Finish the episode in progress: durable, renamed into place, indexed. Returns its

@@ -4,11 +4,13 @@ Written against `make_station` and `Env` only, so it runs on simulated and real 
 middleware. The robot first moves to the episode's first action over `approach_s` seconds (never a
 jump), then `EpisodeReplay` runs on the one control loop at the recording's rate (times `speed`):
 each tick commands the recorded action trajectory at the tick's target time, each action meeting
-the time it was recorded for, so drivers interpolate exactly as during recording.
+the time it was recorded for, so drivers interpolate exactly as during recording. A damaged episode
+(files differing from their recorded sha256) is refused before the robot moves, unless `allow_damaged`.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -17,8 +19,8 @@ import numpy as np
 from .. import clock
 from ..control.loop import Tick
 from ..control.summary import RunSummary
-from ..errors import RioError
-from .dataset import Dataset
+from ..errors import ConfigError, RioError
+from .dataset import Dataset, Episode
 
 
 def check_compatible(meta: dict[str, Any], env: Any, action_dim: int) -> None:
@@ -85,14 +87,30 @@ class EpisodeReplay:
                              f"{self.recorded_seconds:.1f} s, replayed at speed {self.speed:g}")
 
 
+def check_timing(speed: float, approach_s: float) -> None:
+    """Refuse a speed or approach time the loop cannot run at (0, negative, NaN, infinite)."""
+    if not (math.isfinite(speed) and speed > 0):
+        raise ConfigError(f"replay speed must be a finite number > 0 (got {speed:g})")
+    if not (math.isfinite(approach_s) and approach_s >= 0):
+        raise ConfigError(f"approach time must be a finite number of seconds >= 0 (got {approach_s:g})")
+
+
+def open_episode(dataset: Any, episode: int, allow_damaged: bool = False) -> Episode:
+    """The episode to replay, verified: a damaged one raises DamagedEpisode (unless allowed)."""
+    ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
+    ep = ds.episode(episode)
+    ep.allow_damaged = ep.allow_damaged or allow_damaged
+    ep.check()
+    return ep
+
+
 def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str | None = None, speed: float = 1.0,
                    approach_s: float = 2.0, on_tick: Callable[[Tick], None] | None = None, profile: str | None = None,
-                   log: Callable[[str], None] | None = print) -> RunSummary:
+                   log: Callable[[str], None] | None = print, allow_damaged: bool = False) -> RunSummary:
     from ..control.workflow import run_workflow
 
-    if speed <= 0:
-        raise ValueError("speed must be > 0")
-    ep = (dataset if isinstance(dataset, Dataset) else Dataset(dataset)).episode(episode)
+    check_timing(speed, approach_s)
+    ep = open_episode(dataset, episode, allow_damaged)
     if "action" not in ep.schema.names:
         raise RioError(f"episode {episode} recorded no actions; nothing to replay")
     actions, t = ep.column("action").astype(np.float64), ep.column("t")
