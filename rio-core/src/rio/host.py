@@ -20,6 +20,7 @@ from __future__ import annotations
 import hashlib
 import os
 import platform
+import signal
 import sys
 import tempfile
 import threading
@@ -167,13 +168,24 @@ def pid_alive(pid: int) -> bool:
     return not _zombie(pid)
 
 
+def pid_namespace() -> str:
+    """An id of this process's pid namespace ("" where there is none: macOS, Windows). Two processes
+    that share /dev/shm need not share pids (a container run with `--ipc=host`): a pid recorded by the
+    other namespace says nothing about liveness here, so sweepers leave its runs alone."""
+    if sys.platform != "linux":
+        return ""
+    try:
+        return str(os.stat("/proc/self/ns/pid").st_ino)
+    except OSError:
+        return ""
+
+
 def exit_with_parent(parent_pid: int) -> None:
     """SIGTERM this process once `parent_pid`, the process that started it, is gone: a helper process (a
     node, an emulator) must never outlive a parent killed before it could clean up; an orphan keeps its
     ports and shared memory, and the next run finds them taken. Linux: the kernel's PR_SET_PDEATHSIG (it
     fires when the parent's *thread* that started us ends: start helpers from a thread that outlives
     them). Elsewhere: a daemon thread looks every half second."""
-    import signal
 
     def terminate() -> None:
         os.kill(os.getpid(), signal.SIGTERM)
@@ -344,7 +356,70 @@ def shm_list(prefix: str = "") -> set[str]:
     return {n for n in os.listdir(where) if n.startswith(prefix)}
 
 
+def shm_stat(name: str) -> os.stat_result | None:
+    """The entry `shm_list` lists for object `name` (its /dev/shm file, or its registry marker under the
+    fallback): its owner and when it was made, which sweepers use to leave others' and young objects
+    alone. None if it is gone."""
+    where = registry_dir() if FALLBACK else "/dev/shm"
+    try:
+        return os.stat(os.path.join(where, name))
+    except OSError:
+        return None
+
+
+def shm_size(name: str) -> int:
+    """Bytes held by object `name` (0 if it is gone or unreadable): what a sweep reports freeing."""
+    try:
+        fd = shm_open(name, readonly=True)
+    except (OSError, ConfigError):
+        return 0
+    try:
+        return os.fstat(fd).st_size
+    finally:
+        os.close(fd)
+
+
+# -- signals --------------------------------------------------------------------------------------------
+class DeferredSignals:
+    """`with DeferredSignals():` holds SIGINT, SIGTERM and SIGHUP back while the block runs, then delivers
+    the first one received, to whatever handler was in place before (KeyboardInterrupt, a `StopSignals`
+    flag, the default termination). For cleanup that must finish: `uv run` forwards the terminal's
+    Ctrl+C, so a program gets SIGINT twice, and a second KeyboardInterrupt in the middle of releasing
+    shared memory leaks what is left. Only the main thread can take signals; elsewhere this does nothing."""
+
+    def __init__(self, notice: str = ""):
+        self.notice = notice
+        self.pending: int | None = None
+        self._old: dict[int, Any] = {}
+
+    def _hold(self, signum: int, _frame: Any) -> None:
+        if self.pending is None and self.notice:
+            try:  # os.write, not print: a handler that prints while the main thread prints raises
+                os.write(2, f"{signal.Signals(signum).name}: {self.notice}\n".encode())
+            except OSError:
+                pass
+        if self.pending is None:
+            self.pending = signum
+
+    def __enter__(self) -> DeferredSignals:
+        if threading.current_thread() is threading.main_thread():
+            for name in ("SIGINT", "SIGTERM", "SIGHUP"):
+                sig = getattr(signal, name, None)
+                if sig is not None:  # Windows has no SIGHUP
+                    self._old[sig] = signal.signal(sig, self._hold)
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old if old is not None else signal.SIG_DFL)
+        self._old.clear()
+        if self.pending is not None:
+            signum, self.pending = self.pending, None
+            signal.raise_signal(signum)  # now handled as if it had arrived just after the block
+
+
 __all__ = ["FALLBACK", "WINDOWS", "describe", "yield_cpu", "shm_dir", "run_dir_base", "anonymous_memory",
            "process_exit_watch",
            "pid_alive", "exit_with_parent", "try_lock", "FileLock", "has_shared_memory", "require_shared_memory",
-           "shm_create", "shm_open", "shm_unlink", "shm_list", "registry_dir"]
+           "shm_create", "shm_open", "shm_unlink", "shm_list", "shm_stat", "shm_size", "registry_dir", "pid_namespace",
+           "DeferredSignals"]

@@ -6,13 +6,21 @@ through `ServerManager.__exit__` (closing hardware) rather than killing them mid
 that must outlive a crash (shared memory, the run directory) are created and removed by the manager,
 so a SIGKILLed child leaves nothing behind. A child whose parent dies stops itself (parent-death
 signal plus control-pipe EOF).
+
+Every way the manager's own process ends is covered too: `__exit__` (an exception, Ctrl+C) stops the
+nodes with SIGINT, SIGTERM and SIGHUP held back until the last segment is released (`uv run` sends a
+second SIGINT; it is delivered afterwards); a KeyboardInterrupt that escapes before `__exit__` runs is
+caught up by an exit hook; and a SIGKILL, which nothing in the process can see, leaves leftovers that
+the next `ServerManager` start removes (`sweep_dead_runs`, `rio.sweep`).
 """
 
 from __future__ import annotations
 
+import atexit
 import json
 import logging
 import multiprocessing as mp
+import multiprocessing.util  # noqa: F401  (its exit hook must be registered before ours: see _stop_live_managers)
 import os
 import shutil
 import signal
@@ -33,10 +41,11 @@ from .middleware.base import Middleware, NodeLayouts, machine_id
 from .node import Node
 from .ring_ref import ring_reference
 from .runtime import Dispatcher, NodeRunner
+from .sweep import MANIFEST, Swept, mark_run, sweep_dead_runs, unmark_run
 
 log = logging.getLogger("rio.manager")
-#: The file in a running station's run directory that names its nodes (read by `rio top`).
-MANIFEST = "station.json"
+# MANIFEST: the file in a running station's run directory that names its process and nodes (read by
+# `rio top`, and by sweeps to tell a live run from a dead one).
 
 N = TypeVar("N", bound=Node)
 
@@ -241,19 +250,21 @@ class _ProcessHandle:
 
     def stop(self, timeout: float) -> None:
         try:
-            self.conn.send_bytes(b"stop")
-        except OSError:
-            pass
-        self.proc.join(timeout)
-        if self.proc.is_alive():
-            log.warning("node '%s' did not stop within %.1f s; terminating", self.name, timeout)
-            self.proc.terminate()
-            self.proc.join(1.0)
-        if self.proc.is_alive():
-            self.proc.kill()
-            self.proc.join(1.0)
-        self.conn.close()
-        self.mw.release(self.resources)
+            try:
+                self.conn.send_bytes(b"stop")
+            except OSError:
+                pass
+            self.proc.join(timeout)
+            if self.proc.is_alive():
+                log.warning("node '%s' did not stop within %.1f s; terminating", self.name, timeout)
+                self.proc.terminate()
+                self.proc.join(1.0)
+            if self.proc.is_alive():
+                self.proc.kill()
+                self.proc.join(1.0)
+            self.conn.close()
+        finally:  # whatever went wrong above, the segments must not outlive the run
+            self.mw.release(self.resources)
 
 
 class ServerManager:
@@ -282,6 +293,8 @@ class ServerManager:
         #: Tags everything this manager creates (run directory, shared-memory names).
         self.run_id = uuid.uuid4().hex[:8]
         self.run_dir: str | None = None
+        self._marker: str | None = None
+        self._owner_pid = os.getpid()
         self._mws: dict[str, Middleware] = {}
 
     def _mw_for(self, spec: ServedNode) -> Middleware:
@@ -295,8 +308,15 @@ class ServerManager:
         return self._mws[mw]
 
     def __enter__(self) -> ServerManager:
-        self.run_dir = tempfile.mkdtemp(prefix=f"rio-{self.run_id}-", dir=host.run_dir_base())
+        _sweep_at_start()
+        self._owner_pid = os.getpid()
+        _LIVE.add(self)
         try:
+            # In this order, removed in the reverse one: a concurrent sweep that sees any of this run's
+            # segments also sees the marker and the manifest that say the run is alive (see rio.sweep).
+            self._marker = mark_run(self.run_id)
+            self.run_dir = tempfile.mkdtemp(prefix=f"rio-{self.run_id}-", dir=host.run_dir_base())
+            self._write_manifest(strict=True)
             for spec in self.specs:
                 mw = self._mw_for(spec)
                 if mw.process_per_node:
@@ -325,9 +345,12 @@ class ServerManager:
             _ADDRESSES[(h.mw.name, h.mw.station, h.name)] = h.address
         self._write_manifest()
 
-    def _write_manifest(self) -> None:
+    def _write_manifest(self, strict: bool = False) -> None:
         """`station.json` in the run directory: what `rio top` reads to find this station's nodes, their
-        processes and (where the middleware shares them) their ring buffers. Removed with the directory."""
+        processes and (where the middleware shares them) their ring buffers, and what sweeps read to know
+        the run is alive. Written first with no node, before any segment exists (`strict`: a run that
+        cannot say it is alive must not start), then again once every node is ready. Removed with the
+        directory."""
         if not self.run_dir:
             return
         pids = self.pids()
@@ -340,14 +363,16 @@ class ServerManager:
 
         nodes = [{"name": h.name, "middleware": h.mw.name, "pid": pids.get(h.name, os.getpid()), "ring": ring(h)}
                  for h in self.handles]
-        manifest = {"station": self.station, "run_id": self.run_id, "pid": os.getpid(), "started": time.time(),
-                    "nodes": nodes}
+        manifest = {"station": self.station, "run_id": self.run_id, "pid": os.getpid(),
+                    "pidns": host.pid_namespace(), "started": time.time(), "nodes": nodes}
         path = os.path.join(self.run_dir, MANIFEST)
         try:
             with open(path + ".tmp", "w") as f:
                 json.dump(manifest, f)
-            os.replace(path + ".tmp", path)
-        except (OSError, TypeError, ValueError) as e:  # only `rio top` needs it
+            os.replace(path + ".tmp", path)  # atomic: a reader sees the old manifest or the new one
+        except (OSError, TypeError, ValueError) as e:  # the first one says the run is alive; later ones, for `rio top`
+            if strict:
+                raise
             log.warning("could not write %s: %s", path, e)
 
     def address(self, name: str) -> dict[str, Any]:
@@ -366,17 +391,59 @@ class ServerManager:
         return pids
 
     def _stop_all(self) -> None:
-        for h in self.handles:
-            _ADDRESSES.pop((h.mw.name, h.mw.station, h.name), None)
-        for h in reversed(self.handles):
+        """Stop every node and remove everything of the run, with SIGINT, SIGTERM and SIGHUP held back
+        until done (then delivered): an interrupted stop would leak what it had not yet released."""
+        with host.DeferredSignals("stopping the nodes and releasing their resources first"):
+            for h in self.handles:
+                _ADDRESSES.pop((h.mw.name, h.mw.station, h.name), None)
+            for h in reversed(self.handles):
+                try:
+                    h.stop(self.stop_timeout)
+                except Exception:
+                    log.exception("while stopping node '%s'", h.name)
+            self.handles.clear()
+            if self.run_dir:
+                shutil.rmtree(self.run_dir, ignore_errors=True)
+                self.run_dir = None
             try:
-                h.stop(self.stop_timeout)
-            except Exception:
-                log.exception("while stopping node '%s'", h.name)
-        self.handles.clear()
-        if self.run_dir:
-            shutil.rmtree(self.run_dir, ignore_errors=True)
-            self.run_dir = None
+                unmark_run(self._marker)  # last: until now, it told sweeps this run was alive
+            except OSError as e:
+                log.warning("could not remove the run marker %s: %s", self._marker, e)
+            self._marker = None
+            _LIVE.discard(self)
 
     def __exit__(self, *exc: Any) -> None:
         self._stop_all()
+
+
+# -- after a crash ----------------------------------------------------------------------------------
+#: Managers entered and not yet stopped, for the exit hook below (held strongly: one dropped without
+#: `__exit__` still has node processes to stop).
+_LIVE: set[ServerManager] = set()
+
+
+def _stop_live_managers() -> None:
+    """At interpreter exit, stop the managers whose `__exit__` never ran: a KeyboardInterrupt that
+    arrives between a first one and the `with` block's exit escapes to the top level. Registered after
+    multiprocessing's own exit hook, so it runs first (that one waits for node processes, which would
+    otherwise wait for a stop message forever)."""
+    for mgr in list(_LIVE):
+        if mgr._owner_pid != os.getpid():
+            continue  # a forked child exiting: the station is its parent's to stop
+        log.warning("station '%s' was not stopped; stopping it at exit", mgr.station)
+        mgr._stop_all()
+
+
+atexit.register(_stop_live_managers)
+
+
+def _sweep_at_start() -> Swept | None:
+    """Remove dead runs' leftovers before starting a new run; never fails the start."""
+    try:
+        swept = sweep_dead_runs()
+    except Exception as e:  # a sweep is a courtesy: a run must start without it
+        log.warning("could not sweep dead runs: %s: %s", type(e).__name__, e)
+        return None
+    if swept:
+        log.warning(swept.summary())
+    return swept
