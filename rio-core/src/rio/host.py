@@ -380,6 +380,23 @@ def shm_size(name: str) -> int:
 
 
 # -- signals --------------------------------------------------------------------------------------------
+def catch_stop_signals(handler: Any) -> dict[int, Any]:
+    """Install `handler` for SIGINT, SIGTERM and SIGHUP (the ones this platform has: Windows has no
+    SIGHUP); returns the handlers they had, for `restore_signals`. Main thread only."""
+    old = {}
+    for name in ("SIGINT", "SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is not None:
+            old[sig] = signal.signal(sig, handler)
+    return old
+
+
+def restore_signals(old: dict[int, Any]) -> None:
+    """Put back the handlers `catch_stop_signals` returned."""
+    for sig, handler in old.items():
+        signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+
+
 class DeferredSignals:
     """`with DeferredSignals():` holds SIGINT, SIGTERM and SIGHUP back while the block runs, then delivers
     the first one received, to whatever handler was in place before (KeyboardInterrupt, a `StopSignals`
@@ -403,16 +420,12 @@ class DeferredSignals:
 
     def __enter__(self) -> DeferredSignals:
         if threading.current_thread() is threading.main_thread():
-            for name in ("SIGINT", "SIGTERM", "SIGHUP"):
-                sig = getattr(signal, name, None)
-                if sig is not None:  # Windows has no SIGHUP
-                    self._old[sig] = signal.signal(sig, self._hold)
+            self._old = catch_stop_signals(self._hold)
         return self
 
     def __exit__(self, *exc: Any) -> None:
-        for sig, old in self._old.items():
-            signal.signal(sig, old if old is not None else signal.SIG_DFL)
-        self._old.clear()
+        restore_signals(self._old)
+        self._old = {}
         if self.pending is not None:
             signum, self.pending = self.pending, None
             signal.raise_signal(signum)  # now handled as if it had arrived just after the block
@@ -422,4 +435,4 @@ __all__ = ["FALLBACK", "WINDOWS", "describe", "yield_cpu", "shm_dir", "run_dir_b
            "process_exit_watch",
            "pid_alive", "exit_with_parent", "try_lock", "FileLock", "has_shared_memory", "require_shared_memory",
            "shm_create", "shm_open", "shm_unlink", "shm_list", "shm_stat", "shm_size", "registry_dir", "pid_namespace",
-           "DeferredSignals"]
+           "DeferredSignals", "catch_stop_signals", "restore_signals"]

@@ -17,7 +17,7 @@ import signal
 import threading
 from typing import Any
 
-_NAMES = ("SIGINT", "SIGTERM", "SIGHUP")
+from .. import host
 
 
 class StopSignals:
@@ -39,16 +39,12 @@ class StopSignals:
 
     def __enter__(self) -> StopSignals:
         if self.enabled:
-            for name in _NAMES:
-                sig = getattr(signal, name, None)
-                if sig is not None:  # Windows has no SIGHUP
-                    self._old[sig] = signal.signal(sig, self._handle)
+            self._old = host.catch_stop_signals(self._handle)
         return self
 
     def __exit__(self, *exc: Any) -> None:
-        for sig, old in self._old.items():
-            signal.signal(sig, old)
-        self._old.clear()
+        host.restore_signals(self._old)
+        self._old = {}
 
     @property
     def exit_code(self) -> int:
