@@ -114,7 +114,13 @@ def pack(obj: Any) -> bytes:
 
 
 def unpack(data: bytes | memoryview) -> Any:
-    return msgpack.unpackb(data, ext_hook=_ext_hook, raw=False, strict_map_key=False)
+    """A message's value; anything malformed is a ValueError (what every server catches)."""
+    try:
+        return msgpack.unpackb(data, ext_hook=_ext_hook, raw=False, strict_map_key=False)
+    except ValueError:
+        raise
+    except Exception as e:  # e.g. a list as a map key (TypeError: unhashable), found by test_properties.py
+        raise ValueError(f"malformed message ({type(e).__name__}: {e})") from None
 
 
 # -- API call messages -------------------------------------------------------------------------------
