@@ -81,7 +81,7 @@ class _Arm:
         tool, q = np.asarray(s["eef_pose"], dtype=np.float64).copy(), np.asarray(s["joint_pos"], dtype=np.float64)
         errs = self.errors
         final = self._error(self.last_cmd, tool, q) if self.last_cmd is not None else float("nan")
-        stats = (errs.max, errs.total / len(errs), final) if len(errs) else None
+        stats = (errs.max, errs.mean, final) if errs.mean is not None else None
         g = None if self.gripper is None else float(self.gripper.get_state()["position"])
         return ArmTracking(self.role, self.space, self.start, tool,
                            self.last_cmd.copy() if self.space == "eef_pose" and self.last_cmd is not None else None,

@@ -121,10 +121,13 @@ class NetworkConfig(MiddlewareConfig):
 
     insecure: bool = Field(False, description="allow serving or connecting beyond this machine without "
                                               "authentication (anyone who reaches the port controls the node)")
+    #: Interface a node's server binds (each middleware says more on its own `host`).
+    host: str = "127.0.0.1"
 
     def exposed(self) -> list[str]:
-        """The non-loopback addresses this config binds or connects to (each middleware says which)."""
-        return []
+        """The non-loopback addresses this config binds or connects to: its `host` (a middleware that
+        also connects out, like zenoh to its routers, adds those)."""
+        return [] if is_loopback(self.host) else [self.host]
 
     @model_validator(mode="after")
     def _loopback_unless_insecure(self) -> NetworkConfig:

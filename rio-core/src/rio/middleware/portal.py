@@ -55,7 +55,6 @@ from .base import (
     NetworkConfig,
     NodeLayouts,
     ServerTransport,
-    is_loopback,
     local_process_watch,
     warn_if_exposed,
 )
@@ -541,9 +540,6 @@ class PortalMiddleware(Middleware):
         max_batch_bytes: int = Field(default=8 * 1024 * 1024, ge=1)
         #: Requests a client may have unacknowledged before `send_request` waits (back-pressure).
         max_inflight_requests: int = Field(default=64, ge=1)
-
-        def exposed(self) -> list[str]:
-            return [] if is_loopback(self.host) else [self.host]
 
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> PortalServer:
         return PortalServer(node, layouts, self.config)

@@ -535,7 +535,7 @@ class ZenohMiddleware(Middleware):
         heartbeat_timeout: float = 0.5
 
         def exposed(self) -> list[str]:
-            out = [] if self.mode == "client" or is_loopback(self.host) else [self.host]
+            out = [] if self.mode == "client" else super().exposed()  # a client-mode server binds nothing
             return out + [e for e in self.connect if not is_loopback(e)]
 
     def _prefix(self, node: Node) -> str:

@@ -48,7 +48,6 @@ from .base import (
     NetworkConfig,
     NodeLayouts,
     ServerTransport,
-    is_loopback,
     local_process_watch,
     warn_if_exposed,
 )
@@ -452,9 +451,6 @@ class ZmqMiddleware(Middleware):
         #: Largest message (API call or request) a node accepts; a peer sending more is disconnected
         #: before anything is allocated. Raised to fit the node's request record where that is larger.
         max_message_bytes: int = Field(4 << 20, ge=1024)
-
-        def exposed(self) -> list[str]:
-            return [] if is_loopback(self.host) else [self.host]
 
     def make_server(self, node: Node, layouts: NodeLayouts, resources: dict[str, Any]) -> ZmqServer:
         return ZmqServer(node, layouts, self.config)
