@@ -21,10 +21,9 @@ import pytest
 from evdev import AbsInfo, InputEvent
 from evdev import ecodes as e
 from rio.conformance.drivers import TeleopConformance
-from rio.control.teleop import BUTTON_DONE, BUTTON_MODE
+from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, BUTTON_MODE
 from rio.errors import RioError
 from rio_teleop.gamepad.driver import GamepadTeleop
-from rio_teleop.twist_device import BUTTON_DISCARD, BUTTON_KEEP
 
 STICK16 = AbsInfo(0, -32768, 32767, 16, 128, 0)
 HAT = AbsInfo(0, -1, 1, 0, 0, 0)

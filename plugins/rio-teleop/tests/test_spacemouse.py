@@ -21,10 +21,9 @@ import numpy as np
 import pyspacemouse.api
 import pytest
 from rio.conformance.drivers import TeleopConformance
-from rio.control.teleop import BUTTON_DONE, BUTTON_MODE
+from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, BUTTON_MODE
 from rio.errors import RioError
 from rio_teleop.spacemouse.driver import SpaceMouseTeleop
-from rio_teleop.twist_device import BUTTON_DISCARD, BUTTON_KEEP
 
 COMPACT = (0x256F, 0xC635)
 WIRELESS = (0x256F, 0xC62E)

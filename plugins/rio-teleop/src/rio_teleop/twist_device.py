@@ -16,8 +16,8 @@ Buttons: `keys` binds actions to the device's button names (over the device's de
     discard  the run ends (BUTTON_DONE) with buttons[BUTTON_DISCARD]: discard the episode
 
 done, keep and discard latch until the loop calls the node's `reset()` (as the keyboard's q does).
-`rio teleop --record` today ends the run on BUTTON_DONE and asks keep/discard in the terminal;
-BUTTON_KEEP / BUTTON_DISCARD are published for a loop that reads them.
+`rio teleop --record` keeps or discards the episode on keep / discard without asking, and asks (in a
+terminal) when the run ended on done.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from typing import Any, Protocol
 
 import numpy as np
 from pydantic import Field, field_validator
-from rio.control.teleop import BUTTON_DONE, BUTTON_MODE
+from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, BUTTON_MODE
 from rio.errors import RioError
 from rio.interfaces import TeleopNode
 from rio.interfaces.teleop import TeleopConfig
@@ -35,8 +35,6 @@ from rio.node import remote
 
 from .axes import TwistMap, parse_source
 
-BUTTON_KEEP = 2
-BUTTON_DISCARD = 3
 ACTIONS = ("gripper", "mode", "done", "keep", "discard")
 
 

@@ -8,9 +8,10 @@ frozen or reversed arm). One helper per meaning, used by every command that take
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import typer
 
@@ -96,3 +97,18 @@ def known_station(value: P) -> P:
         except RioError as e:
             raise typer.BadParameter(str(e)) from None
     return value
+
+
+def key_values(pairs: list[str] | None, option: str) -> dict[str, Any]:
+    """Repeated `KEY=VALUE` options as a dict: JSON values (`3`, `true`, `[1, 2]`, `"x"`), a bare word
+    is a string; a pair without `=` ends the command naming `option`."""
+    out: dict[str, Any] = {}
+    for p in pairs or []:
+        key, sep, value = p.partition("=")
+        if not sep or not key.strip():
+            raise typer.BadParameter(f"'{p}': write key=value", param_hint=f"'{option}'")
+        try:
+            out[key.strip()] = json.loads(value)
+        except ValueError:
+            out[key.strip()] = value
+    return out

@@ -13,7 +13,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .args import known_station, not_empty, output_dir, positive
+from .args import key_values, known_station, not_empty, output_dir, positive
 
 #: The run's arm did not follow its commands.
 EXIT_NOT_FOLLOWED = 3
@@ -77,21 +77,6 @@ def load_controller(spec: str) -> type:
     return cls
 
 
-def _options(pairs: list[str]) -> dict[str, Any]:
-    import json
-
-    out: dict[str, Any] = {}
-    for p in pairs:
-        key, sep, value = p.partition("=")
-        if not sep or not key:
-            raise typer.BadParameter(f"'{p}': write key=value", param_hint="'--set'")
-        try:
-            out[key] = json.loads(value)
-        except ValueError:
-            out[key] = value  # a bare word is a string
-    return out
-
-
 def run(
     station: StationArgument,
     controller: Annotated[str, typer.Option("--controller", "-c", callback=not_empty,
@@ -112,7 +97,7 @@ def run(
     from ..control.workflow import run_workflow
 
     cls = load_controller(controller)
-    kwargs = _options(option or [])
+    kwargs = key_values(option, "--set")
     from_session = getattr(cls, "from_session", None)  # a controller that connects nodes of its own
 
     def make(session: Any) -> Any:

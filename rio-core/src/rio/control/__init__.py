@@ -35,11 +35,14 @@ from .se3 import (
     twist_between,
 )
 from .teleop import (
+    BUTTON_DISCARD,
     BUTTON_DONE,
+    BUTTON_KEEP,
     BUTTON_MODE,
     ButtonEdges,
     ModeSwitch,
     TeleopMode,
+    episode_verdict,
     gripper_opening,
     limit_twist,
     make_teleop_eef_cmd,
@@ -52,6 +55,6 @@ __all__ = [
     "quat_slerp", "quat_to_euler", "quat_to_matrix", "quat_to_rotvec", "rotvec_to_quat",
     "IDENTITY", "apply_twist", "as_pose", "matrix_to_pose", "pose_error", "pose_interp", "pose_inv", "pose_mul",
     "pose_to_matrix", "twist_between",
-    "BUTTON_DONE", "BUTTON_MODE", "ButtonEdges", "ModeSwitch", "TeleopMode", "gripper_opening", "limit_twist",
-    "make_teleop_eef_cmd", "mask_twist",
+    "BUTTON_DISCARD", "BUTTON_DONE", "BUTTON_KEEP", "BUTTON_MODE", "ButtonEdges", "ModeSwitch", "TeleopMode",
+    "episode_verdict", "gripper_opening", "limit_twist", "make_teleop_eef_cmd", "mask_twist",
 ]

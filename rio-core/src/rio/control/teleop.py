@@ -6,7 +6,9 @@ integrated into the *target* pose (not the measured one, so a slow arm does not 
 creep back, and releasing the device stops the target exactly where it is).
 
 Button conventions for `rio.interfaces.TeleopNode` devices (indices into `buttons`):
-`BUTTON_MODE` cycles the teleop mode, `BUTTON_DONE` ends the episode. Gripper values from devices
+`BUTTON_MODE` cycles the teleop mode, `BUTTON_DONE` ends the episode; a device that can also say what
+becomes of the episode sets `BUTTON_KEEP` or `BUTTON_DISCARD` with `BUTTON_DONE` (`rio teleop --record`
+then keeps or discards it without asking). Gripper values from devices
 are 0 (closed) .. 1 (open); `gripper_opening` turns one into meters for a `GripperNode`.
 """
 
@@ -20,6 +22,41 @@ from .se3 import apply_twist, as_pose
 
 BUTTON_MODE = 0
 BUTTON_DONE = 1
+BUTTON_KEEP = 2
+BUTTON_DISCARD = 3
+
+
+def episode_verdict(buttons) -> str | None:
+    """'keep' or 'discard' when a device ends the episode with that button held, else None (discard
+    wins when both are: keeping a bad demonstration costs more than recording it again)."""
+    b = np.asarray(buttons, dtype=bool).reshape(-1)
+    if b.size <= BUTTON_DONE or not b[BUTTON_DONE]:
+        return None
+    if b.size > BUTTON_DISCARD and b[BUTTON_DISCARD]:
+        return "discard"
+    return "keep" if b.size > BUTTON_KEEP and b[BUTTON_KEEP] else None
+
+
+class EpisodeEnd:
+    """Whether a device has ended the episode (`BUTTON_DONE`) and what it said of it, over a run: the
+    part every teleop controller shares (`done()` and `finish()` of rio.control.loop's protocol)."""
+
+    def __init__(self) -> None:
+        self.finished = False
+        self.verdict: str | None = None
+
+    def update(self, buttons) -> None:
+        b = np.asarray(buttons, dtype=bool).reshape(-1)
+        self.finished |= bool(b.size > BUTTON_DONE and b[BUTTON_DONE])
+        self.verdict = self.verdict or episode_verdict(b)
+
+    def reason(self) -> str | None:
+        return "the device finished" if self.finished else None
+
+    def report(self, summary) -> None:
+        if self.verdict is not None:
+            summary.details["verdict"] = self.verdict
+            summary.lines.append(f"the device said: {self.verdict} this episode")
 
 
 class TeleopMode(enum.IntEnum):
