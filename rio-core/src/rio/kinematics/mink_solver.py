@@ -28,6 +28,66 @@ def load_mujoco_model(model: Any):
     return mujoco.MjModel.from_xml_path(text)
 
 
+def _one_dof(model: Any, joint: int) -> bool:
+    mujoco = require("mujoco", "mujoco")
+    return int(model.jnt_type[joint]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+def solvable_joints(model: Any) -> list[str]:
+    """Every hinge and slide joint: what a solver moves when not told which (free joints are objects)."""
+    return [model.joint(i).name for i in range(model.njnt) if _one_dof(model, i)]
+
+
+def joint_table(model: Any, names: list[str]) -> tuple[np.ndarray, list[int], np.ndarray, np.ndarray]:
+    """(qpos addresses, dof indices, lower, upper) of the named one-dof joints; unbounded where the model
+    sets no range. The solvers index the model's full configuration through these."""
+    mujoco = require("mujoco", "mujoco")
+    ids = []
+    for n in names:
+        j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n)
+        if j < 0:
+            raise ValueError(f"joint '{n}' is not in the model")
+        if not _one_dof(model, j):
+            raise ValueError(f"joint '{n}' is not a hinge or slide joint")
+        ids.append(j)
+    qadr = np.array([model.jnt_qposadr[j] for j in ids], dtype=int)
+    dofs = [int(model.jnt_dofadr[j]) for j in ids]
+    limited = np.array([bool(model.jnt_limited[j]) for j in ids], dtype=bool)
+    rng = np.array([model.jnt_range[j] for j in ids], dtype=np.float64).reshape(-1, 2)
+    return qadr, dofs, np.where(limited, rng[:, 0], -np.inf), np.where(limited, rng[:, 1], np.inf)
+
+
+def freeze_others(model: Any, dofs: list[int]) -> list[Any]:
+    """The constraint holding every degree of freedom outside `dofs` still (none when nothing is left)."""
+    mink = require("mink", "mink")
+    frozen = sorted(set(range(model.nv)) - set(dofs))
+    return [mink.DofFreezingTask(model, dof_indices=frozen)] if frozen else []
+
+
+def frame_body(model: Any, name: str, frame_type: str = "site") -> int:
+    """The body carrying a site, body or geom, which is what decides the joints that move it."""
+    mujoco = require("mujoco", "mujoco")
+    kinds = {"site": mujoco.mjtObj.mjOBJ_SITE, "body": mujoco.mjtObj.mjOBJ_BODY, "geom": mujoco.mjtObj.mjOBJ_GEOM}
+    if frame_type not in kinds:
+        raise ValueError(f"frame type {frame_type!r}: write 'site', 'body' or 'geom'")
+    i = mujoco.mj_name2id(model, kinds[frame_type], name)
+    if i < 0:
+        raise ValueError(f"{frame_type} '{name}' is not in the model")
+    if frame_type == "site":
+        return int(model.site_bodyid[i])
+    return int(model.geom_bodyid[i]) if frame_type == "geom" else int(i)
+
+
+def joints_moving(model: Any, body: int) -> set[int]:
+    """The ids of the joints between the world and `body`: the only ones that can move it."""
+    out: set[int] = set()
+    while body > 0:
+        start, n = int(model.body_jntadr[body]), int(model.body_jntnum[body])
+        out.update(range(start, start + n) if start >= 0 else ())
+        body = int(model.body_parentid[body])
+    return out
+
+
 class MinkSolver(IKSolver):
     def __init__(self, model: Any, frame: str, *, frame_type: str = "site", joints: list[str] | None = None,
                  orientation_cost: float = 1.0, damping: float = 1e-4, solver: str = "daqp"):
@@ -36,25 +96,15 @@ class MinkSolver(IKSolver):
         self._mink, self._mj = mink, mujoco
         self.model = load_mujoco_model(model)
         m = self.model
-        if joints is None:
-            joints = [m.joint(i).name for i in range(m.njnt)
-                      if int(m.jnt_type[i]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))]
-        self.joint_names = list(joints)
-        ids = [m.joint(n).id for n in self.joint_names]
-        self._qadr = np.array([m.jnt_qposadr[j] for j in ids], dtype=int)
-        dofs = [int(m.jnt_dofadr[j]) for j in ids]
-        limited = np.array([bool(m.jnt_limited[j]) for j in ids])
-        rng = np.array([m.jnt_range[j] for j in ids]).reshape(-1, 2)
-        self.lower = np.where(limited, rng[:, 0], -np.inf)
-        self.upper = np.where(limited, rng[:, 1], np.inf)
+        self.joint_names = list(solvable_joints(m) if joints is None else joints)
+        self._qadr, dofs, self.lower, self.upper = joint_table(m, self.joint_names)
         self.frame, self.frame_type = frame, frame_type
         self.orientation_cost, self.damping, self.solver = float(orientation_cost), float(damping), solver
         self.configuration = mink.Configuration(m)
         self._q_full = m.qpos0.copy()
         self.task = mink.FrameTask(frame, frame_type, position_cost=1.0, orientation_cost=self.orientation_cost,
                                    lm_damping=1e-6)
-        frozen = sorted(set(range(m.nv)) - set(dofs))
-        self._constraints = [mink.DofFreezingTask(m, dof_indices=frozen)] if frozen else []
+        self._constraints = freeze_others(m, dofs)
         self._limits = [mink.ConfigurationLimit(m, gain=0.95)]
 
     def set_fixed(self, qpos_full) -> None:
