@@ -36,7 +36,7 @@ KNOWN: dict[str, dict[str, tuple[str, ...]]] = {
     "rio-ros2": {},  # `rio ros2 bridge`: a command, no names
     "lerobot-robot-rio": {},  # installed next to LeRobot: provides LeRobot's `--robot.type=rio`
     "rio-teleop": {"driver": ("gello.*", "teleop.spacemouse", "teleop.gamepad", "teleop.xbox", "teleop.playstation",
-                              "teleop.webxr"), "station": ("gello-*",)},
+                              "teleop.webxr*", "teleop.avp"), "station": ("gello-*",)},
     # planned
     "rio-unitree": {}, "rio-booster": {},
 }

@@ -10,7 +10,7 @@ import os
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -281,8 +281,9 @@ class _FakeJoints:
     def default_joint_names(self) -> list[str]:
         return [f"joint{i + 1}" for i in range(self.config.dof)]
 
-    def open(self) -> None:
-        self.q = np.zeros(self.dof)
+    def open(self) -> None:  # at the configured home when there is one (a pose away from singularities)
+        home = self.config.home
+        self.q = np.zeros(self.dof) if home is None else np.asarray(home, dtype=np.float64)
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
         self.q = np.array(joint_pos, dtype=np.float64)
@@ -383,10 +384,14 @@ class FakeTeleop(ifc.TeleopNode):
         twist: list[float] = Field(default_factory=lambda: [0.0] * 6, min_length=6, max_length=6,
                                    description="constant twist published (m/s, rad/s)")
         gripper: float = Field(1.0, ge=0, le=1, description="0 closed .. 1 open")
+        pressed: list[int] = Field(default_factory=list, description="indices of the buttons held from the "
+                                                                     "start (1 + 2: done, keep the episode)")
 
     def read_state(self) -> dict[str, Any]:
+        buttons = np.zeros(self.config.buttons, bool)
+        buttons[[i for i in self.config.pressed if i < buttons.size]] = True
         return {"twist": np.asarray(self.config.twist, dtype=np.float64), "gripper": self.config.gripper,
-                "buttons": np.zeros(self.config.buttons, bool)}
+                "buttons": buttons}
 
 
 class FakeSensor(Node):
@@ -425,6 +430,331 @@ class FakeHumanoid(_FakeJoints, ifc.HumanoidNode):
     def read_joints(self) -> dict[str, Any]:
         return {"joint_pos": self.q.copy(), "joint_vel": np.zeros(self.dof),
                 "base_quat": np.array([1.0, 0.0, 0.0, 0.0]), "base_ang_vel": np.zeros(3)}
+
+
+# -- Fakes with kinematic models (retargeting: rio.kinematics.hand_retarget, multi_frame) ----------
+# Plain capsules, no meshes. The models are written from small tables so the left hand is the right
+# one mirrored by construction, and the node's joint names and limits come from the same tables.
+
+def _vec(v: Any) -> str:
+    return " ".join(f"{float(x):.6g}" for x in v)
+
+
+#: Fingers of the test hand: name, knuckle (x, y) in the palm frame, phalanx lengths (proximal,
+#: intermediate, distal to the tip), about 1.1 times an adult's hand.
+_FINGERS = (("index", (0.095, -0.026), (0.044, 0.026, 0.022)),
+            ("middle", (0.100, 0.0), (0.049, 0.030, 0.023)),
+            ("ring", (0.094, 0.021), (0.046, 0.028, 0.023)),
+            ("pinky", (0.085, 0.040), (0.036, 0.020, 0.021)))
+_FINGER_RANGES = {"abd": (-0.35, 0.35), "mcp": (-0.3, 1.57), "pip": (0.0, 1.9), "dip": (0.0, 1.4)}
+_THUMB_CMC = (0.028, -0.020, 0.012)
+_THUMB_LENGTHS = (0.048, 0.035, 0.030)  # metacarpal, proximal, distal to the tip
+_THUMB_RANGES = {"cmc_abd": (-0.5, 0.8), "cmc_flex": (-0.3, 1.2), "mcp": (-0.2, 1.0), "ip": (-0.3, 1.4)}
+
+
+def _thumb_axes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The thumb's rest direction (forward, toward the radial side, a little palmar), its abduction axis
+    (the palm normal made perpendicular to it) and its flexion axis (turning it toward the palm)."""
+    d = np.array([0.75, -0.55, 0.30])
+    d /= np.linalg.norm(d)
+    abd = np.array([0.0, 0.0, 1.0]) - d[2] * d
+    abd /= np.linalg.norm(abd)
+    return d, abd, np.cross(d, abd)
+
+
+def five_finger_hand_joints() -> list[str]:
+    return [*(f"thumb_{j}" for j in _THUMB_RANGES), *(f"{f}_{j}" for f, _, _ in _FINGERS for j in _FINGER_RANGES)]
+
+
+def five_finger_hand_limits() -> tuple[list[float], list[float]]:
+    ranges = [*_THUMB_RANGES.values(), *(r for _ in _FINGERS for r in _FINGER_RANGES.values())]
+    return [lo for lo, _ in ranges], [hi for _, hi in ranges]
+
+
+def five_finger_hand_mjcf(side: str = "right") -> str:
+    """A 20-joint five-finger hand, written in RIO's palm frame (x wrist to middle knuckle, z out of the
+    palm, y = z x x) and mounted at an arbitrary pose, so users of the model must go through its `palm`
+    site. The left hand mirrors the right across the palm's xz plane: positions flip y, joint axes
+    (pseudo-vectors) flip x and z, so a joint's positive direction means the same motion on both."""
+    if side not in ("right", "left"):
+        raise ValueError(f"side {side!r}: write 'right' or 'left'")
+    left = side == "left"
+    flip_pos = np.array([1.0, -1.0, 1.0]) if left else np.ones(3)
+    flip_axis = np.array([-1.0, 1.0, -1.0]) if left else np.ones(3)
+
+    def pos(v: Any) -> str:
+        return _vec(flip_pos * np.asarray(v, dtype=np.float64))
+
+    def axis(v: Any) -> str:
+        return _vec(flip_axis * np.asarray(v, dtype=np.float64))
+
+    def joint(name: str, ax: Any, rng: tuple[float, float]) -> str:
+        return f'<joint name="{name}" axis="{axis(ax)}" range="{rng[0]} {rng[1]}"/>'
+
+    def capsule(length: float, d: Any = (1.0, 0.0, 0.0), r: float = 0.009) -> str:
+        return f'<geom type="capsule" fromto="0 0 0 {pos(length * np.asarray(d))}" size="{r}"/>'
+
+    flex = (0.0, -1.0, 0.0)  # turns x toward +z: the fingers curl toward the palm
+    fingers = []
+    for name, (kx, ky), (l1, l2, l3) in _FINGERS:
+        r = _FINGER_RANGES
+        fingers.append(
+            f'<site name="{name}_knuckle" pos="{pos((kx, ky, 0.0))}" size="0.004"/>'
+            f'<body name="{name}_proximal" pos="{pos((kx, ky, 0.0))}">'
+            f'{joint(f"{name}_abd", (0, 0, 1), r["abd"])}{joint(f"{name}_mcp", flex, r["mcp"])}{capsule(l1)}'
+            f'<body name="{name}_intermediate" pos="{pos((l1, 0, 0))}">{joint(f"{name}_pip", flex, r["pip"])}'
+            f'{capsule(l2)}<site name="{name}_middle" size="0.004"/>'
+            f'<body name="{name}_distal" pos="{pos((l2, 0, 0))}">{joint(f"{name}_dip", flex, r["dip"])}'
+            f'{capsule(l3, r=0.008)}<site name="{name}_distal" size="0.004"/>'
+            f'<site name="{name}_tip" pos="{pos((l3, 0, 0))}" size="0.004"/></body></body></body>')
+    d, abd, tflex = _thumb_axes()
+    (t1, t2, t3), r = _THUMB_LENGTHS, _THUMB_RANGES
+    thumb = (f'<body name="thumb_metacarpal" pos="{pos(_THUMB_CMC)}">'
+             f'{joint("thumb_cmc_abd", abd, r["cmc_abd"])}{joint("thumb_cmc_flex", tflex, r["cmc_flex"])}'
+             f'{capsule(t1, d, 0.011)}<body name="thumb_proximal" pos="{pos(t1 * d)}">'
+             f'{joint("thumb_mcp", tflex, r["mcp"])}{capsule(t2, d, 0.010)}<site name="thumb_knuckle" size="0.004"/>'
+             f'<body name="thumb_distal" pos="{pos(t2 * d)}">{joint("thumb_ip", tflex, r["ip"])}'
+             f'{capsule(t3, d)}<site name="thumb_distal" size="0.004"/>'
+             f'<site name="thumb_tip" pos="{pos(t3 * d)}" size="0.004"/></body></body></body>')
+    return (f'<mujoco model="rio-test-hand-{side}"><compiler angle="radian" autolimits="true"/><worldbody>'
+            # the mount: fingers along world +y, palm facing world +x (any pose would do)
+            f'<body name="hand" pos="0.01 -0.02 0.05" quat="0.5 0.5 0.5 0.5">'
+            f'<geom type="box" pos="{pos((0.05, 0.006, 0.0))}" size="0.05 0.045 0.012"/>'
+            f'<site name="palm" size="0.005"/>{thumb}{"".join(fingers)}</body></worldbody></mujoco>')
+
+
+def five_finger_hand_keypoints() -> dict[str, str]:
+    """HAND_JOINTS name -> site of the test hand: every joint a finger has past its metacarpal."""
+    out = {"thumb-phalanx-proximal": "thumb_knuckle", "thumb-phalanx-distal": "thumb_distal",
+           "thumb-tip": "thumb_tip"}
+    for name, _, _ in _FINGERS:
+        human = f"{name}-finger"
+        out.update({f"{human}-phalanx-proximal": f"{name}_knuckle", f"{human}-phalanx-intermediate": f"{name}_middle",
+                    f"{human}-phalanx-distal": f"{name}_distal", f"{human}-tip": f"{name}_tip"})
+    return out
+
+
+def five_finger_hand_description(side: str = "right") -> dict[str, Any]:
+    """What a dexterous hand's `robot_description()` returns (rio.kinematics.hand_retarget)."""
+    return {"format": "mjcf", "xml": five_finger_hand_mjcf(side), "joints": five_finger_hand_joints(),
+            "keypoints": five_finger_hand_keypoints(), "palm": "palm", "side": side}
+
+
+#: The right test hand (`five_finger_hand_mjcf("left")` is its mirror image).
+FIVE_FINGER_HAND_MJCF = five_finger_hand_mjcf("right")
+
+
+class FakeModelHand(_FakeJoints, ifc.HandNode):
+    """A 20-joint five-finger hand that ships its model, so tracked human hands can be retargeted onto
+    it (needs `rio-core[ik]`); its joints follow their goal."""
+
+    class Config(ifc.HandNode.Config):
+        side: Literal["right", "left"] = Field("right", description="which hand")
+        max_step_rad: float = Field(0.5, gt=0, description="largest joint goal change per cycle (rad)")
+
+    def default_joint_names(self) -> list[str]:
+        return five_finger_hand_joints()
+
+    def hardware_limits(self) -> tuple[list[float], list[float]]:
+        return five_finger_hand_limits()
+
+    def read_joints(self) -> dict[str, Any]:
+        return {"joint_pos": self.q.copy()}
+
+    def robot_description(self) -> dict[str, Any]:
+        return {**five_finger_hand_description(self.config.side), "joints": list(self.joint_list)}
+
+
+_X, _Y, _Z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+#: The test humanoid's limbs, root to tip: ((joint, axis, range) at one body..., length of its link). Limbs hang
+#: straight down at zero; a negative elbow angle swings the forearm forward. Ranges are the left side's.
+_LEG = (((("hip_pitch", _Y, (-1.5, 1.0)), ("hip_roll", _X, (-0.3, 0.5))), 0.40), ((("knee", _Y, (0.0, 2.2)),), 0.40))
+_ARM = (((("shoulder_pitch", _Y, (-2.5, 1.5)), ("shoulder_roll", _X, (-0.3, 2.2)), ("shoulder_yaw", _Z, (-2.0, 2.0))),
+         0.25),
+        ((("elbow", _Y, (-2.5, 0.1)),), 0.22),
+        ((("wrist_yaw", _Z, (-2.5, 2.5)), ("wrist_pitch", _Y, (-1.4, 1.4)), ("wrist_roll", _X, (-1.4, 1.4))), 0.05))
+_WAIST = ("waist_yaw", _Z, (-1.0, 1.0))
+_ARM_HOME = {"shoulder_pitch": -0.3, "shoulder_roll": 0.15, "elbow": -1.4}
+_SIDES = (("left", 1.0), ("right", -1.0))
+
+
+def _limb_joints(side: str, sign: float, limb: Any) -> list[tuple[str, Any, tuple[float, float]]]:
+    """(name, axis, range) of one limb's joints; roll ranges mirror on the right (a limb rolls outward on
+    both sides), the others are alike."""
+    out = []
+    for joints, _ in limb:
+        for name, ax, (lo, hi) in joints:
+            out.append((f"{side}_{name}", ax, (-hi, -lo) if sign < 0 and "roll" in name else (lo, hi)))
+    return out
+
+
+def _upper_body_table() -> list[tuple[str, Any, tuple[float, float]]]:
+    legs = [j for s, k in _SIDES for j in _limb_joints(s, k, _LEG)]
+    arms = [j for s, k in _SIDES for j in _limb_joints(s, k, _ARM)]
+    return [*legs, _WAIST, *arms]  # the model's own order: pelvis's subtree depth first
+
+
+def upper_body_joints() -> list[str]:
+    return [n for n, _, _ in _upper_body_table()]
+
+
+def upper_body_limits() -> tuple[list[float], list[float]]:
+    table = _upper_body_table()
+    return [r[0] for _, _, r in table], [r[1] for _, _, r in table]
+
+
+def upper_body_home() -> list[float]:
+    """Elbows bent, forearms forward: both wrists in front of the torso, away from singularities."""
+    out = []
+    for joint in upper_body_joints():
+        side, _, name = joint.partition("_")
+        value = _ARM_HOME.get(name, 0.0) if side in ("left", "right") else 0.0
+        out.append(0.0 - value if side == "right" and "roll" in name else value)
+    return out
+
+
+def _limb_mjcf(side: str, sign: float, attach: Any, limb: Any, end: str = "") -> str:
+    xml, pos, joints = "", attach, iter(_limb_joints(side, sign, limb))
+    for body_joints, length in limb:
+        xml += f'<body name="{side}_{body_joints[0][0]}_link" pos="{_vec(pos)}">'
+        for _ in body_joints:
+            name, ax, (lo, hi) = next(joints)
+            xml += f'<joint name="{name}" axis="{_vec(ax)}" range="{lo} {hi}"/>'
+        xml += f'<geom type="capsule" fromto="0 0 0 0 0 {-length}" size="0.03"/>'
+        pos = (0.0, 0.0, -length)
+    return xml + end.format(side=side, z=pos[2]) + "</body>" * len(limb)
+
+
+def _upper_body_mjcf() -> str:
+    legs = "".join(_limb_mjcf(s, k, (0.0, k * 0.09, -0.05), _LEG) for s, k in _SIDES)
+    arms = "".join(_limb_mjcf(s, k, (0.0, k * 0.18, 0.38), _ARM, '<site name="{side}_wrist" pos="0 0 {z}"/>')
+                   for s, k in _SIDES)
+    name, ax, (lo, hi) = _WAIST
+    return ('<mujoco model="rio-test-humanoid"><compiler angle="radian" autolimits="true"/><worldbody>'
+            '<body name="pelvis" pos="0 0 0.95"><geom type="box" size="0.08 0.12 0.06"/>'
+            f'{legs}<body name="torso" pos="0 0 0.08"><joint name="{name}" axis="{_vec(ax)}" range="{lo} {hi}"/>'
+            f'<geom type="capsule" fromto="0 0 0 0 0 0.35" size="0.1"/>{arms}</body></body></worldbody></mujoco>')
+
+
+#: A humanoid's upper body on a fixed pelvis: two 3-joint legs (which upper-body IK must leave alone), a
+#: waist yaw, and two 7-joint arms with `left_wrist` / `right_wrist` sites.
+UPPER_BODY_MJCF = _upper_body_mjcf()
+
+
+def upper_body_description() -> dict[str, Any]:
+    """What a humanoid's `robot_description()` returns (rio.kinematics.multi_frame)."""
+    return {"format": "mjcf", "xml": UPPER_BODY_MJCF, "joints": upper_body_joints(),
+            "frames": {"left": "left_wrist", "right": "right_wrist"}, "frame_type": "site",
+            "home": upper_body_home()}
+
+
+class FakeModelHumanoid(_FakeJoints, ifc.HumanoidNode):
+    """A humanoid standing still whose joints follow their goal and that ships its model
+    (`UPPER_BODY_MJCF`), so its wrists can be teleoperated by IK (needs `rio-core[ik]`)."""
+
+    class Config(ifc.HumanoidNode.Config):
+        rate_hz: float = Field(100.0, gt=0)
+        max_step_rad: float = Field(0.5, gt=0)
+
+    def default_joint_names(self) -> list[str]:
+        return upper_body_joints()
+
+    def default_home(self) -> list[float]:
+        return upper_body_home()
+
+    def hardware_limits(self) -> tuple[list[float], list[float]]:
+        return upper_body_limits()
+
+    def open(self) -> None:  # ready, elbows bent: not a singular pose
+        home = self.config.home if self.config.home is not None else upper_body_home()
+        self.q = np.asarray(home, dtype=np.float64)
+
+    def read_joints(self) -> dict[str, Any]:
+        return {"joint_pos": self.q.copy(), "joint_vel": np.zeros(self.dof),
+                "base_quat": np.array([1.0, 0.0, 0.0, 0.0]), "base_ang_vel": np.zeros(3)}
+
+    def robot_description(self) -> dict[str, Any]:
+        return {**upper_body_description(), "joints": list(self.joint_list)}
+
+
+def synthetic_hand_keypoints(curl: float = 0.0, pinch: bool = False, side: str = "right") -> np.ndarray:
+    """A plausible human hand's 25 keypoints (`HAND_JOINTS` order, meters) in RIO's palm frame (x from the
+    wrist to the middle finger, z out of the palm, y = z x x: the thumb on -y for a right hand): fingers
+    flexed by `curl` (0 open .. 1 fist), the thumb tip on the index tip when `pinch`. For tests of
+    retargeting and hand-tracking teleop without a headset."""
+    kp = np.zeros((25, 3))
+    knuckles = ((0.090, -0.025), (0.095, -0.008), (0.088, 0.010), (0.080, 0.026))  # index, middle, ring, pinky
+    bones, bends = (0.045, 0.027, 0.020), np.array([1.4, 1.6, 1.0]) * float(np.clip(curl, 0.0, 1.0))
+    for k, (x, y) in enumerate(knuckles):
+        i = 5 + 5 * k  # metacarpal, phalanx-proximal (knuckle), -intermediate, -distal, tip
+        kp[i] = [0.02, 0.5 * y, 0.0]
+        p, angle = np.array([x, y, 0.0]), 0.0
+        kp[i + 1] = p
+        for j, (length, bend) in enumerate(zip(bones, bends, strict=True)):
+            angle += bend  # flexion turns the finger toward the palm side (+z)
+            p = p + length * np.array([np.cos(angle), 0.0, np.sin(angle)])
+            kp[i + 2 + j] = p
+    kp[1:5] = [[0.020, -0.020, 0.010], [0.050, -0.045, 0.020], [0.075, -0.060, 0.025], [0.095, -0.070, 0.030]]
+    if pinch:
+        kp[4] = kp[9] + [0.0, -0.005, 0.0]
+        kp[3] = 0.5 * (kp[2] + kp[4])
+    if side == "left":
+        kp[:, 1] *= -1.0
+    return kp
+
+
+class FakeHandTracker(ifc.TeleopNode):
+    """A headset's hand tracking, scripted: both wrists start at `start` (the left one mirrored in y),
+    then after `acquire_s` the tracked hands move by `move` and turn by `turn_deg` about z over
+    `seconds`, fingers curling to `curl`; optionally pinching, losing the hands, or pressing done."""
+
+    hand_tracker = True
+
+    class Config(ifc.TeleopNode.Config):
+        rate_hz: float = Field(100.0, gt=0)
+        hands: Literal["right", "left", "both"] = "right"
+        start: list[float] = Field([0.3, -0.2, 1.0], min_length=3, max_length=3,
+                                   description="right wrist at start (tracker frame, m)")
+        move: list[float] = Field([0.0, 0.0, 0.0], min_length=3, max_length=3, description="wrist travel (m)")
+        turn_deg: float = Field(0.0, description="wrist turn about z over the move (deg)")
+        curl: float = Field(0.0, ge=0, le=1, description="finger curl reached at the end of the move")
+        acquire_s: float = Field(0.2, ge=0, description="the hands are tracked from then on")
+        seconds: float = Field(1.0, gt=0, description="duration of the move")
+        pinch_after_s: float | None = Field(None, ge=0, description="pinch (gripper closes) from then on")
+        lose_after_s: float | None = Field(None, ge=0, description="the hands are lost from then on")
+        done_after_s: float | None = Field(None, ge=0, description="press done then (the run ends)")
+
+    def open(self) -> None:
+        self.t0 = clock.now()
+
+    @remote
+    def reset(self) -> float:
+        self.t0 = clock.now()
+        return 0.0
+
+    def read_state(self) -> dict[str, Any]:
+        from .control.rotations import quat_mul, quat_to_matrix, rotvec_to_quat
+
+        c, t = self.config, clock.now() - self.t0
+        u = float(np.clip((t - c.acquire_s) / c.seconds, 0.0, 1.0))
+        out = ifc.teleop.hand_tracker_sample()
+        on = c.acquire_s <= t and (c.lose_after_s is None or t < c.lose_after_s)
+        turn = rotvec_to_quat([0.0, 0.0, np.deg2rad(c.turn_deg) * u])
+        palm_down = np.array([0.0, 1.0, 0.0, 0.0])  # the palm frame's z (out of the palm) pointing down
+        for side, i in (("left", ifc.teleop.LEFT), ("right", ifc.teleop.RIGHT)):
+            mirror = np.array([1.0, -1.0 if side == "left" else 1.0, 1.0])
+            p = np.asarray(c.start) * mirror + u * np.asarray(c.move)
+            q = quat_mul(turn, palm_down)
+            out["wrist_pose"][i] = np.r_[p, q]
+            pinch = c.pinch_after_s is not None and t >= c.pinch_after_s
+            local = synthetic_hand_keypoints(c.curl * u, pinch, side)
+            out["hand_keypoints"][i] = p + local @ quat_to_matrix(q).T
+            out["tracked"][i] = on and c.hands in (side, "both")
+        driving = ifc.teleop.RIGHT if c.hands != "left" else ifc.teleop.LEFT
+        buttons = np.zeros(c.buttons, bool)
+        buttons[1:2] = c.done_after_s is not None and t >= c.done_after_s
+        return {**out, "twist": np.zeros(6), "gripper": ifc.teleop.pinch_opening(out["hand_keypoints"][driving]),
+                "buttons": buttons}
 
 
 def write_plugin_dist(root: Any, dist: str, version: str, modules: dict[str, str],

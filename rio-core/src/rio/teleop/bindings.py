@@ -37,10 +37,16 @@ class ArmBinding:
     q_target: np.ndarray | None = None
     start_pose: np.ndarray = field(default_factory=lambda: np.zeros(7))
     gripper_cmd: float = 0.0
+    #: this arm's dexterous hand joints, when a controller drives them (else the hand holds still)
+    hand_cmd: np.ndarray | None = None
 
     @property
     def arm_label(self) -> str:
         return f"{self.prefix}{self.space}"
+
+    @property
+    def hand_role(self) -> str:
+        return "hand" + self.role[len("arm"):]
 
     def reset_target(self) -> None:
         s = self.client.get_state()
@@ -111,7 +117,8 @@ def build_action(robot: Any, arms: list[ArmBinding]) -> np.ndarray:
         parts[b.arm_label] = b.arm_command()
         if b.gripper is not None:
             parts[f"{b.prefix}gripper"] = [b.gripper_cmd]
-        if b.hand_label is not None:  # hands hold still under end-effector teleop
-            hand_role = "hand" + b.role[len("arm"):]
-            parts[b.hand_label] = robot.clients[hand_role].get_state()["joint_pos"]
+        if b.hand_label is not None and b.hand_cmd is not None:
+            parts[b.hand_label] = b.hand_cmd
+        elif b.hand_label is not None:  # a hand nobody drives holds still
+            parts[b.hand_label] = robot.clients[b.hand_role].get_state()["joint_pos"]
     return robot.build_action(**parts)

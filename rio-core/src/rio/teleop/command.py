@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from ..cli.args import not_empty, one_of, positive
+from ..cli.args import key_values, not_empty, one_of, positive
 from ..cli.run_cmd import (
     DurationOption,
     JsonOption,
@@ -19,10 +19,12 @@ from ..cli.run_cmd import (
 )
 
 
-def _mode(value: str) -> str:
+def _mode(value: str | None) -> str | None:
     """--mode is checked while parsing, with the aliases the loop accepts (`2d`, `full`, ...)."""
     from ..control.teleop import TeleopMode  # here: listing commands must not import numpy
 
+    if value is None:
+        return None
     try:
         TeleopMode.parse(value)
     except ValueError as e:
@@ -35,14 +37,22 @@ def teleop(
     device: Annotated[str | None, typer.Option("--teleop", "-t", callback=not_empty,
                                                help="Teleop device: keyboard, scripted, or any registered teleop "
                                                     "driver (default: the station's own).")] = None,
+    teleop_set: Annotated[list[str] | None, typer.Option(
+        "--teleop-set", help="KEY=VALUE for the teleop device's config, over the station's (JSON values; "
+                             "repeatable), e.g. --teleop-set speed=0.05 --teleop-set hand=left")] = None,
     instruction: Annotated[str | None, typer.Option("--instruction", "-i",
                                                     help="Task text stored with every step.")] = None,
     viz: Annotated[bool, typer.Option("--viz", help="Stream cameras, joints and tool poses to rerun "
                                                     "(saved to an .rrd file when there is no display).")] = False,
     duration: DurationOption = None,
-    mode: Annotated[str, typer.Option("--mode", callback=_mode,
-                                      help="translation, translation_rotation, planar (2-D) or rotation; the "
-                                           "device's mode button cycles it.")] = "translation",
+    mode: Annotated[str | None, typer.Option("--mode", callback=_mode,
+                                             help="translation (twist devices' default), translation_rotation "
+                                                  "(hand trackers' default), planar (2-D) or rotation; the "
+                                                  "device's mode button cycles it.")] = None,
+    hand: Annotated[str, typer.Option("--hand", callback=one_of("left", "right"),
+                                      help="Hand trackers: the hand that drives a single arm.")] = "right",
+    scale: Annotated[float, typer.Option("--scale", callback=positive,
+                                         help="Hand trackers: tool motion per wrist motion.")] = 1.0,
     max_pos_speed: Annotated[float, typer.Option(callback=positive, help="Tool speed limit (m/s).")] = 0.15,
     max_rot_speed: Annotated[float, typer.Option(callback=positive,
                                                  help="Tool rotation speed limit (rad/s).")] = 1.0,
@@ -52,7 +62,8 @@ def teleop(
     episodes: Annotated[int, typer.Option("--episodes", min=1, help="With --record: episodes to keep.")] = 1,
     on_end: Annotated[str, typer.Option("--on-end", callback=one_of("auto", "ask", "keep", "discard"),
                                         help="With --record, after each run: ask (keys k/d/r in a terminal), keep "
-                                             "or discard. Default: ask when interactive, else keep.")] = "auto",
+                                             "or discard. Default: ask when interactive, else keep. A device's "
+                                             "keep/discard button decides without asking.")] = "auto",
     align_speed: Annotated[float, typer.Option(callback=positive,
                                                help="Leader arms: follower speed while aligning to its leader "
                                                     "(rad/s).")] = 0.5,
@@ -64,11 +75,13 @@ def teleop(
     from ..cli.run_cmd import finish
     from .loop import run_teleop
 
+    device_config = key_values(teleop_set, "--teleop-set")
+
     def run(recorder=None):
-        return run_teleop(station, device, instruction=instruction, viz=viz, duration=duration,
-                          middleware=middleware, rate_hz=rate, mode=mode, max_pos_speed=max_pos_speed,
-                          max_rot_speed=max_rot_speed, align_speed=align_speed, recorder=recorder, profile=profile,
-                          log=lambda m: typer.echo(m, err=True))
+        return run_teleop(station, device, device_config=device_config, instruction=instruction, viz=viz,
+                          duration=duration, middleware=middleware, rate_hz=rate, mode=mode, hand=hand, scale=scale,
+                          max_pos_speed=max_pos_speed, max_rot_speed=max_rot_speed, align_speed=align_speed,
+                          recorder=recorder, profile=profile, log=lambda m: typer.echo(m, err=True))
 
     if record is None:
         finish(run(), json_out)
@@ -79,8 +92,9 @@ def teleop(
 
 def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, instruction: str | None,
                      rate: float | None, json_out: bool):
-    """One teleop run per episode; after each, keep / discard / re-record (a key in a terminal, or
-    the --on-end choice for headless runs). The recorder makes every kept episode durable at once.
+    """One teleop run per episode; after each, keep / discard / re-record: the device's keep or discard
+    button when the run ended on one, else a key in a terminal, or the --on-end choice for headless
+    runs. The recorder makes every kept episode durable at once.
     A run ended by a signal is kept (headless) and ends the session. Returns the last run's summary."""
     import sys
 
@@ -95,15 +109,20 @@ def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, i
             summary = run(recorder=rec)
             if not json_out:
                 typer.echo(summary.format())
-            choice = (typer.prompt(f"{rec.status()}: [k]eep, [d]iscard or [r]e-record?", default="k")
-                      if ask and not summary.signal else on_end if on_end not in ("auto", "ask") else "keep")[:1]
+            said = summary.details.get("verdict") if not summary.signal else None  # the device's button
+            if said:
+                choice = said[:1]
+            elif ask and not summary.signal:
+                choice = typer.prompt(f"{rec.status()}: [k]eep, [d]iscard or [r]e-record?", default="k")[:1]
+            else:
+                choice = (on_end if on_end not in ("auto", "ask") else "keep")[:1]
             if choice.lower() == "k":
                 meta = rec.keep()
                 typer.echo(f"kept episode {meta['index'] if meta else '(empty, dropped)'} in {root}", err=True)
             else:
                 rec.discard()
                 typer.echo("discarded" if choice == "d" else "discarded; recording it again", err=True)
-                if choice == "d" and not ask:
+                if choice == "d" and not ask and not said:
                     break  # headless discard: do not loop forever
             if summary.signal:
                 break

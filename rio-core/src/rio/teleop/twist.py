@@ -2,8 +2,9 @@
 
 Each tick it reads the device(s) (a ring-buffer read, never blocking), switches mode on
 `BUTTON_MODE`, integrates the low-pass filtered, speed-limited twist into each arm's end-effector
-target and builds the embodiment's action (IK for joint-space arms). It is done on `BUTTON_DONE`, or
-when a device with a known length (a script) has run its course. One device (`teleop`) drives every
+target and builds the embodiment's action (IK for joint-space arms). It is done on `BUTTON_DONE`
+(with `BUTTON_KEEP` / `BUTTON_DISCARD`: the episode's verdict, in the summary), or when a device with
+a known length (a script) has run its course. One device (`teleop`) drives every
 arm, each in its own base frame; a `teleop2` device, when the station has one, drives `arm2`.
 """
 
@@ -14,8 +15,9 @@ from typing import Any
 import numpy as np
 
 from ..control.filters import LowPassFilter
-from ..control.teleop import BUTTON_DONE, BUTTON_MODE, ButtonEdges, ModeSwitch, TeleopMode, make_teleop_eef_cmd
+from ..control.teleop import BUTTON_MODE, ButtonEdges, EpisodeEnd, ModeSwitch, TeleopMode, make_teleop_eef_cmd
 from .bindings import bind_arms, build_action
+from .feedback import DeviceFeedback
 
 DEVICE_ROLES = ("teleop", "teleop2")
 
@@ -73,7 +75,7 @@ class TwistTeleop:
         self.filters = {r: LowPassFilter(filter_hz) if filter_hz else None for r in devices}
         self.edges = {r: ButtonEdges() for r in devices}
         self.switch = ModeSwitch(TeleopMode.parse(mode))
-        self.finished = False
+        self.end = EpisodeEnd()
         self.arms: list[Any] = []
         self.expected_s = 0.0  # how long the device says its run lasts (a script), 0 when open-ended
 
@@ -84,6 +86,7 @@ class TwistTeleop:
         self.drive = {b.role: ("teleop2" if b.role == "arm2" and "teleop2" in self.devices else "teleop")
                       for b in self.arms}
         self.polls = {r: DevicePoll(dev) for r, dev in self.devices.items()}
+        self.feedback = DeviceFeedback(self.devices, log=loop.say)
         for dev in self.devices.values():  # optional device API, looked up by name
             if "reset" in dir(dev):
                 self.expected_s = max(self.expected_s, float(dev.reset() or 0.0))
@@ -101,7 +104,7 @@ class TwistTeleop:
         polled = {r: poll(h) for r, poll in self.polls.items()}
         for r, p in polled.items():
             pressed = self.edges[r](p["buttons"])
-            self.finished |= bool(p["buttons"].size > BUTTON_DONE and p["buttons"][BUTTON_DONE])
+            self.end.update(p["buttons"])
             if r == "teleop":
                 self.switch.update(bool(pressed.size > BUTTON_MODE and pressed[BUTTON_MODE]), tick.t)
             lowpass = self.filters[r]
@@ -117,15 +120,17 @@ class TwistTeleop:
         return build_action(tick.env.robot, self.arms)
 
     def after(self, tick: Any) -> None:
+        self.feedback(tick.t, self.arms)
         if self.visual is not None:
             self.visual.log(tick.t - tick.t0, tick.it, tick.step, self.arms)
 
     def done(self) -> str | None:
-        return "the device finished" if self.finished else None
+        return self.end.reason()
 
     def finish(self, summary: Any) -> None:
         summary.details["device"] = self.device
         summary.details["mode"] = self.switch.mode.name.lower()
+        self.end.report(summary)
         if self.visual is not None:
             summary.details["viz"] = self.visual.where
             summary.lines.append(f"viz: {self.visual.where}")
