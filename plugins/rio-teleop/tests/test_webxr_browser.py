@@ -4,6 +4,9 @@ message path), and RIO's fake arm is driven by `rio teleop`'s loop (`run_teleop`
 
 Poses are in WebXR's frame (y up, -z forward, x right); the robot's base is x forward, y left, z up:
 controller -z -> tool +x, controller -x -> tool +y, controller +y -> tool +z.
+
+`teleop.webxr_hands`: synthetic hands go in through `window.__rioInjectHands` (the function XR frames
+with hand tracking call) and the node, served alone, publishes them as the hand tracker contract.
 """
 
 from __future__ import annotations
@@ -57,13 +60,7 @@ def run(tmp_path):
 
 
 def _open(browser, run):
-    # bypass_csp: playwright's own wait_for_function evaluates strings, which the page's CSP forbids
-    ctx = browser.new_context(ignore_https_errors=True, bypass_csp=True)
-    run.contexts.append(ctx)
-    page = ctx.new_page()
-    page.goto(run.url)
-    page.wait_for_function("window.__rioState && window.__rioState().connected", timeout=10_000)
-    return ctx, page
+    return harness.open_page(browser, run.url, run.contexts)
 
 
 def _pose(page, p, clutch, trigger=0.0):
@@ -95,6 +92,8 @@ def test_the_page_is_served_over_https_and_the_arm_follows_the_controller_to_its
     status = page.evaluate("window.__rioState().status")
     assert status["engaged"] and not status["stale"] and status["rejected"] == 0
     assert page.evaluate("window.__rioState().rtt") is not None  # the panel's round trip
+    state = page.evaluate("window.__rioState()")
+    assert state["config"]["hands"] is False and state["handsSent"] == 0  # teleop.webxr: no hands streamed
     page.click("#done")  # the page's Finish button ends `rio teleop`
     summary = run.join(20)
     ctx.close()
@@ -145,3 +144,164 @@ def test_closing_the_page_holds_the_arm(browser, run):
     run.wait_for(_near(stopped[:3] + [0.02, 0, 0]), timeout=5)
     status = page.evaluate("window.__rioState().status")
     assert status["engaged"] and status["holds"] >= 1  # the watchdog took over once
+
+
+# -- teleop.webxr_hands --------------------------------------------------------------------------------
+def _robot(xr_points) -> np.ndarray:
+    """WebXR (x right, y up, z back) -> robot (x forward, y left, z up), yaw 0."""
+    p = np.asarray(xr_points, dtype=np.float64)
+    return np.stack([-p[..., 2], -p[..., 0], p[..., 1]], axis=-1)
+
+
+def _inject(page, left, right):
+    page.evaluate("([l, r]) => { window.__rioInjectHands(l, r); }", [left, right])
+
+
+def _until(pred, timeout=5.0, what="the node's state"):
+    from rio.testing import wait_until
+
+    assert wait_until(pred, timeout), f"{what} did not come within {timeout:g} s"
+
+
+@pytest.fixture
+def hands(tmp_path):
+    with harness.serve_hands(tmp_path / "cert") as node:
+        contexts: list = []
+        yield node, contexts
+        for ctx in contexts:
+            ctx.close()
+
+
+def test_the_page_streams_both_hands_and_the_node_publishes_them(browser, hands):
+    from rio.control.rotations import matrix_to_quat, quat_angle, quat_mul, quat_normalize
+    from rio_teleop.webxr.mapping import XR_TO_ROBOT
+
+    node, contexts = hands
+    ctx, page = harness.open_page(browser, node.page()["url"], contexts)
+    cfg = page.evaluate("window.__rioState().config")
+    assert cfg["hands"] and cfg["hands_hz"] == 60
+    assert not page.is_visible("#clutch") and page.is_visible("#done")  # no clutch with hands
+    a = 0.5
+    q_left = [0.0, float(np.sin(a / 2)), 0.0, float(np.cos(a / 2))]  # turned about XR up
+    left = harness.synthetic_hand([-0.15, 1.1, -0.35], q_left, pinch_m=0.07)
+    right = harness.synthetic_hand([0.123456, 1.25, -0.4], pinch_m=0.02)
+    _inject(page, left, right)
+    _until(lambda: node.get_state()["tracked"].all(), what="both hands tracked")
+    s = node.get_state()
+    tol = 1.5e-4  # the page rounds positions to 0.1 mm
+    assert s["hand_keypoints"][0] == pytest.approx(_robot(left["j"]), abs=tol)
+    assert s["hand_keypoints"][1] == pytest.approx(_robot(right["j"]), abs=tol)
+    assert s["wrist_pose"][:, :3] == pytest.approx(_robot([left["j"][0], right["j"][0]]), abs=tol)
+    q_R = matrix_to_quat(XR_TO_ROBOT)
+    want_left = quat_normalize(quat_mul(q_R, [q_left[3], *q_left[:3]]))
+    assert quat_angle(s["wrist_pose"][0, 3:], want_left) < 1e-3
+    assert quat_angle(s["wrist_pose"][1, 3:], q_R) < 1e-3
+    assert s["gripper"] == pytest.approx((0.02 - 0.015) / 0.065, abs=0.01)  # the right hand's pinch
+    assert np.abs(s["twist"]).max() == 0
+    # the status panel says which hands are tracked
+    page.wait_for_function("(() => { const h = window.__rioState().status && window.__rioState().status.hands;"
+                           " return h && h.left && h.right; })()", timeout=5000)
+    assert "left tracked" in page.text_content("#s-clutch")
+
+    # the right hand moves 5 cm forward (XR -z): the node follows
+    moved = harness.synthetic_hand([0.123456, 1.25, -0.45], pinch_m=0.08)
+    _inject(page, left, moved)
+    _until(lambda: abs(node.get_state()["wrist_pose"][1, 0] - 0.45) < tol, what="the moved wrist")
+    _until(lambda: node.get_state()["gripper"] > 0.99, what="the released pinch")
+    # the left hand is lost (null): untracked at once, the right one still is
+    _inject(page, None, moved)
+    _until(lambda: node.get_state()["tracked"].tolist() == [False, True], what="the left hand lost")
+    time.sleep(0.6)  # the page keeps the injected hands fresh (like a held pose): still tracked
+    assert node.get_state()["tracked"].tolist() == [False, True]
+    assert page.evaluate("window.__rioState().handsSent") > 5
+
+    # Finish is the done button
+    page.click("#done")
+    _until(lambda: node.get_state(k=50)["buttons"][:, 1].any(), what="done")
+
+    # closing the page: nothing is tracked
+    ctx.close()
+    _until(lambda: not node.get_state()["tracked"].any(), what="untracked after the page closed")
+
+
+# A stand-in for an XRFrame with hand tracking: each joint's pose is a column-major 4x4 matrix (what
+# fillPoses writes), the wrist's orientation from getJointPose. `spec`: per handedness, the joints'
+# positions by name, or null for a hand whose joints are not tracked now; `fill`: whether fillPoses
+# exists; `names`: HAND_JOINTS.
+_FAKE_FRAME = """([spec, q, fill, names]) => {
+  const spaces = (side) => (spec[side] ? new Map(Object.keys(spec[side]).map((n) => [n, {side, name: n}]))
+    : new Map(names.map((n) => [n, {side, name: n, lost: true}])));  // a hand whose joints are not tracked now
+  const sources = [...Object.keys(spec).map((side) => ({handedness: side, hand: spaces(side)})),
+    {handedness: 'none', gripSpace: {}}];  // and a controller-like source without a hand
+  const pose = (sp) => (sp.lost ? null : {transform: {position: {x: spec[sp.side][sp.name][0],
+    y: spec[sp.side][sp.name][1], z: spec[sp.side][sp.name][2]}, orientation: {x: q[0], y: q[1], z: q[2], w: q[3]}}});
+  const frame = {session: {inputSources: sources}, getJointPose: (sp, ref) => pose(sp)};
+  if (fill) frame.fillPoses = (sps, ref, out) => {
+    sps.forEach((sp, i) => { const p = pose(sp); out.fill(0, 16 * i, 16 * i + 16);
+      if (p) { out[16 * i + 12] = p.transform.position.x; out[16 * i + 13] = p.transform.position.y;
+               out[16 * i + 14] = p.transform.position.z; out[16 * i + 15] = 1; } });
+    return sps.every((sp) => !sp.lost);
+  };
+  return window.__rioXRHands(frame, {});
+}"""
+
+
+@pytest.mark.parametrize("fill", [True, False], ids=["fillPoses", "getJointPose"])
+def test_an_xr_frames_hands_are_read_in_xrhand_order(browser, hands, fill):
+    from rio.interfaces.teleop import HAND_JOINTS
+
+    node, contexts = hands
+    _, page = harness.open_page(browser, node.page()["url"], contexts)
+    right = harness.synthetic_hand([0.1, 1.2, -0.3], pinch_m=0.03)
+    by_name = {n: p for n, p in zip(HAND_JOINTS, right["j"], strict=True)}
+    shuffled = dict(reversed(list(by_name.items())))  # the page asks for each joint by name
+    q = [0.0, 0.6, 0.0, 0.8]
+    got = page.evaluate(_FAKE_FRAME, [{"right": shuffled, "left": None}, q, fill, list(HAND_JOINTS)])
+    assert got["left"] is None
+    assert np.asarray(got["right"]["j"]) == pytest.approx(np.asarray(right["j"]), abs=1e-6)  # float32 with fill
+    assert got["right"]["q"] == pytest.approx(q)
+    missing = dict(list(by_name.items())[:24])  # a runtime without the 25th joint: that hand is not sent
+    got = page.evaluate(_FAKE_FRAME, [{"right": missing}, q, fill, list(HAND_JOINTS)])
+    assert got["right"] is None and got["left"] is None
+
+
+def test_the_page_never_sends_a_hand_the_node_would_refuse(browser, hands):
+    node, contexts = hands
+    _, page = harness.open_page(browser, node.page()["url"], contexts)
+    good = harness.synthetic_hand([0.1, 1.2, -0.3])
+    far = {**good, "j": [*good["j"][:24], [0.1, 1.2, -1.3]]}  # a glitch: a fingertip 1 m from the wrist
+    _inject(page, far, good)
+    _until(lambda: node.get_state()["tracked"].tolist() == [False, True], what="the right hand alone")
+    page.evaluate("([h]) => { h.j[3][1] = NaN; window.__rioInjectHands(h, null); }", [good])
+    _until(lambda: not node.get_state()["tracked"].any(), what="neither hand")
+    page.wait_for_function("window.__rioState().status && window.__rioState().status.hands", timeout=5000)
+    time.sleep(0.3)
+    assert page.evaluate("window.__rioState().status.rejected") == 0
+
+
+def test_rio_teleop_moves_the_arm_with_the_streamed_wrist(browser, tmp_path):
+    """The whole chain: the page's hands -> teleop.webxr_hands -> `rio teleop`'s hand retargeting
+    (rio.teleop.hands) -> RIO's fake arm, which moves as the wrist moved since it was acquired."""
+    pytest.importorskip("rio.teleop.hands")
+    port = harness.free_port()
+    station = harness.write_station(tmp_path, port=port, cert_dir=tmp_path / "cert", driver="teleop.webxr_hands")
+    run = harness.TeleopRun(station, port=port, duration=60).start()
+    contexts: list = []
+    try:
+        _, page = harness.open_page(browser, run.url, contexts)
+        start = run.wait_still()
+        _inject(page, None, harness.synthetic_hand([0.1, 1.2, -0.3], pinch_m=0.08))  # acquired: the anchor
+        time.sleep(0.5)
+        assert np.linalg.norm(run.eef()[:3] - start[:3]) < 5e-4, "the arm jumped when the hand was acquired"
+        _inject(page, None, harness.synthetic_hand([0.1, 1.23, -0.35], pinch_m=0.08))  # 5 cm forward, 3 cm up
+        target = start[:3] + [0.05, 0.0, 0.03]
+        run.wait_for(_near(target), timeout=8)
+        assert np.linalg.norm(run.wait_still()[:3] - target) < TOL
+        page.click("#done")
+        run.join(20)
+    finally:
+        for ctx in contexts:
+            ctx.close()
+        if run._thread.is_alive():
+            harness.finish(run.port)
+            run.join(20)

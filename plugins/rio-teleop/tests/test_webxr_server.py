@@ -193,3 +193,53 @@ def test_robot_feedback_reaches_the_status_panel(tmp_path):
 
         s = asyncio.run(_session(node.server.port, status))
     assert s["robot"] == {"eef": [0.1, 0.2, 0.3], "gripper": 0.04}
+
+
+def test_hands_stream_checks_and_the_watchdog_over_the_socket(tmp_path):
+    """teleop.webxr_hands: hands messages (over input's 2048-byte limit) reach what the node publishes;
+    broken ones are answered and counted without touching it; a frame over 8 KiB closes the link and
+    a closed link untracks the hands."""
+    from rio.testing import wait_until
+
+    right = harness.synthetic_hand([0.1, 1.2, -0.3], [0.1, 0.2, 0.3, float(np.sqrt(0.86))])
+    good = json.dumps(harness.hands_message(right=right))
+    assert len(good) > 1024
+
+    with harness.serve_hands(tmp_path / "cert") as node:
+        async def body(ws):
+            await ws.send_str(good)
+            assert await asyncio.to_thread(wait_until, lambda: node.get_state()["tracked"][1], 3.0)
+            published = node.get_state()
+            bad_hand = {**right, "j": right["j"][:24]}
+            bad = [json.dumps(harness.hands_message(right=bad_hand)),
+                   good.replace(str(right["j"][3][0]), "NaN", 1),
+                   good.replace(str(right["j"][3][0]), "1e999", 1),
+                   json.dumps({**harness.hands_message(right=right), "extra": 1}),
+                   json.dumps(harness.hands_message(right={**right, "q": [0, 0, 0, 0.2]})),
+                   json.dumps({**msg(P0), "source": "x" * 3000})]  # only hands may pass 2048 bytes
+            errors = []
+            for b in bad:
+                await ws.send_str(b)
+                errors.append((await _until(ws, "error"))["message"])
+                await ws.send_str(good)  # the valid stream goes on
+            for _ in range(20):  # the panel's status says which hands are tracked (statuses queue: a few)
+                await ws.send_str(good)
+                status = await _until(ws, "status")
+                if status["hands"]["right"]:
+                    break
+            still = node.get_state()
+            await ws.send_str(json.dumps({**harness.hands_message(right=right), "pad": "x" * 9000}))
+            closed = await _closed(ws)
+            return published, errors, status, still, closed
+
+        published, errors, status, still, closed = asyncio.run(_session(node.page()["port"], body))
+        assert published["tracked"].tolist() == [False, True]
+        assert published["wrist_pose"][1, :3] == pytest.approx([0.3, -0.1, 1.2])
+        assert published["hand_keypoints"][1, 3] == pytest.approx([-right["j"][3][2], -right["j"][3][0],
+                                                                  right["j"][3][1]])
+        assert len(errors) == 6 and "25 joints" in errors[0] and "over 2048 bytes" in errors[-1], errors
+        assert status["rejected"] >= 6 and status["hands"] == {"left": False, "right": True}
+        assert still["tracked"].tolist() == [False, True]
+        assert np.array_equal(still["hand_keypoints"], published["hand_keypoints"])  # nothing refused got in
+        assert closed.data == 1009  # message too big
+        assert wait_until(lambda: not node.get_state()["tracked"].any(), 3.0)  # disconnected: untracked

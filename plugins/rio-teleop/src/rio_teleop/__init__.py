@@ -1,1 +1,2 @@
-"""rio-teleop: teleoperation devices (SpaceMouse, gamepads, GELLO leader arms, WebXR headsets and phones)."""
+"""rio-teleop: teleoperation devices (SpaceMouse, gamepads, GELLO leader arms, WebXR headsets and phones,
+Apple Vision Pro hand tracking)."""

@@ -9,12 +9,13 @@ from rio.hookspecs import hookimpl
 from rio.requirements import Requirement
 from rio.specs import Spec
 
+from .avp import specs as avp
 from .gamepad import specs as gamepad
 from .gello import specs as gello
 from .spacemouse import specs as spacemouse
 from .webxr import specs as webxr
 
-_DEVICES = (spacemouse, gamepad, gello, webxr)
+_DEVICES = (spacemouse, gamepad, gello, webxr, avp)
 
 
 @hookimpl

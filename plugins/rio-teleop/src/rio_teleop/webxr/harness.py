@@ -2,6 +2,10 @@
 of RIO's fake arm and gripper driven by the WebXR device through `rio.teleop.run_teleop` (the loop
 `rio teleop` runs) in a background thread, and the page opened in headless Chromium (playwright),
 where `window.__rioInjectPose(...)` feeds synthetic poses into the path WebXR frames take.
+
+For `teleop.webxr_hands`: `serve_hands` runs the node alone (thread middleware) and gives a client of
+what it publishes; `synthetic_hand` is a plausible 25-joint hand for `window.__rioInjectHands(left,
+right)` (the path XR frames with hand tracking take) or a raw `hands_message`.
 """
 
 from __future__ import annotations
@@ -11,6 +15,8 @@ import shutil
 import socket
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +24,7 @@ import numpy as np
 
 STATION = """\
 name = "webxr-harness"
-description = "fake arm + fake gripper driven by teleop.webxr"
+description = "fake arm + fake gripper driven by {driver}"
 rate_hz = {rate_hz}
 
 [middleware]
@@ -31,7 +37,7 @@ driver = "rio.fake_arm"
 driver = "rio.fake_gripper"
 
 [components.teleop]
-driver = "teleop.webxr"
+driver = "{driver}"
 port = {port}
 cert_dir = "{cert_dir}"
 {teleop_extra}
@@ -50,10 +56,11 @@ def free_port() -> int:
 
 
 def write_station(directory: str | os.PathLike[str], *, port: int, cert_dir: str | os.PathLike[str],
-                  rate_hz: float = 50, teleop_extra: str = "") -> Path:
+                  rate_hz: float = 50, teleop_extra: str = "", driver: str = "teleop.webxr") -> Path:
+    """The station: `driver` is "teleop.webxr" or "teleop.webxr_hands"."""
     path = Path(directory) / "webxr-harness.toml"
     path.write_text(STATION.format(rate_hz=rate_hz, port=port, cert_dir=os.fspath(cert_dir),
-                                   teleop_extra=teleop_extra))
+                                   teleop_extra=teleop_extra, driver=driver))
     return path
 
 
@@ -75,6 +82,19 @@ def launch_chromium(playwright: Any) -> Any:
         raise RuntimeError("no Chromium found (apt install chromium, or set RIO_CHROMIUM)")
     args = ["--no-sandbox"] if hasattr(os, "getuid") and os.getuid() == 0 else []
     return playwright.chromium.launch(executable_path=exe, headless=True, args=args)
+
+
+def open_page(browser: Any, url: str, contexts: list[Any] | None = None, timeout_ms: int = 10_000) -> tuple[Any, Any]:
+    """The teleop page in a new browser context (self-signed certificate accepted), once connected.
+    The context is appended to `contexts` (for closing after a failed test)."""
+    # bypass_csp: playwright's own wait_for_function evaluates strings, which the page's CSP forbids
+    ctx = browser.new_context(ignore_https_errors=True, bypass_csp=True)
+    if contexts is not None:
+        contexts.append(ctx)
+    page = ctx.new_page()
+    page.goto(url)
+    page.wait_for_function("window.__rioState && window.__rioState().connected", timeout=timeout_ms)
+    return ctx, page
 
 
 class TeleopRun:
@@ -221,3 +241,45 @@ def finish(port: int, timeout: float = 5.0) -> None:
     t.join(timeout + 1)
     if errors:
         raise errors[0]
+
+
+# -- teleop.webxr_hands ----------------------------------------------------------------------------------
+def synthetic_hand(wrist: Any = (0.0, 1.2, -0.3), q: Any = (0.0, 0.0, 0.0, 1.0), *, pinch_m: float = 0.05,
+                   ) -> dict[str, Any]:
+    """A hand as the page sends it (WebXR reference space, y up, -z forward): 25 joints in HAND_JOINTS
+    order, the wrist at `wrist`, fingers along the wrist's -z, thumb tip `pinch_m` from the index tip;
+    the whole hand turned by `q` (x, y, z, w) about the wrist, which is also the wrist's orientation."""
+    from rio.control.rotations import quat_rotate
+    from rio.interfaces.teleop import HAND_JOINTS
+
+    local = np.zeros((len(HAND_JOINTS), 3))
+    for k in range(4):  # index, middle, ring, pinky: metacarpal .. tip, spread along x
+        for part in range(5):
+            local[5 + 5 * k + part] = [-0.03 + 0.02 * k, 0.0, -(0.03 + 0.02 * part)]
+    index_tip = local[HAND_JOINTS.index("index-finger-tip")]
+    for part in range(4):  # thumb: metacarpal .. tip, ending pinch_m to the index tip's left
+        local[1 + part] = (part + 1) / 4 * (index_tip + [-pinch_m, 0.0, 0.0])
+    x, y, z, w = (float(v) for v in q)
+    joints = np.asarray(wrist, dtype=np.float64) + quat_rotate([w, x, y, z], local)
+    return {"j": joints.tolist(), "q": [x, y, z, w]}
+
+
+def hands_message(left: dict[str, Any] | None = None, right: dict[str, Any] | None = None, *,
+                  seq: int = 0) -> dict[str, Any]:
+    """A `hands` message as the page sends it (see rio_teleop.webxr.protocol)."""
+    return {"type": "hands", "seq": seq, "t": 0.0, "left": left, "right": right}
+
+
+@contextmanager
+def serve_hands(cert_dir: str | os.PathLike[str], *, port: int = 0, rate_hz: float = 100,
+                **config: Any) -> Iterator[Any]:
+    """`teleop.webxr_hands` served alone (thread middleware): yields a client of the node (its
+    `get_state()` is what it publishes, `page()` where the page is)."""
+    from rio.manager import ServerManager, connect, serve
+
+    from .node import WebXRHands
+
+    cfg = {"port": port, "cert_dir": os.fspath(cert_dir), "rate_hz": rate_hz, **config}
+    with ServerManager("thread", [serve(WebXRHands, name="teleop", **cfg)]), \
+            connect(WebXRHands, "thread", name="teleop", **cfg) as client:
+        yield client

@@ -20,7 +20,13 @@ stops where it is rather than finishing a move nobody is watching) and publishes
 clutch then has to be released and pressed again. The gripper holds its last command meanwhile.
 
 WebXR reference spaces are y up, -z forward, x right; the robot's base frame is x forward, y left,
-z up. `yaw_deg` turns the mapping about z for an operator who does not face the robot's x axis.
+z up. `yaw_deg` turns the mapping about z for an operator who does not face the robot's x axis
+(`xr_to_robot`: the one rotation both mappers use).
+
+`HandMapper` is `teleop.webxr_hands`' side: no clutch and no twist; it turns the page's `hands`
+messages into the hand tracker contract (rio.interfaces.teleop: wrist_pose, hand_keypoints, tracked,
+gripper from the driving hand's pinch) in the reference space turned to the robot's axes, and says
+a hand is tracked only while its stream is fresh.
 """
 
 from __future__ import annotations
@@ -28,12 +34,27 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from rio.control.rotations import quat_conj, quat_mul, quat_normalize, quat_to_rotvec, rotvec_to_quat
+from rio.control.rotations import (
+    matrix_to_quat,
+    quat_conj,
+    quat_mul,
+    quat_normalize,
+    quat_to_rotvec,
+    rotvec_to_quat,
+)
+from rio.interfaces.teleop import hand_tracker_sample, pinch_opening
 
 #: WebXR (x right, y up, z back) -> robot base (x forward, y left, z up)
 XR_TO_ROBOT = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 ID_Q = np.array([1.0, 0.0, 0.0, 0.0])
 SETTLED_M, SETTLED_RAD = 1e-4, 1e-3
+
+
+def xr_to_robot(yaw_deg: float = 0.0) -> np.ndarray:
+    """The rotation from a WebXR reference space to the robot's base axes, turned by `yaw_deg` about z."""
+    yaw = np.deg2rad(yaw_deg)
+    rz = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    return rz @ XR_TO_ROBOT
 
 
 def _clip(v: np.ndarray, limit: float) -> np.ndarray:
@@ -47,9 +68,7 @@ class ClutchMapper:
                  dead_band_m: float = 0.01, stale_s: float = 0.25, buttons: int = 2):
         if mapping not in ("pose", "twist"):
             raise ValueError(f"mapping must be 'pose' or 'twist', not {mapping!r}")
-        yaw = np.deg2rad(yaw_deg)
-        rz = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
-        self.R = rz @ XR_TO_ROBOT
+        self.R = xr_to_robot(yaw_deg)
         self.mapping, self.scale, self.rot_scale = mapping, float(scale), float(rot_scale)
         self.max_speed, self.max_rot_speed = float(max_speed), float(max_rot_speed)
         self.gain, self.twist_gain, self.dead_band = float(gain), float(twist_gain), float(dead_band_m)
@@ -179,3 +198,99 @@ class ClutchMapper:
         v = np.zeros(3) if np.linalg.norm(e_p) < SETTLED_M else _clip(self.gain * e_p, self.max_speed)
         w = np.zeros(3) if np.linalg.norm(e_r) < SETTLED_RAD else _clip(self.gain * e_r, self.max_rot_speed)
         return v, w
+
+
+class HandMapper:
+    """`hands` messages -> the hand tracker contract (both hands, index 0 left, 1 right).
+
+    Positions are turned into the robot's axes (`xr_to_robot(yaw_deg)`), not moved: the origin stays
+    the reference space's (local-floor: the floor under where the session started). A wrist's
+    orientation is the WebXR wrist joint's orientation with the world turned the same way (q_robot =
+    R * q_xr; the hand's own axes stay WebXR's joint axes). A hand is tracked while the newest `hands`
+    message that had it arrived within `stale_s` and the page is connected; while it is not, its values
+    stay as last seen. The gripper is `pinch_opening` of the driving hand (`hand`), held while that hand is not
+    tracked (open until it first is). Buttons: done from the page's Finish button (any message's
+    `done`), latched until `restart()` (the node's `reset()`: a new run) so a loop that reads only the
+    newest sample cannot miss it; mode never (a hand tracker's loop has no modes to cycle).
+    """
+
+    SIDES = ("left", "right")
+
+    def __init__(self, *, yaw_deg: float = 0.0, stale_s: float = 0.25, hand: str = "right", buttons: int = 2):
+        if hand not in self.SIDES:
+            raise ValueError(f"hand must be 'left' or 'right', not {hand!r}")
+        self.R = xr_to_robot(yaw_deg)
+        self.q_R = matrix_to_quat(self.R)
+        self.stale_s, self.hand, self.n_buttons = float(stale_s), self.SIDES.index(hand), int(buttons)
+        sample = hand_tracker_sample()
+        self.wrist_pose, self.keypoints = sample["wrist_pose"], sample["hand_keypoints"]
+        self.t_seen = np.full(2, -np.inf)  # arrival of the newest message that had each hand
+        self.connected = False
+        self.t_msg = -np.inf
+        self.gripper = 1.0
+        self.done_pending = False
+        self.was_tracked = np.zeros(2, bool)
+        self.lost_count = 0           # how many times a tracked hand went stale (the watchdog)
+        self.frames = 0
+
+    # -- page side ---------------------------------------------------------------------------------
+    def connect(self, t: float) -> None:
+        self.connected = True
+
+    def disconnect(self, t: float) -> None:
+        self.connected = False
+        self.t_seen[:] = -np.inf
+
+    def restart(self) -> None:
+        """A new run: forget the hands until the page sends them again."""
+        self.t_seen[:] = -np.inf
+        self.done_pending = False
+
+    def on_input(self, msg: dict[str, Any], t: float) -> None:
+        """An `input` message: keeps the link fresh and carries the page's Finish button."""
+        self.t_msg = t
+        self.done_pending |= bool(msg["done"])
+
+    def on_hands(self, msg: dict[str, Any], t: float) -> None:
+        """A validated `hands` message (rio_teleop.webxr.protocol) that arrived at time t."""
+        self.t_msg = t
+        self.frames += 1
+        for i, side in enumerate(self.SIDES):
+            h = msg[side]
+            if h is None:
+                self.t_seen[i] = -np.inf
+                continue
+            kp = np.asarray(h["j"], dtype=np.float64) @ self.R.T
+            x, y, z, w = h["q"]
+            self.keypoints[i] = kp
+            self.wrist_pose[i, :3] = kp[0]
+            self.wrist_pose[i, 3:] = quat_normalize(quat_mul(self.q_R, np.array([w, x, y, z])))
+            self.t_seen[i] = t
+
+    # -- node side ---------------------------------------------------------------------------------
+    def tracked(self, t: float) -> np.ndarray:
+        return (t - self.t_seen <= self.stale_s) & self.connected
+
+    def stale(self, t: float) -> bool:
+        return not self.connected or t - self.t_msg > self.stale_s
+
+    def step(self, t: float) -> dict[str, Any]:
+        """This cycle's sample: the hand tracker contract, twist zero."""
+        tracked = self.tracked(t)
+        self.lost_count += int(np.sum(self.was_tracked & ~tracked))
+        self.was_tracked = tracked
+        if tracked[self.hand]:
+            self.gripper = pinch_opening(self.keypoints[self.hand])
+        buttons = np.zeros(self.n_buttons, bool)
+        if self.n_buttons > 1:
+            buttons[1] = self.done_pending  # rio.control.teleop.BUTTON_DONE, latched until restart()
+        return {"twist": np.zeros(6), "gripper": float(self.gripper), "buttons": buttons,
+                "wrist_pose": self.wrist_pose.copy(), "hand_keypoints": self.keypoints.copy(), "tracked": tracked}
+
+    def status(self, t: float) -> dict[str, Any]:
+        tracked = self.tracked(t)
+        wrist = [round(float(x) * 1000, 1) for x in self.wrist_pose[self.hand, :3]]
+        return {"connected": self.connected, "stale": self.stale(t), "engaged": bool(tracked[self.hand]),
+                "need_release": False, "mapping": "hands", "target_mm": wrist, "sent_mm": wrist,
+                "gripper": round(float(self.gripper), 3), "holds": self.lost_count,
+                "hands": {side: bool(tracked[i]) for i, side in enumerate(self.SIDES)}, "frames": self.frames}

@@ -2,7 +2,11 @@
 
 The node serves an HTTPS page and a WebSocket (`server.py`); the page streams the controller's (or
 hand's, or phone's) pose, clutch, trigger and buttons; `mapping.ClutchMapper` turns them into the
-teleop contract (twist, gripper, buttons) that `rio teleop`'s `TwistTeleop` integrates. See
+teleop contract (twist, gripper, buttons) that `rio teleop`'s `TwistTeleop` integrates.
+
+`teleop.webxr_hands` (`WebXRHands`) is the same node, page and rules as a hand tracker: the page
+streams both tracked hands (wrist and 25 joints, `hands` messages) and `mapping.HandMapper` publishes
+them as the hand tracker contract (rio.interfaces.teleop) for `rio teleop` to retarget. See
 docs/webxr.md.
 """
 
@@ -92,7 +96,6 @@ class WebXRTeleop(TeleopNode):
         from rio.keys import check_private
 
         from .certs import ensure_certificate
-        from .mapping import ClutchMapper
         from .server import WebXRServer
 
         c = self.config
@@ -103,15 +106,21 @@ class WebXRTeleop(TeleopNode):
         ctx.minimum_version = ssl.TLSVersion.TLSv1_2
         ctx.load_cert_chain(str(cert.cert), str(cert.key))
         self.lock = threading.Lock()
-        self.mapper = ClutchMapper(mapping=c.mapping, scale=c.scale, rot_scale=c.rot_scale, yaw_deg=c.yaw_deg,
-                                   max_speed=c.max_speed, max_rot_speed=c.max_rot_speed, gain=c.gain,
-                                   twist_gain=c.twist_gain, dead_band_m=c.dead_band_m, stale_s=c.stale_s,
-                                   buttons=c.buttons)
+        self.mapper = self.make_mapper()
         self.server = WebXRServer(self, c.host, c.port, ctx)
         self.server.start()
         shown = hosts or [c.host]
         self.urls = [f"https://{'localhost' if is_loopback(h) else h}:{self.server.port}/" for h in shown]
         self.url, self.fingerprint = self.urls[0], cert.fingerprint
+
+    def make_mapper(self) -> Any:
+        from .mapping import ClutchMapper
+
+        c = self.config
+        return ClutchMapper(mapping=c.mapping, scale=c.scale, rot_scale=c.rot_scale, yaw_deg=c.yaw_deg,
+                            max_speed=c.max_speed, max_rot_speed=c.max_rot_speed, gain=c.gain,
+                            twist_gain=c.twist_gain, dead_band_m=c.dead_band_m, stale_s=c.stale_s,
+                            buttons=c.buttons)
 
     def close(self) -> None:
         server = getattr(self, "server", None)
@@ -125,7 +134,8 @@ class WebXRTeleop(TeleopNode):
     # -- the server's handler (called from its thread) -------------------------------------------
     def page_config(self) -> dict[str, Any]:
         c = self.config
-        return {"hand": c.hand, "mapping": c.mapping, "stale_s": c.stale_s, "fingerprint": self.fingerprint}
+        return {"hand": c.hand, "mapping": c.mapping, "stale_s": c.stale_s, "fingerprint": self.fingerprint,
+                "hands": False}
 
     def connected(self) -> None:
         with self.lock:
@@ -182,3 +192,59 @@ class WebXRTeleop(TeleopNode):
 
 
 WebXRTeleopConfig = WebXRTeleop.Config
+
+
+class WebXRHands(WebXRTeleop):
+    """`teleop.webxr_hands`: the headset's tracked hands, both of them, as a hand tracker.
+
+    The same server, certificate, page, message checks, single operator and loopback-by-default rule
+    as `teleop.webxr`; the page, told `"hands": true`, streams both hands' wrist and 25 joints each XR
+    frame (`hands` messages, at most `hands_hz` a second) and the node publishes them as the hand
+    tracker contract (wrist_pose, hand_keypoints, tracked; twist zero; gripper from the `hand`'s pinch;
+    done from the page's Finish button, held until `reset()`). `mapping`, `scale` and the speed settings do not apply:
+    `rio teleop` retargets the hands (rio.teleop.hands).
+    """
+
+    hand_tracker = True
+
+    class Config(WebXRTeleop.Config):
+        hand: Literal["right", "left"] = Field("right", description="which hand's pinch drives the gripper")
+        hands_hz: float = Field(60.0, ge=5, le=120, description="how often the page sends both hands (per "
+                                                                "second, at most once per XR frame)")
+
+    def make_mapper(self) -> Any:
+        from .mapping import HandMapper
+
+        c = self.config
+        return HandMapper(yaw_deg=c.yaw_deg, stale_s=c.stale_s, hand=c.hand, buttons=c.buttons)
+
+    def page_config(self) -> dict[str, Any]:
+        from . import protocol
+
+        return {**super().page_config(), "mapping": "hands", "hands": True, "hands_hz": self.config.hands_hz,
+                "max_pos_m": protocol.MAX_POS_M, "max_hand_span_m": protocol.MAX_HAND_SPAN_M}
+
+    def message(self, msg: dict[str, Any]) -> None:
+        with self.lock:
+            if msg["type"] == "hands":
+                self.mapper.on_hands(msg, clock.now())
+            elif msg["type"] == "input":
+                self.mapper.on_input(msg, clock.now())
+
+    @remote
+    def help(self) -> str:
+        urls = "  ".join(getattr(self, "urls", [self.url]))
+        return (f"teleop.webxr_hands: open {urls} in the headset's browser; certificate SHA-256 "
+                f"{self.fingerprint} (compare before accepting it; docs/webxr.md). Enter VR or AR with "
+                f"hand tracking on: both hands are streamed; the {self.config.hand} hand's thumb-index "
+                "pinch closes the gripper; Finish ends the run.")
+
+    @remote
+    def reset(self) -> float:
+        """A new run: the hands count as tracked again once the page next sends them."""
+        with self.lock:
+            self.mapper.restart()
+        return 0.0
+
+
+WebXRHandsConfig = WebXRHands.Config

@@ -3,9 +3,10 @@
 `GET /` is the page, `GET /teleop.js` its script (package data, no build step), `GET /ws` the
 WebSocket. One operator at a time: a second page is told so and closed. A page whose `Origin` is not
 this server is refused (another site open in the headset's browser cannot drive the robot). Frames
-over `protocol.MAX_BYTES` close the connection (aiohttp's `max_msg_size`), compression is not
-offered (no decompression bombs), every text frame is validated (`protocol.parse`) before the
-handler sees it, and a page flooding the socket past `MAX_RATE_HZ` has the excess dropped.
+over `protocol.MAX_HANDS_BYTES` close the connection (aiohttp's `max_msg_size`; the check refuses
+every message but `hands` past `protocol.MAX_BYTES`), compression is not offered (no decompression
+bombs), every text frame is validated (`protocol.parse`) before the handler sees it, and a page
+flooding the socket past `MAX_RATE_HZ` has the excess dropped.
 """
 
 from __future__ import annotations
@@ -143,7 +144,7 @@ class WebXRServer:
 
         if not self._same_origin(request):
             return web.Response(status=403, text="teleop.webxr: this page is served from another origin")
-        ws = web.WebSocketResponse(max_msg_size=protocol.MAX_BYTES, compress=False, heartbeat=None,
+        ws = web.WebSocketResponse(max_msg_size=protocol.MAX_HANDS_BYTES, compress=False, heartbeat=None,
                                    autoping=True)
         await ws.prepare(request)
         if self._active is not None and not self._active.closed:

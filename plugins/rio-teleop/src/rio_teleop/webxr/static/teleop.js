@@ -1,6 +1,8 @@
 // rio teleop.webxr page: streams a controller's, hand's or phone's pose to the robot over a WebSocket.
 // Plain JavaScript, no build step. Every input source (WebXR frames, phone orientation, on-screen buttons,
 // and the test hook window.__rioInjectPose) goes through submit(): one message path to the robot.
+// teleop.webxr_hands (config "hands": true): each XR frame's tracked hands (wrist + 25 joints) also go out
+// as `hands` messages through submitHands(), which the test hook window.__rioInjectHands uses too.
 'use strict';
 (() => {
   const $ = (id) => document.getElementById(id);
@@ -8,6 +10,7 @@
     ws: null, cfg: { hand: 'right', stale_s: 0.25 }, seq: 0, sample: null, lastSent: 0,
     clutchBtn: false, gripBtn: false, mode: false, done: false, jog: [0, 0, 0], virt: [0, 0, 0],
     orient: null, xr: null, phone: false, pings: new Map(), pingId: 0, rtt: null, status: null, sent: 0, source: '-',
+    hands: null, handsBudget: 1, handsT: 0, handsLast: 0, handsSent: 0, handsSeen: null,
   };
   const KEEPALIVE_MS = 40; // resend the newest sample this often when nothing new came (the node's watchdog)
 
@@ -20,7 +23,7 @@
       S.ws = null; setTimeout(connect, 1000); };
     ws.onmessage = (ev) => {
       let m; try { m = JSON.parse(ev.data); } catch (e) { return; }
-      if (m.type === 'config') { S.cfg = m; $('fp').textContent = m.fingerprint; }
+      if (m.type === 'config') { S.cfg = m; $('fp').textContent = m.fingerprint; handsMode(!!m.hands); }
       else if (m.type === 'pong') {
         const p = S.pings.get(m.id); S.pings.delete(m.id);
         if (p) { const now = performance.now(); S.rtt = now - p.t;
@@ -56,12 +59,76 @@
   }
   // nothing tracked (no XR session, phone still): keep the link fresh with what the buttons say
   setInterval(() => {
+    if (!S.xr && S.hands && S.hands.source === 'test' && performance.now() - S.handsLast >= KEEPALIVE_MS) {
+      submitHands(S.hands, 'test'); // injected hands are held still, like an injected pose
+    }
     if (performance.now() - S.lastSent < KEEPALIVE_MS) return;
     if (S.xr) return; // an XR session streams every frame itself
     if (S.phone) submit(phoneSample(S.sample || {}));
     else if (S.sample && S.sample.source === 'test') submit(S.sample); // an injected pose is held still
     else submit({ pose: null, clutch: S.clutchBtn, trigger: S.gripBtn ? 1 : 0, source: 'buttons' });
   }, KEEPALIVE_MS / 2);
+
+  // ---- hands (teleop.webxr_hands): both hands' 25 joints, one `hands` message per XR frame --------------
+  // hands: {left, right}, each null (not tracked) or {j: 25 x [x, y, z] in JOINTS order, q: wrist [x, y, z, w]}
+  // in the reference space. At most cfg.hands_hz messages a second on average (a frame over budget is
+  // skipped); positions rounded to 0.1 mm. A hand the node would refuse (not finite, too far) goes as null.
+  const JOINTS = ['wrist', 'thumb-metacarpal', 'thumb-phalanx-proximal', 'thumb-phalanx-distal', 'thumb-tip'];
+  for (const f of ['index-finger', 'middle-finger', 'ring-finger', 'pinky-finger']) {
+    for (const part of ['metacarpal', 'phalanx-proximal', 'phalanx-intermediate', 'phalanx-distal', 'tip']) JOINTS.push(`${f}-${part}`);
+  }
+  const round = (x, k) => Math.round(x * k) / k;
+  function handMsg(h) {
+    if (!h || !Array.isArray(h.j) || h.j.length !== JOINTS.length || !Array.isArray(h.q) || h.q.length !== 4) return null;
+    const j = h.j.map((p) => [0, 1, 2].map((i) => round(+p[i], 1e4)));
+    const q = h.q.map((x) => round(+x, 1e5));
+    const maxPos = +S.cfg.max_pos_m || 20, span = +S.cfg.max_hand_span_m || 0.5;
+    const ok = j.every((p) => p.every((x) => Number.isFinite(x) && Math.abs(x) <= maxPos)
+      && Math.hypot(p[0] - j[0][0], p[1] - j[0][1], p[2] - j[0][2]) <= span)
+      && q.every(Number.isFinite) && Math.abs(Math.hypot(...q) - 1) < 0.1;
+    return ok ? { j, q } : null;
+  }
+  function submitHands(hands, source, force = false) {
+    S.hands = { left: (hands && hands.left) || null, right: (hands && hands.right) || null, source };
+    const now = performance.now(), hz = Math.max(1, +S.cfg.hands_hz || 60);
+    S.handsBudget = Math.min(1, S.handsBudget + (now - S.handsT) * hz / 1000);
+    S.handsT = now;
+    if (S.handsBudget < 1 && !force) return null;
+    const msg = { type: 'hands', seq: ++S.seq, t: now, left: handMsg(S.hands.left), right: handMsg(S.hands.right) };
+    if (send(msg)) { S.handsBudget = Math.max(0, S.handsBudget - 1); S.handsSent++; S.handsLast = now; }
+    return msg;
+  }
+  const handBuf = new Float32Array(16 * JOINTS.length);
+  function xrHand(frame, hand, ref) {
+    const spaces = JOINTS.map((n) => hand.get(n));
+    if (spaces.some((sp) => !sp)) return null;
+    let j = [];
+    if (typeof frame.fillPoses === 'function') {
+      if (!frame.fillPoses(spaces, ref, handBuf)) return null; // some joint not tracked now
+      j = spaces.map((_, i) => [handBuf[16 * i + 12], handBuf[16 * i + 13], handBuf[16 * i + 14]]);
+    } else {
+      for (const sp of spaces) { const p = frame.getJointPose(sp, ref); if (!p) return null; j.push(vec(p.transform.position)); }
+    }
+    const wrist = frame.getJointPose(spaces[0], ref);
+    return wrist ? { j, q: quat(wrist.transform.orientation) } : null;
+  }
+  function xrHands(frame, ref) {
+    const out = { left: null, right: null };
+    for (const src of frame.session.inputSources) {
+      if (src.hand && (src.handedness === 'left' || src.handedness === 'right')) out[src.handedness] = xrHand(frame, src.hand, ref);
+    }
+    const seen = !!(out.left || out.right);
+    if (seen !== S.handsSeen) {
+      S.handsSeen = seen;
+      $('msg').textContent = seen ? '' : 'no tracked hands: put the controllers down (hand tracking on in the headset)';
+    }
+    return out;
+  }
+  function handsMode(on) {
+    document.body.classList.toggle('hands', on);
+    $('l-clutch').textContent = on ? 'hands' : 'clutch';
+    $('l-target').textContent = on ? 'wrist' : 'target';
+  }
 
   // ---- WebXR ---------------------------------------------------------------------------------------
   const vec = (p) => [p.x, p.y, p.z];
@@ -87,12 +154,16 @@
     S.xr = { session, ref, selecting: new Set() };
     session.addEventListener('selectstart', (e) => S.xr && S.xr.selecting.add(e.inputSource));
     session.addEventListener('selectend', (e) => S.xr && S.xr.selecting.delete(e.inputSource));
-    session.addEventListener('end', () => { S.xr = null; submit({ pose: null, clutch: false, trigger: 0, source: 'buttons' }); });
+    session.addEventListener('end', () => {
+      S.xr = null; submit({ pose: null, clutch: false, trigger: 0, source: 'buttons' });
+      if (S.cfg.hands) { submitHands(null, 'xr-hand', true); S.hands = null; S.handsSeen = null; }
+    });
     const onFrame = (t, frame) => {
       session.requestAnimationFrame(onFrame);
       const layer = session.renderState.baseLayer;
       gl.bindFramebuffer(gl.FRAMEBUFFER, layer.framebuffer);
       gl.clearColor(0, 0, 0, mode === 'immersive-ar' ? 0 : 1); gl.clear(gl.COLOR_BUFFER_BIT);
+      if (S.cfg.hands) submitHands(xrHands(frame, ref), 'xr-hand');
       const s = xrSample(frame, ref, mode);
       if (s) submit(s);
     };
@@ -191,8 +262,14 @@
   function link(text, ok) { const el = $('s-link'); el.textContent = text; el.className = ok ? 'good' : 'bad'; }
   function showStatus(m) {
     $('s-rtt').textContent = S.rtt === null ? '-' : `${S.rtt.toFixed(1)} ms`;
-    $('s-input').textContent = `${S.source}, ${S.sent} sent` + (m.stale ? ' (stale: robot holding)' : '');
-    $('s-clutch').textContent = m.engaged ? 'following' : (m.need_release ? 'release and press again' : 'released');
+    $('s-input').textContent = `${S.source}, ${S.sent} sent` + (S.handsSent ? `, ${S.handsSent} hands` : '')
+      + (m.stale ? ' (stale: robot holding)' : '');
+    if (m.hands) {
+      const tr = (side) => `${side} ${m.hands[side] ? 'tracked' : '-'}`;
+      $('s-clutch').textContent = `${tr('left')}, ${tr('right')}`;
+    } else {
+      $('s-clutch').textContent = m.engaged ? 'following' : (m.need_release ? 'release and press again' : 'released');
+    }
     $('s-clutch').className = m.engaged ? 'good' : '';
     $('s-target').textContent = m.target_mm.map((v) => v.toFixed(0)).join(', ') + ' mm';
     $('s-gripper').textContent = m.gripper.toFixed(2);
@@ -203,8 +280,12 @@
   // ---- test and benchmark hooks: the same path as WebXR frames -------------------------------------
   window.__rioInjectPose = (p, q, opts = {}) => submit({ pose: p ? { p, q: q || [0, 0, 0, 1] } : null,
     clutch: !!opts.clutch, trigger: opts.trigger || 0, source: 'test' });
+  // hands: left / right each null or {j: 25 x [x, y, z] (XRHand order), q: [x, y, z, w]} (reference space)
+  window.__rioInjectHands = (left = null, right = null) => submitHands({ left, right }, 'test');
+  window.__rioXRHands = (frame, ref) => xrHands(frame, ref); // what an XR frame's hands read as (no send)
   window.__rioPing = ping;
-  window.__rioState = () => ({ connected: !!(S.ws && S.ws.readyState === WebSocket.OPEN), rtt: S.rtt, status: S.status, sent: S.sent, config: S.cfg });
+  window.__rioState = () => ({ connected: !!(S.ws && S.ws.readyState === WebSocket.OPEN), rtt: S.rtt, status: S.status,
+    sent: S.sent, handsSent: S.handsSent, config: S.cfg });
   window.__rioButton = (name) => { if (name === 'mode') S.mode = true; if (name === 'done') S.done = true; };
 
   connect();
