@@ -22,7 +22,8 @@ def rio_drivers() -> list[Spec]:
              "Intel RealSense D405/D415/D435/D455: colour with depth aligned to it, by serial "
              '(or source = "software")', preset={"product_line": "d400"}),
         Spec("realsense.l515", "camera", _DRIVER,
-             'Intel RealSense L515 (lidar): colour with depth aligned to it, by serial (or source = "software")',
+             'Intel RealSense L515 (lidar): colour with depth aligned to it, by serial (or source = "software"); '
+             "needs pyrealsense2 < 2.55 (later SDKs dropped the L515)",
              preset={"product_line": "l500"}),
     ]
 
