@@ -136,3 +136,23 @@ driver = "rio.fake_model_hand"
     assert np.allclose(last.proprio_eef[:3] - first.proprio_eef[:3], [0.0, 0.04, 0.03], atol=4e-3)
     flex = [i for i, n in enumerate(five_finger_hand_joints()) if n.endswith("_pip") and "thumb" not in n]
     assert np.asarray(last.hand_joints)[flex].min() > 0.6
+
+
+def test_a_twist_device_drives_a_humanoids_wrists(tmp_path):
+    """The twist teleop (keyboard, SpaceMouse, scripted) on a humanoid: its wrists stand for two arms,
+    solved together by IK; one device moves both, the legs stay."""
+    from rio.kinematics import MultiFrameIK
+    from rio.testing import upper_body_description, upper_body_joints
+
+    path = tmp_path / "twist-humanoid.toml"
+    path.write_text(HEAD + '[components.humanoid]\ndriver = "rio.fake_model_humanoid"\n'
+                    '[components.teleop]\ndriver = "rio.fake_teleop"\ntwist = [0.0, 0.0, 0.03, 0, 0, 0]\n')
+    ticks: list = []
+    run_teleop(str(path), duration=1.5, on_tick=ticks.append, log=None, filter_hz=None)
+    first, last = ticks[0].step.observation, ticks[-1].step.observation
+    ik = MultiFrameIK(upper_body_description())
+    for frame in ("left", "right"):
+        dz = ik.fk(last.joint_pos, frame)[2] - ik.fk(first.joint_pos, frame)[2]
+        assert 0.025 < dz < 0.05, frame  # 0.03 m/s for ~1.5 s, less the first and last cycles
+    legs = [i for i, n in enumerate(upper_body_joints()) if "hip" in n or "knee" in n]
+    assert np.array_equal(last.joint_pos[legs], first.joint_pos[legs])

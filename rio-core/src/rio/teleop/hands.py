@@ -71,12 +71,18 @@ class Follower:
 
 @dataclass
 class Wrist:
+    """A humanoid wrist as a teleop target: `role` is the arm role it stands for ("arm" the right wrist,
+    "arm2" the left: one twist device drives the right hand, a `teleop2` the left); no gripper."""
+
     name: str
     target: np.ndarray
+    role: str = "arm"
+    gripper: Any = None
 
 
 class HumanoidWrists:
-    """A humanoid's wrist frames, solved together by IK on its description."""
+    """A humanoid's wrist frames, solved together by IK on its description: what both the hand-tracking
+    and the twist teleop move on a humanoid (the upper body; the legs are not on the wrists' chains)."""
 
     def __init__(self, client: Any):
         from ..kinematics import MultiFrameIK
@@ -87,7 +93,9 @@ class HumanoidWrists:
                            "tracking cannot place its wrists (docs/teleop.md)")
         self.ik = MultiFrameIK(desc)
         self.q = np.asarray(client.get_state()["joint_pos"], dtype=np.float64).copy()
-        self.wrists = {name: Wrist(name, self.ik.fk(self.q, name)) for name in desc["frames"]}
+        self.wrists = {name: Wrist(name, self.ik.fk(self.q, name), "arm2" if name == "left" else "arm")
+                       for name in desc["frames"]}
+        self.wrists = dict(sorted(self.wrists.items(), key=lambda kv: kv[1].role))  # "arm" (right) first
 
     def command(self) -> np.ndarray:
         q = self.ik.solve({n: w.target for n, w in self.wrists.items()}, self.q, max_iters=10)
@@ -97,6 +105,15 @@ class HumanoidWrists:
                 w.target = np.concatenate([fk[:3], w.target[3:]])
         self.q = q
         return q.copy()
+
+    def action(self, robot: Any, hands: dict[str, np.ndarray] | None = None) -> np.ndarray:
+        """The humanoid's action: the body's joints from the wrists' targets, each hand's given joints
+        (a hand not given holds where it is)."""
+        hands = dict(hands or {})
+        for role in ("hand", "hand2"):
+            if role in robot.clients and role not in hands:
+                hands[role] = robot.clients[role].get_state()["joint_pos"]
+        return robot.build_action(joint_pos=self.command(), **hands)
 
 
 class DexterousHand:
@@ -174,7 +191,7 @@ class HandTeleop:
         hands = {r: d(bool(tracked[d.hand]), keypoints[d.hand]) for r, d in self.dex.items()}
         tick.info.update(devices={"teleop": s}, arms=self.arms, mode=self.mode)
         if self.body is not None:
-            return tick.env.robot.build_action(joint_pos=self.body.command(), **hands)
+            return self.body.action(tick.env.robot, hands)
         for f in self.followers:
             b = f.holder
             if b.gripper is not None and tracked[f.hand]:

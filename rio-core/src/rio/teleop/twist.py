@@ -16,7 +16,7 @@ import numpy as np
 
 from ..control.filters import LowPassFilter
 from ..control.teleop import BUTTON_MODE, ButtonEdges, EpisodeEnd, ModeSwitch, TeleopMode, make_teleop_eef_cmd
-from .bindings import bind_arms, build_action
+from .bindings import ArmBinding, bind_arms, build_action
 from .feedback import DeviceFeedback
 
 DEVICE_ROLES = ("teleop", "teleop2")
@@ -80,9 +80,17 @@ class TwistTeleop:
         self.expected_s = 0.0  # how long the device says its run lasts (a script), 0 when open-ended
 
     def reset(self, loop: Any) -> None:
-        self.arms = bind_arms(loop.env.robot)
-        for b in self.arms:
-            b.reset_target()
+        robot = loop.env.robot
+        self.body = None
+        if "humanoid" in robot.clients:  # its wrists, by IK on its model: the upper body, as two arms
+            from .hands import HumanoidWrists
+
+            self.body = HumanoidWrists(robot.clients["humanoid"])
+            self.arms = list(self.body.wrists.values())
+        else:
+            self.arms = bind_arms(robot)
+            for b in self.arms:
+                b.reset_target()
         self.drive = {b.role: ("teleop2" if b.role == "arm2" and "teleop2" in self.devices else "teleop")
                       for b in self.arms}
         self.polls = {r: DevicePoll(dev) for r, dev in self.devices.items()}
@@ -117,12 +125,15 @@ class TwistTeleop:
             if b.gripper is not None:
                 b.gripper_cmd = p["gripper"] * b.max_width
         tick.info.update(devices={r: p["raw"] for r, p in polled.items()}, arms=self.arms, mode=self.switch.mode)
+        if self.body is not None:
+            return self.body.action(tick.env.robot)
         return build_action(tick.env.robot, self.arms)
 
     def after(self, tick: Any) -> None:
-        self.feedback(tick.t, self.arms)
+        measured = [b for b in self.arms if isinstance(b, ArmBinding)]  # a humanoid's wrists: targets only
+        self.feedback(tick.t, measured)
         if self.visual is not None:
-            self.visual.log(tick.t - tick.t0, tick.it, tick.step, self.arms)
+            self.visual.log(tick.t - tick.t0, tick.it, tick.step, measured)
 
     def done(self) -> str | None:
         return self.end.reason()
