@@ -214,7 +214,7 @@ class HandRetargeter:
                               constraints=self._constraints)
             cfg.integrate_inplace(v, 1.0)
             full = self._full(np.clip(cfg.q[self._qadr], self.lower, self.upper))
-            if float(np.max(np.abs(v))) < 1e-6:  # converged (or stuck at a limit): the rest would not move
+            if float(np.max(np.abs(v))) < 1e-3:  # converged to 1 mrad (or stuck at a limit): the rest moves nothing
                 break
         self._last = np.clip(full[self._qadr], self.lower, self.upper)
         return self._last.copy()
