@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from rio.control.rotations import quat_angle, quat_conj, quat_mul, quat_to_rotvec
 from rio.teleop import run_teleop
-from rio.testing import five_finger_hand_joints
+from rio.testing import fake_eef_station, five_finger_hand_joints
 
 pytest.importorskip("mink")
 
@@ -21,21 +21,16 @@ rate_hz = 50
 [middleware]
 name = "thread"
 """
-EEF_ARM = """
-[embodiment]
-action_space = "eef_pose"
-[components.arm]
-driver = "rio.fake_arm"
-dof = 6
-[components.gripper]
-driver = "rio.fake_gripper"
-max_width = 0.08
-"""
-
-
 def station(tmp_path: Path, body: str, tracker: str) -> str:
     path = tmp_path / "hands.toml"
     path.write_text(HEAD + body + "\n[components.teleop]\ndriver = \"rio.fake_hand_tracker\"\n" + tracker)
+    return str(path)
+
+
+def eef_station(tmp_path: Path, tracker: str) -> str:
+    """A fake arm in end-effector space with a gripper, driven by the scripted hand tracker."""
+    path = tmp_path / "hands-eef.toml"
+    path.write_text(fake_eef_station("hands-eef", 'driver = "rio.fake_hand_tracker"\n' + tracker))
     return str(path)
 
 
@@ -46,7 +41,7 @@ def run(path: str, seconds: float, **kw):
 
 
 def test_a_wrist_moves_the_tool_by_its_motion_and_a_pinch_closes_the_gripper(tmp_path):
-    path = station(tmp_path, EEF_ARM, "move = [0.06, 0.03, -0.04]\nturn_deg = 30\npinch_after_s = 1.0\n"
+    path = eef_station(tmp_path, "move = [0.06, 0.03, -0.04]\nturn_deg = 30\npinch_after_s = 1.0\n"
                                       "seconds = 0.6\n")
     _, ticks = run(path, 2.5)
     first, last = ticks[0].step.observation, ticks[-1].step.observation
@@ -59,7 +54,7 @@ def test_a_wrist_moves_the_tool_by_its_motion_and_a_pinch_closes_the_gripper(tmp
 
 
 def test_translation_mode_keeps_the_tool_orientation(tmp_path):
-    path = station(tmp_path, EEF_ARM, "move = [0.05, 0, 0]\nturn_deg = 40\nseconds = 0.5\n")
+    path = eef_station(tmp_path, "move = [0.05, 0, 0]\nturn_deg = 40\nseconds = 0.5\n")
     _, ticks = run(path, 1.8, mode="translation")
     start, end = ticks[0].step.observation.proprio_eef, ticks[-1].step.observation.proprio_eef
     assert end[0] - start[0] == pytest.approx(0.05, abs=3e-3)
@@ -69,7 +64,7 @@ def test_translation_mode_keeps_the_tool_orientation(tmp_path):
 def test_a_lost_hand_freezes_the_tool_and_the_done_button_ends_the_run(tmp_path):
     """The hand moves 0.1 m over 1 s but is lost after 0.5 s of it: the tool stops near half-way and
     stays there, though the (untracked) wrist goes on."""
-    path = station(tmp_path, EEF_ARM, "move = [0.1, 0, 0]\nseconds = 1.0\nlose_after_s = 0.7\ndone_after_s = 2.0\n"
+    path = eef_station(tmp_path, "move = [0.1, 0, 0]\nseconds = 1.0\nlose_after_s = 0.7\ndone_after_s = 2.0\n"
                                       "buttons = 2\n")
     summary, ticks = run(path, 10.0)
     assert summary.reason == "the device finished" and summary.seconds < 8

@@ -12,21 +12,9 @@ from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, episode
 from rio.teleop import run_teleop
 from rio.teleop.command import _record_episodes
 from rio.teleop.feedback import DeviceFeedback
+from rio.testing import fake_eef_station
 
-STATION = """
-name = "verdict-test"
-rate_hz = 50
-[middleware]
-name = "thread"
-[embodiment]
-action_space = "eef_pose"
-[components.arm]
-driver = "rio.fake_arm"
-dof = 6
-[components.teleop]
-driver = "rio.fake_teleop"
-buttons = 4
-"""
+STATION = fake_eef_station("verdict-test", 'driver = "rio.fake_teleop"\nbuttons = 4', gripper=False)
 
 
 @pytest.fixture

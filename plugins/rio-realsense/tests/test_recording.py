@@ -6,22 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from rio.testing import fake_eef_station
 
 pytest.importorskip("pyrealsense2", reason="pyrealsense2 needs the system's libusb-1.0")
 av = pytest.importorskip("av")
 
-STATION = """
-name = "three-realsense"
-rate_hz = 15
-[middleware]
-name = "thread"
-[embodiment]
-action_space = "eef_pose"
-[components.arm]
-driver = "rio.fake_arm"
-[components.teleop]
-driver = "teleop.scripted"
-"""
+STATION = fake_eef_station("three-realsense", 'driver = "teleop.scripted"', gripper=False, rate_hz=15)
 CAMERAS = ("wrist", "front", "side")
 
 

@@ -29,6 +29,7 @@ from rio.testing import block_import, lifecycle, wait_until
 
 pytest.importorskip("avp_stream")
 
+from rio.testing import fake_eef_station
 from rio_teleop.avp import emulator as em  # noqa: E402
 from rio_teleop.avp.node import SDK_TO_ROBOT, VISIONOS_JOINTS, VisionProTeleop  # noqa: E402
 
@@ -316,23 +317,7 @@ class TestVisionProConformance(TeleopConformance):
             yield {"ip": e.host}
 
 
-STATION = """
-name = "avp-eef"
-rate_hz = 50
-[middleware]
-name = "thread"
-[embodiment]
-action_space = "eef_pose"
-[components.arm]
-driver = "rio.fake_arm"
-dof = 6
-[components.gripper]
-driver = "rio.fake_gripper"
-max_width = 0.08
-[components.teleop]
-driver = "teleop.avp"
-ip = "{ip}"
-"""
+STATION = fake_eef_station("avp-eef", 'driver = "teleop.avp"\nip = "{ip}"')
 
 
 class Reach:

@@ -23,6 +23,7 @@ from evdev import ecodes as e
 from rio.conformance.drivers import TeleopConformance
 from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, BUTTON_MODE
 from rio.errors import RioError
+from rio.testing import fake_eef_station
 from rio_teleop.gamepad.driver import GamepadTeleop
 
 STICK16 = AbsInfo(0, -32768, 32767, 16, 128, 0)
@@ -347,22 +348,7 @@ class TestGamepadConformance(TeleopConformance):
             yield {}
 
 
-STATION = """
-name = "gamepad-eef"
-rate_hz = 50
-[middleware]
-name = "thread"
-[embodiment]
-action_space = "eef_pose"
-[components.arm]
-driver = "rio.fake_arm"
-dof = 3
-[components.gripper]
-driver = "rio.fake_gripper"
-[components.teleop]
-driver = "teleop.xbox"
-speed = 0.1
-"""
+STATION = fake_eef_station("gamepad-eef", 'driver = "teleop.xbox"\nspeed = 0.1', dof=3)
 
 
 def test_recorded_stream_drives_rio_teleop_on_a_fake_arm(plugged, tmp_path):

@@ -23,6 +23,7 @@ import pytest
 from rio.conformance.drivers import TeleopConformance
 from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, BUTTON_MODE
 from rio.errors import RioError
+from rio.testing import fake_eef_station
 from rio_teleop.spacemouse.driver import SpaceMouseTeleop
 
 COMPACT = (0x256F, 0xC635)
@@ -246,22 +247,7 @@ class TestSpaceMouseConformance(TeleopConformance):
             yield {}
 
 
-STATION = """
-name = "spacemouse-eef"
-rate_hz = 50
-[middleware]
-name = "thread"
-[embodiment]
-action_space = "eef_pose"
-[components.arm]
-driver = "rio.fake_arm"
-dof = 3
-[components.gripper]
-driver = "rio.fake_gripper"
-[components.teleop]
-driver = "teleop.spacemouse"
-speed = 0.1
-"""
+STATION = fake_eef_station("spacemouse-eef", 'driver = "teleop.spacemouse"\nspeed = 0.1', dof=3)
 
 
 def test_recorded_stream_drives_rio_teleop_on_a_fake_arm(plugged, tmp_path):

@@ -757,6 +757,16 @@ class FakeHandTracker(ifc.TeleopNode):
                 "buttons": buttons}
 
 
+def fake_eef_station(name: str, teleop: str, *, dof: int = 6, gripper: bool = True, rate_hz: float = 50) -> str:
+    """A teleop test station's TOML text: a fake arm in end-effector space (and a fake gripper) on the
+    thread middleware, driven by the `[components.teleop]` table whose lines are `teleop` (the driver's
+    line included). Append more tables (cameras) to the text as needed."""
+    grip = '[components.gripper]\ndriver = "rio.fake_gripper"\nmax_width = 0.08\n' if gripper else ""
+    return (f'name = "{name}"\nrate_hz = {rate_hz:g}\n[middleware]\nname = "thread"\n[embodiment]\n'
+            f'action_space = "eef_pose"\n[components.arm]\ndriver = "rio.fake_arm"\ndof = {dof}\n{grip}'
+            f"[components.teleop]\n{teleop.strip()}\n")
+
+
 def write_plugin_dist(root: Any, dist: str, version: str, modules: dict[str, str],
                       entry_points: dict[str, str]) -> Any:
     """Write an importable, discoverable plugin distribution into directory `root` without installing
