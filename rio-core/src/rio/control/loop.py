@@ -41,6 +41,9 @@ from .signals import StopSignals
 from .summary import RunSummary
 from .tracking import ArmTracker, ObjectWatch
 
+#: At the end of a run, the longest wait for the arms' last motion to end before the summary measures them.
+SETTLE_MAX_S = 2.0
+
 
 @dataclass
 class Tick:
@@ -145,6 +148,7 @@ class ControlLoop:
         s.seconds = clock.now() - t_start
         if self.settle:  # let the arms arrive at their last targets before measuring
             clock.precise_wait(clock.now() + self.lead_s + 2 * dt)
+            tracker.wait_still(SETTLE_MAX_S)
         self._finish(tracker, objects, counts0, lateness)
         return s
 

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import clock
 from ..embodiments.arm_group import ACTION_SPACES
 from .reservoir import Reservoir
 from .summary import ArmTracking, ObjectMotion
@@ -109,6 +110,23 @@ class ArmTracker:
 
     def report(self) -> list[ArmTracking]:
         return [a.report() for a in self.arms]
+
+    def wait_still(self, timeout: float, period: float = 0.05, tol_rad: float = 1e-4) -> bool:
+        """Wait, at most `timeout` s, until no arm's joints move more than `tol_rad` in `period`: the run
+        is measured once the last motion has ended, however long a loaded machine's (or a slow arm's)
+        interpolation takes to get there. False when they were still moving at the timeout."""
+        def joints() -> list[np.ndarray]:
+            return [np.asarray(a.client.get_state()["joint_pos"], dtype=np.float64) for a in self.arms]
+
+        prev, t_end = joints(), clock.now() + timeout
+        while clock.now() < t_end:
+            clock.precise_wait(clock.now() + period)
+            cur = joints()
+            if all(c.shape != p.shape or float(np.max(np.abs(c - p), initial=0.0)) < tol_rad
+                   for c, p in zip(cur, prev, strict=True)):
+                return True
+            prev = cur
+        return False
 
 
 class ObjectWatch:
