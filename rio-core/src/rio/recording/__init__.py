@@ -1,4 +1,4 @@
-"""Recording and datasets (DESIGN.md section 7).
+"""Recording and datasets (docs: docs/record.md, docs/export.md, docs/datasets.md).
 
 - `Recorder`: Steps of a control loop into the native, crash-safe layout (`paths` documents it);
   camera streams are video-encoded by a separate process while recording.
