@@ -1,11 +1,54 @@
-"""rio-unitree's plugin module (entry point group `rio`). Specs only: nothing here imports the SDK."""
+"""rio-unitree's plugin module (entry point group `rio`): drivers, packaged stations, requirements and
+the `rio unitree ...` commands. Specs only: nothing here imports the SDK, cyclonedds or MuJoCo."""
 
 from __future__ import annotations
 
+from typing import Any
+
 from rio.hookspecs import hookimpl
+from rio.requirements import Requirement
 from rio.specs import Spec
+
+_P = "rio_unitree"
 
 
 @hookimpl
 def rio_drivers() -> list[Spec]:
-    return []
+    return [
+        Spec("unitree.g1", "humanoid", f"{_P}.driver:G1",
+             "Unitree G1 (29 DoF) over DDS: arms and waist on rt/arm_sdk beside Unitree's locomotion, or the "
+             "whole body on rt/lowcmd (debug mode)"),
+        Spec("unitree.g1_23dof", "humanoid", f"{_P}.driver:G1", "Unitree G1 (23 DoF) over DDS, as unitree.g1",
+             preset={"dof": 23}),
+        Spec("unitree.bridge", "sensor", f"{_P}.bridge.node:BridgeNode",
+             "a simulated G1 (MuJoCo) behind the robot's DDS topics, for the G1 drivers without a robot"),
+    ]
+
+
+_STATIONS = {
+    "g1-bridge": "Unitree G1 (whole body, rt/lowcmd) against the MuJoCo DDS bridge on loopback (no robot)",
+    "g1": "Unitree G1: arms and waist over rt/arm_sdk while Unitree's locomotion stands it (edit the interface)",
+}
+
+
+@hookimpl
+def rio_stations() -> list[Spec]:
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+
+
+@hookimpl
+def rio_requirements() -> list[Requirement]:
+    return [
+        Requirement("unitree_sdk2py", "pip install unitree-sdk2py-dimos",
+                    "every Unitree driver (the G1's DDS message types and CRC)"),
+        Requirement("cyclonedds", "pip install 'cyclonedds>=0.10.2' (Linux aarch64: build Cyclone DDS, README)",
+                    "every Unitree driver (DDS)"),
+        Requirement("mujoco", "pip install mujoco", "the G1 bridge (rio unitree bridge, unitree.bridge)"),
+    ]
+
+
+@hookimpl
+def rio_cli(app: Any) -> None:
+    from .cli import app as unitree
+
+    app.add_typer(unitree, name="unitree")

@@ -1,0 +1,278 @@
+"""The bridge: a simulated G1 that speaks the robot's own DDS topics (the role of Unitree's
+unitree_mujoco), so the unmodified driver, Unitree's SDK examples or any DDS tool run against physics.
+
+One thread steps MuJoCo in real time at the model's timestep (500 Hz for the G1 models) and, as the
+robot does:
+- takes `rt/lowcmd` and `rt/arm_sdk`, checks each one's CRC (a bad one is counted and ignored);
+- drives each motor with tau = kp (q* - q) + kd (dq* - dq) + tau_ff, clipped to its effort limit
+  (inside MuJoCo's step: `model.load`), from the last valid lowcmd (a motor whose `mode` is 0 is off);
+  until a lowcmd arrives it holds the start pose (`stand_in`: the part Unitree's locomotion plays on a
+  real G1, with the stiff gains Unitree's xr_teleoperate holds a G1 with: 300/3 hips, knees and waist,
+  80/3 ankles and arms, 40/1.5 wrists);
+- blends rt/arm_sdk in on the waist and arms: tau = (1 - w) tau_lowcmd + w tau_arm_sdk, w =
+  motor_cmd[29].q clipped to [0, 1] (the arm_sdk message's `mode` bytes are not needed: Unitree's
+  example leaves them 0);
+- publishes `rt/lowstate` (CRC set) at `state_rate_hz`: each motor's q, dq, ddq and applied torque, the
+  pelvis IMU (quaternion wxyz, gyroscope in the body frame, accelerometer as gravity in the body frame,
+  rpy) and `mode_machine`.
+
+A lagging machine slows the simulation instead of bursting steps to catch up.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..dds import ARM_SDK, LOWCMD, LOWSTATE, Participant
+from ..g1 import HOME, JOINTS, NUM_SLOTS, UPPER_BODY_SLOTS, WEIGHT_SLOT
+from ..wire import LowCmd, LowState, cmd_crc_ok
+from .model import G1Model, load
+
+log = logging.getLogger("rio_unitree.bridge")
+
+_MAX_LAG_S = 0.05  # behind the wall clock by more than this: give the time up
+
+
+@dataclass
+class Counts:
+    lowcmd: int = 0
+    arm_sdk: int = 0
+    bad_crc: int = 0
+    malformed: int = 0
+    lowstate: int = 0
+    steps: int = 0
+
+
+class Bridge:
+    """`with Bridge(domain_id=..., interface="lo") as b:` runs it until the block ends (or `start()` /
+    `stop()`). `model`: an MJCF path, "fallback", or None (rio-sim's G1 when installed, else the
+    fallback); `mounted`: pelvis welded to the world."""
+
+    def __init__(self, domain_id: int = 0, interface: str = "lo", model: str | Path | None = None,
+                 mounted: bool = True, state_rate_hz: float = 500.0, mode_machine: int = 5,
+                 stand_in: bool = True, start_pose: dict[str, float] | None = None):
+        self.domain_id, self.interface = domain_id, interface
+        self.sim: G1Model = load(model, mounted)
+        self.dt = float(self.sim.model.opt.timestep)
+        self.state_period = 1.0 / state_rate_hz
+        self.mode_machine = mode_machine
+        self.counts = Counts()
+        self.lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.dds: Participant | None = None
+        n = len(self.sim.slots)
+        pose = HOME if start_pose is None else start_pose
+        by_slot = {j.slot: j for j in JOINTS}
+        self.start_q = np.array([pose.get(by_slot[s].name, 0.0) for s in self.sim.slots])
+        kp, kd = zip(*(_stand_in_gains(by_slot[s].name) for s in self.sim.slots), strict=True)
+        self._hold = self._command(self.start_q, kp, kd, enabled=stand_in)
+        self.lowcmd: LowCmd | None = None  # the last valid one
+        self.arm_sdk: LowCmd | None = None
+        self.tau = np.zeros(n)  # each motor's torque in the last step
+        self._upper = np.array([s in UPPER_BODY_SLOTS for s in self.sim.slots])
+        self._mode_pr = 0
+        self.reset()
+
+    # -- lifecycle ------------------------------------------------------------------------------------
+    def start(self) -> Bridge:
+        self.dds = Participant(self.domain_id, self.interface)
+        try:
+            self._cmd_in = self.dds.reader(LOWCMD, depth=32)
+            self._arm_in = self.dds.reader(ARM_SDK, depth=32)
+            self._state_out = self.dds.writer(LOWSTATE)
+        except BaseException:
+            self.dds.close()
+            raise
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name="g1-bridge", daemon=True)
+        self._thread.start()
+        log.info("G1 bridge on %s, DDS domain %d: %s, %d joints, %.0f Hz physics", self.interface, self.domain_id,
+                 self.sim.source, len(self.sim.slots), 1.0 / self.dt)
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+            self._thread = None
+        if self.dds is not None:
+            self.dds.close()
+            self.dds = None
+
+    def __enter__(self) -> Bridge:
+        return self.start()
+
+    def __exit__(self, *exc: Any) -> None:
+        self.stop()
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    # -- what tests and tools reach in for ---------------------------------------------------------------
+    def reset(self) -> None:
+        """Back to the start pose, at rest (the commands received stay)."""
+        import mujoco
+
+        with self.lock:
+            m, d = self.sim.model, self.sim.data
+            mujoco.mj_resetData(m, d)
+            d.qpos[self.sim.qpos] = self.start_q
+            mujoco.mj_forward(m, d)
+
+    def joint_pos(self) -> np.ndarray:
+        """Ground truth, in motor-slot order of the model's joints."""
+        with self.lock:
+            return self.sim.data.qpos[self.sim.qpos].copy()
+
+    def set_base_orientation(self, quat_wxyz: Any) -> None:
+        """Turn the whole robot (tilt its mount, or set a free pelvis' orientation): what a fall looks
+        like to the IMU, on a model that cannot fall."""
+        import mujoco
+
+        q = np.asarray(quat_wxyz, np.float64)
+        q = q / np.linalg.norm(q)
+        with self.lock:
+            m, d = self.sim.model, self.sim.data
+            if self.sim.free:
+                d.qpos[3:7] = q
+            else:
+                m.body_quat[self.sim.pelvis] = q
+            mujoco.mj_forward(m, d)
+
+    def tilt(self, degrees: float, axis: str = "y") -> None:
+        """Tilt the robot about the world's x or y axis (a fall forward is +y)."""
+        half = math.radians(degrees) / 2.0
+        v = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0)}[axis]
+        self.set_base_orientation([math.cos(half), *(math.sin(half) * np.array(v))])
+
+    # -- the loop -------------------------------------------------------------------------------------------
+    def _run(self) -> None:
+        t0, steps, next_state = time.monotonic(), 0, 0.0
+        try:
+            while not self._stop.is_set():
+                self._take_commands()
+                due = int((time.monotonic() - t0) / self.dt)
+                if due - steps > _MAX_LAG_S / self.dt:
+                    t0 += (due - steps - 1) * self.dt
+                    due = steps + 1
+                with self.lock:
+                    while steps < due:
+                        self._step()
+                        steps += 1
+                    sim_t = float(self.sim.data.time)
+                    publish = sim_t >= next_state
+                    if publish:
+                        state = self._lowstate()
+                if publish:
+                    next_state = sim_t + self.state_period - 1e-9
+                    self._state_out.write(state.encode())
+                    self.counts.lowstate += 1
+                time.sleep(max(0.0, t0 + (steps + 1) * self.dt - time.monotonic()))
+        except Exception:  # a bridge that dies says so; the driver's lowstate timeout does the rest
+            log.exception("G1 bridge stopped")
+            raise
+
+    def _take_commands(self) -> None:
+        for reader, topic in ((self._cmd_in, LOWCMD), (self._arm_in, ARM_SDK)):
+            for data in reader.take():
+                try:
+                    ok = cmd_crc_ok(data)
+                except ValueError:
+                    self.counts.malformed += 1
+                    continue
+                if not ok:
+                    self.counts.bad_crc += 1
+                    continue
+                cmd = LowCmd.decode(data)
+                if topic == LOWCMD:
+                    self.lowcmd, self._mode_pr = cmd, cmd.mode_pr
+                    self.counts.lowcmd += 1
+                else:
+                    self.arm_sdk = cmd
+                    self.counts.arm_sdk += 1
+
+    def _command(self, q: Any, kp: Any, kd: Any, enabled: bool = True) -> LowCmd:
+        cmd = LowCmd()
+        s = self.sim.slots
+        cmd.mode[s] = 1 if enabled else 0
+        cmd.q[s], cmd.kp[s], cmd.kd[s] = q, kp, kd
+        return cmd
+
+    def _terms(self, cmd: LowCmd, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One command's share of each motor's affine law, scaled by `weight`: (ctrl, kp, kd) with
+        force = ctrl - kp q - kd dq = kp (q* - q) + kd (dq* - dq) + tau_ff."""
+        s = self.sim.slots
+        kp, kd = cmd.kp[s].astype(np.float64) * weight, cmd.kd[s].astype(np.float64) * weight
+        ctrl = kp * cmd.q[s] + kd * cmd.dq[s] + weight * cmd.tau[s]
+        return ctrl, kp, kd
+
+    def _step(self) -> None:
+        import mujoco
+
+        m, d, sim = self.sim.model, self.sim.data, self.sim
+        base = self.lowcmd or self._hold
+        w_base = (base.mode[sim.slots] != 0).astype(np.float64)  # a motor with mode 0 is off
+        w_arm = np.zeros(len(sim.slots))
+        if self.arm_sdk is not None:
+            w = float(np.clip(self.arm_sdk.q[WEIGHT_SLOT], 0.0, 1.0))
+            w_arm = np.where(self._upper, w, 0.0)
+        ctrl, kp, kd = self._terms(base, w_base * (1.0 - w_arm))
+        if w_arm.any():
+            c2, kp2, kd2 = self._terms(self.arm_sdk, w_arm)
+            ctrl, kp, kd = ctrl + c2, kp + kp2, kd + kd2
+        d.ctrl[sim.act] = ctrl
+        m.actuator_biasprm[sim.act, 1] = -kp
+        m.actuator_biasprm[sim.act, 2] = -kd
+        mujoco.mj_step(m, d)
+        self.tau = d.actuator_force[sim.act].copy()
+        self.counts.steps += 1
+
+    def _lowstate(self) -> LowState:
+        import mujoco
+
+        m, d, sim = self.sim.model, self.sim.data, self.sim
+        st = LowState(mode_pr=self._mode_pr, mode_machine=self.mode_machine, tick=int(d.time * 1000) & 0xFFFFFFFF)
+        s = sim.slots
+        st.mode[s] = 1
+        st.q[s], st.dq[s], st.ddq[s], st.tau_est[s] = d.qpos[sim.qpos], d.qvel[sim.dof], d.qacc[sim.dof], self.tau
+        st.temperature[s] = 35
+        st.vol[s] = 58.0
+        quat = d.xquat[sim.pelvis].copy()
+        vel = np.zeros(6)
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, sim.pelvis, vel, 1)
+        rot = d.xmat[sim.pelvis].reshape(3, 3)
+        st.quaternion[:] = quat
+        st.gyroscope[:] = vel[:3]
+        st.accelerometer[:] = rot.T @ np.array([0.0, 0.0, 9.81])
+        st.rpy[:] = _rpy(quat)
+        st.imu_temperature = 40
+        return st
+
+
+def _stand_in_gains(joint: str) -> tuple[float, float]:
+    if "wrist" in joint:
+        return 40.0, 1.5
+    if "ankle" in joint or "shoulder" in joint or "elbow" in joint:
+        return 80.0, 3.0
+    return 300.0, 3.0
+
+
+def _rpy(q: np.ndarray) -> np.ndarray:
+    w, x, y, z = q
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return np.array([roll, pitch, yaw])
+
+
+__all__ = ["Bridge", "Counts", "NUM_SLOTS"]

@@ -1,0 +1,90 @@
+"""`rio unitree ...`: run the simulated G1 (bridge), check that a robot is heard (check), and make it
+soft (damp). Each talks DDS directly, so it works beside a running station."""
+
+from __future__ import annotations
+
+import signal
+import threading
+import time
+from typing import Annotated
+
+import typer
+
+app = typer.Typer(help="Unitree G1: MuJoCo DDS bridge, bring-up check, damping.", no_args_is_help=True)
+
+Interface = Annotated[str, typer.Option("--interface", help="network interface on the robot's network (192.168.123.x)")]
+Domain = Annotated[int, typer.Option("--domain-id", help="DDS domain (the robot's is 0)")]
+
+
+def _interrupt(*_: object) -> None:
+    raise KeyboardInterrupt
+
+
+@app.command()
+def bridge(
+    interface: Annotated[str, typer.Option("--interface", help="interface to publish on")] = "lo",
+    domain_id: Domain = 0,
+    model: Annotated[str | None, typer.Option("--model", help='MJCF path, or "fallback" (default: rio-sim\'s G1 when '
+                                                              "installed, else the plugin's own)")] = None,
+    free: Annotated[bool, typer.Option("--free", help="pelvis free on a floor instead of welded (it will fall: "
+                                                      "there is no balance controller)")] = False,
+    state_rate_hz: Annotated[float, typer.Option("--state-rate-hz", help="rt/lowstate rate")] = 500.0,
+    seconds: Annotated[float | None, typer.Option("--seconds", help="stop after this long (default: Ctrl-C)")] = None,
+) -> None:
+    """Simulate a G1 behind rt/lowstate, rt/lowcmd and rt/arm_sdk until Ctrl-C; point a driver (or
+    Unitree's SDK examples) at --interface and --domain-id."""
+    from .bridge import Bridge
+
+    if threading.current_thread() is threading.main_thread():  # `kill` stops it as Ctrl-C does
+        signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        b = Bridge(domain_id=domain_id, interface=interface, model=model, mounted=not free,
+                   state_rate_hz=state_rate_hz)
+    except (ValueError, OSError) as e:
+        typer.echo(f"error: {e}", err=True)
+        raise typer.Exit(1) from None
+    with b:
+        typer.echo(f"G1 bridge on {interface}, DDS domain {domain_id}: model {b.sim.source}, "
+                   f"{'free' if free else 'mounted'}, {1 / b.dt:.0f} Hz; Ctrl-C to stop", err=True)
+        t_end = None if seconds is None else time.monotonic() + seconds
+        try:
+            while t_end is None or time.monotonic() < t_end:
+                time.sleep(0.1)
+                if not b.running:
+                    typer.echo("error: the bridge stopped (see the log above)", err=True)
+                    raise typer.Exit(1)
+        except KeyboardInterrupt:
+            pass
+        c = b.counts
+    typer.echo(f"stopped: {c.steps} steps, {c.lowstate} lowstate sent, {c.lowcmd} lowcmd and {c.arm_sdk} arm_sdk "
+               f"received, {c.bad_crc} with a bad CRC ignored", err=True)
+
+
+@app.command()
+def check(interface: Interface, domain_id: Domain = 0,
+          timeout: Annotated[float, typer.Option("--timeout", help="seconds to wait for rt/lowstate")] = 3.0) -> None:
+    """First bring-up step: the interface has an address and the robot's rt/lowstate arrives."""
+    from .tools import check as run_check
+
+    report = run_check(interface, domain_id, timeout)
+    for line in report.lines:
+        typer.echo(line)
+    if not report.ok:
+        typer.echo(f"error: {report.problem}", err=True)
+        raise typer.Exit(1)
+    typer.echo("ok: the robot is heard")
+
+
+@app.command()
+def damp(interface: Interface, domain_id: Domain = 0,
+         seconds: Annotated[float, typer.Option("--seconds", help="how long to send damping")] = 3.0) -> None:
+    """Send damping (kp = 0, kd > 0) on rt/lowcmd for --seconds: the robot goes soft. Only obeyed with
+    Unitree's locomotion released (debug mode); in normal mode use the remote (L2+B)."""
+    from .tools import damp as run_damp
+
+    try:
+        sent = run_damp(interface, domain_id, seconds)
+    except ValueError as e:
+        typer.echo(f"error: {e}", err=True)
+        raise typer.Exit(1) from None
+    typer.echo(f"sent {sent} damping commands on rt/lowcmd ({interface}, DDS domain {domain_id})")

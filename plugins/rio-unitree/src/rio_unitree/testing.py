@@ -1,0 +1,74 @@
+"""Helpers for tests of G1 code over real DDS: a domain nobody else on this machine uses (two test runs
+side by side must never hear each other's robots), and a tap that records what goes over a topic."""
+
+from __future__ import annotations
+
+import random
+import time
+from typing import Any
+
+from .dds import Participant
+from .wire import LowCmd, LowState, cmd_crc_ok
+
+_handed_out: set[int] = set()
+
+
+def free_domain_id(interface: str = "lo", lo: int = 100, hi: int = 200, listen_s: float = 0.15) -> int:
+    """A DDS domain in [lo, hi] with no participant but ours after `listen_s` of discovery, not handed
+    out before in this process."""
+    from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
+
+    candidates = [d for d in range(lo, hi + 1) if d not in _handed_out]
+    random.shuffle(candidates)
+    for domain in candidates[:20]:
+        with Participant(domain, interface) as p:
+            reader = BuiltinDataReader(p.participant, BuiltinTopicDcpsParticipant)
+            p._entities.append(reader)  # deleted with the participant
+            time.sleep(listen_s)
+            others = [s for s in reader.take(N=64) if s.key != p.participant.guid]
+        if not others:
+            _handed_out.add(domain)
+            return domain
+    raise RuntimeError(f"no free DDS domain in {lo}..{hi} on {interface}")
+
+
+class Tap:
+    """Records every sample on `topic` (decoded; `bad_crc` counts those whose CRC is wrong). `with`."""
+
+    def __init__(self, domain_id: int, topic: str, interface: str = "lo"):
+        self.topic = topic
+        self.dds = Participant(domain_id, interface)
+        self.reader = self.dds.reader(topic, depth=256)
+        self.samples: list[Any] = []
+        self.bad_crc = 0
+
+    def poll(self) -> list[Any]:
+        new = []
+        for data in self.reader.take():
+            if self.topic == "rt/lowstate":
+                new.append(LowState.decode(data))
+                continue
+            if not cmd_crc_ok(data):
+                self.bad_crc += 1
+            new.append(LowCmd.decode(data))
+        self.samples.extend(new)
+        return new
+
+    def wait(self, pred: Any, timeout: float = 5.0) -> Any:
+        """The first new sample for which `pred(sample)` holds, within `timeout` s (None if none)."""
+        t_end = time.monotonic() + timeout
+        while time.monotonic() < t_end:
+            for s in self.poll():
+                if pred(s):
+                    return s
+            time.sleep(0.005)
+        return None
+
+    def close(self) -> None:
+        self.dds.close()
+
+    def __enter__(self) -> Tap:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()

@@ -1,0 +1,112 @@
+"""What `rio unitree check` and `rio unitree damp` do, as functions (the CLI prints, tests call).
+
+`check` is the first bring-up step: before any driver, does this machine see the robot? Interface
+present, an IPv4 address on it (the G1's network is 192.168.123.0/24: the robot's computer is .161,
+take e.g. .222), then rt/lowstate arriving with a good CRC, and what it says.
+"""
+
+from __future__ import annotations
+
+import socket
+import struct
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .dds import LOWCMD, LOWSTATE, Participant, interfaces
+from .faults import tilt_deg
+from .g1 import JOINTS, NUM_SLOTS
+from .wire import LowState, state_crc_ok
+
+
+def ipv4_of(interface: str) -> str | None:
+    """The interface's IPv4 address (Linux), or None."""
+    try:
+        import fcntl
+    except ImportError:  # not Linux: say nothing rather than something wrong
+        return None
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        try:
+            raw = fcntl.ioctl(s.fileno(), 0x8915, struct.pack("256s", interface[:15].encode()))  # SIOCGIFADDR
+        except OSError:
+            return None
+    return socket.inet_ntoa(raw[20:24])
+
+
+@dataclass
+class CheckReport:
+    ok: bool = False
+    lines: list[str] = field(default_factory=list)
+    problem: str = ""
+
+
+def check(interface: str, domain_id: int = 0, timeout_s: float = 3.0) -> CheckReport:
+    r = CheckReport()
+    if interface not in interfaces():
+        r.problem = f"no interface '{interface}' here (there are {', '.join(interfaces())})"
+        return r
+    addr = ipv4_of(interface)
+    if addr is None and interface != "lo":
+        r.problem = (f"interface '{interface}' has no IPv4 address: give it one on the robot's network, e.g. "
+                     f"`sudo ip addr add 192.168.123.222/24 dev {interface}`")
+        return r
+    r.lines.append(f"interface {interface}: {addr or 'loopback'}")
+    if addr and interface != "lo" and not addr.startswith("192.168.123."):
+        r.lines.append(f"  note: {addr} is not on the G1's network 192.168.123.0/24")
+    with Participant(domain_id, interface) as p:
+        reader = p.reader(LOWSTATE, depth=64)
+        t0 = time.monotonic()
+        good, bad, first, last = 0, 0, None, None
+        while time.monotonic() - t0 < timeout_s and (good < 50 or time.monotonic() - t0 < 0.5):
+            for data in reader.take():
+                if state_crc_ok(data):
+                    good, last = good + 1, data
+                    first = first if first is not None else time.monotonic()
+                else:
+                    bad += 1
+            time.sleep(0.002)
+        span = time.monotonic() - first if first is not None else 0.0
+    if last is None:
+        r.problem = (f"no rt/lowstate on '{interface}' (DDS domain {domain_id}) within {timeout_s} s"
+                     + (f" ({bad} arrived with a bad CRC)" if bad else "")
+                     + ": is the robot on and this cable on its network? (a firewall blocking UDP also does this)")
+        return r
+    s = LowState.decode(last)
+    rate = (good - 1) / span if span > 0 and good > 1 else float("nan")
+    live = [j for j in JOINTS if s.mode[j.slot] != 0 or s.q[j.slot] != 0.0]
+    r.lines += [f"rt/lowstate: {good} messages ({rate:.0f} Hz), {bad} with a bad CRC",
+                f"mode_machine {s.mode_machine}, mode_pr {s.mode_pr}, tick {s.tick}",
+                f"joints reporting: {len(live)} of {len(JOINTS)}",
+                f"IMU: quaternion {np.round(s.quaternion, 3).tolist()}, tilt {tilt_deg(s.quaternion):.1f} deg, gyro "
+                f"{np.round(s.gyroscope, 3).tolist()} rad/s"]
+    r.ok = True
+    return r
+
+
+def damp(interface: str, domain_id: int = 0, seconds: float = 3.0, rate_hz: float = 500.0) -> int:
+    """Publish damping (kp = 0, each joint's damping kd) on rt/lowcmd for `seconds`; the number sent.
+    Echoes the robot's mode_machine when its lowstate is heard within 0.5 s."""
+    from .commands import ENABLE, MODE_PR
+    from .wire import LowCmd
+
+    cmd = LowCmd(mode_pr=MODE_PR)
+    for j in JOINTS:
+        cmd.mode[j.slot], cmd.kd[j.slot] = ENABLE, j.damping
+    assert cmd.mode.size == NUM_SLOTS
+    sent = 0
+    with Participant(domain_id, interface) as p:
+        states, out = p.reader(LOWSTATE), p.writer(LOWCMD)
+        t_end = time.monotonic() + 0.5
+        while time.monotonic() < t_end:
+            data = states.latest()
+            if data is not None and state_crc_ok(data):
+                cmd.mode_machine = LowState.decode(data).mode_machine
+                break
+            time.sleep(0.01)
+        t_end = time.monotonic() + seconds
+        while time.monotonic() < t_end:
+            out.write(cmd.encode())
+            sent += 1
+            time.sleep(1.0 / rate_hz)
+    return sent

@@ -1,0 +1,70 @@
+"""`rio unitree check | damp | bridge`: the bring-up check against the bridge, and what it says when
+there is nothing to hear; damping reaching the motors; the bridge as its own process, heard across
+processes on loopback and stopped cleanly by a signal."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from rio.testing import wait_until
+from rio_unitree.cli import app
+from rio_unitree.tools import check
+from typer.testing import CliRunner
+
+runner = CliRunner()
+
+
+def test_check_hears_the_bridge(make_bridge, domain_id):
+    make_bridge()
+    out = runner.invoke(app, ["check", "--interface", "lo", "--domain-id", str(domain_id)])
+    assert out.exit_code == 0, out.output
+    assert "ok: the robot is heard" in out.output and "joints reporting: 29 of 29" in out.output
+    assert "mode_machine 5" in out.output and "0 with a bad CRC" in out.output
+
+
+def test_check_names_what_is_missing(domain_id):
+    out = runner.invoke(app, ["check", "--interface", "lo", "--domain-id", str(domain_id), "--timeout", "0.3"])
+    assert out.exit_code == 1 and f"no rt/lowstate on 'lo' (DDS domain {domain_id}) within 0.3 s" in out.output
+    report = check("nope0")
+    assert not report.ok and "no interface 'nope0'" in report.problem
+
+
+def test_damp_makes_the_motors_soft(make_bridge, domain_id):
+    bridge = make_bridge()
+    out = runner.invoke(app, ["damp", "--interface", "lo", "--domain-id", str(domain_id), "--seconds", "0.5"])
+    assert out.exit_code == 0, out.output
+    cmd = bridge.lowcmd
+    assert cmd is not None and (cmd.kp[:29] == 0).all() and (cmd.kd[:29] > 0).all() and cmd.mode_machine == 5
+
+
+def test_the_bridge_runs_as_its_own_process_and_stops_on_a_signal(domain_id):
+    cmd = [sys.executable, "-m", "rio", "unitree", "bridge", "--domain-id", str(domain_id), "--model", "fallback",
+           "--seconds", "60"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env={**os.environ, "MUJOCO_GL": "egl"})
+    try:
+        report = None
+
+        def heard():
+            nonlocal report
+            report = check("lo", domain_id, timeout_s=1.0)
+            return report.ok
+
+        if not wait_until(heard, timeout=30.0, period=0.2):
+            proc.kill()
+            pytest.fail(f"{report.problem if report else 'no report'}; the bridge said: {proc.communicate()[0]}")
+        assert any("29 of 29" in line for line in report.lines)
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=20)
+        assert proc.returncode == 0, out
+        assert "stopped:" in out and time.monotonic() - t0 < 10
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
