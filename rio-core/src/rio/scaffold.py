@@ -118,6 +118,15 @@ def _camel(*words: str) -> str:
     return "".join(w.capitalize() for part in words for w in re.split(r"[-_]", part) if w)
 
 
+def rio_core_bounds() -> str:
+    """The rio-core versions a new plugin accepts: the installed one's minor series (the version policy:
+    plugins and rio-core move by minor together), e.g. ">=0.1,<0.2"."""
+    from . import __version__
+
+    major, minor = (int(x) for x in __version__.split(".")[:2])
+    return f">={major}.{minor},<{major}.{minor + 1}"
+
+
 def driver_values(name: str, package: str, dist: str, kind: str, model: str, *, first: bool) -> dict[str, str]:
     """Everything the driver template is rendered with. `first`: the plugin's first driver (files
     driver.py / emulator.py / tests/test_<package>.py, station <name>-demo), else named after `model`."""
@@ -189,7 +198,7 @@ def new_plugin(name: str, kind: str = "arm", output: str | Path = ".", *, force:
     specs = spec_entries(values)
     hook = hook_of(kind)
     plugin = {**values, "hook": hook, "driver_spec": indent(specs[hook], 8).lstrip(),
-              "station_spec": indent(specs["rio_stations"], 8).lstrip()}
+              "station_spec": indent(specs["rio_stations"], 8).lstrip(), "rio_core_bounds": rio_core_bounds()}
     copier.run_copy(str(template_dir("plugin")), str(dst), data=plugin, defaults=True, overwrite=force,
                     quiet=True, unsafe=False)
     copier.run_copy(str(template_dir("driver")), str(dst), data=values, defaults=True, overwrite=force,
