@@ -12,7 +12,9 @@ them (threads of one process or a process each):
   bumped after both are written, and a check of (target, t_target) seeded with the stamp. Each
   actuator has exactly one writer (the node that owns it: an arm its joints, a gripper its fingers),
   so writers never contend; the world picks a slot up when its stamp changes and its check matches,
-  and interpolates towards the target in physics time.
+  and interpolates towards the target in physics time;
+- servo gains, one slot per actuator, written the same way by the actuator's owner: `kp`, `kd` of a
+  position servo (a humanoid's joint PD, configured on its node), applied by the world at once.
 
 The block's name joins the user id, a session id that `rio_sim` puts in the environment of the
 process that builds the station (inherited by the node processes it spawns), and the world's name,
@@ -34,7 +36,7 @@ from rio.errors import RioError
 
 SESSION_ENV = "RIO_SIM_SESSION"
 _MAGIC = 0x52494F53494D  # "RIOSIM"
-_VERSION = 2
+_VERSION = 3
 # int64 header fields (the state's check is a uint64)
 _H_MAGIC, _H_VERSION, _H_PID, _H_READY, _H_CLOSED, _H_SEQ, _H_NQ, _H_NV, _H_NU, _H_CHECK = range(10)
 _NHDR = 16
@@ -59,7 +61,7 @@ def block_name(world: str) -> str:
 
 
 def _size(nq: int, nv: int, nu: int) -> int:
-    return 8 * _NHDR + _NAME_BYTES + 8 * (2 + nq + nv + nu + 4 * nu)
+    return 8 * _NHDR + _NAME_BYTES + 8 * (2 + nq + nv + nu + 8 * nu)
 
 
 def _read_header(name: str) -> np.ndarray | None:
@@ -113,6 +115,8 @@ class WorldBus:
         self.qpos, self.qvel, self.ctrl = take(nq), take(nv), take(nu)
         self.cmd_target, self.cmd_t, self.cmd_stamp = take(nu), take(nu), take(nu)
         self.cmd_check = take(nu).view(np.uint64)
+        self.gain_kp, self.gain_kd, self.gain_stamp = take(nu), take(nu), take(nu)
+        self.gain_check = take(nu).view(np.uint64)
         self._hdr_u = self.hdr.view(np.uint64)
 
     # -- creation / attachment ------------------------------------------------------------------
@@ -230,24 +234,37 @@ class WorldBus:
     def _command_check(stamp: float, target: float, t_target: float) -> int:
         return slot_check.checksum(int(stamp), np.array([target, t_target]))
 
+    def _write(self, slots: tuple, actuators: np.ndarray, a, b) -> None:
+        first, second, stamps, checks = slots
+        first[actuators], second[actuators] = a, b
+        for i in np.atleast_1d(actuators):
+            stamp = stamps[i] + 1.0
+            checks[i] = self._command_check(stamp, first[i], second[i])
+            stamps[i] = stamp  # after both values and the check
+
+    def _read(self, slots: tuple, seen: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        first, second, stamp, check = (x.copy() for x in slots)
+        for i in np.flatnonzero(stamp != seen):
+            if self._command_check(stamp[i], first[i], second[i]) != int(check[i]):
+                stamp[i] = seen[i]
+        return stamp, first, second
+
     def command(self, actuators: np.ndarray, targets, t_target: float) -> None:
         """Set targets for actuators this node owns, to be reached at `t_target`."""
-        self.cmd_target[actuators] = targets
-        self.cmd_t[actuators] = t_target
-        for a in np.atleast_1d(actuators):
-            stamp = self.cmd_stamp[a] + 1.0
-            self.cmd_check[a] = self._command_check(stamp, self.cmd_target[a], self.cmd_t[a])
-            self.cmd_stamp[a] = stamp  # after target, time and check
+        self._write((self.cmd_target, self.cmd_t, self.cmd_stamp, self.cmd_check), actuators, targets, t_target)
 
     def read_commands(self, seen: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(stamp, target, t_target) of every actuator. An actuator whose new command is not yet fully
         visible here (its check does not match) keeps its `seen` stamp: it is picked up next time."""
-        stamp, target, t = self.cmd_stamp.copy(), self.cmd_target.copy(), self.cmd_t.copy()
-        check = self.cmd_check.copy()
-        for a in np.flatnonzero(stamp != seen):
-            if self._command_check(stamp[a], target[a], t[a]) != int(check[a]):
-                stamp[a] = seen[a]
-        return stamp, target, t
+        return self._read((self.cmd_target, self.cmd_t, self.cmd_stamp, self.cmd_check), seen)
+
+    def set_gains(self, actuators: np.ndarray, kp, kd) -> None:
+        """Servo gains (N m/rad, N m s/rad) of position actuators this node owns."""
+        self._write((self.gain_kp, self.gain_kd, self.gain_stamp, self.gain_check), actuators, kp, kd)
+
+    def read_gains(self, seen: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(stamp, kp, kd) of every actuator, picked up like commands (`read_commands`)."""
+        return self._read((self.gain_kp, self.gain_kd, self.gain_stamp, self.gain_check), seen)
 
     # -- teardown -------------------------------------------------------------------------------
     def close(self) -> None:
@@ -260,5 +277,6 @@ class WorldBus:
         self.hdr = self._name_buf = self._times = None  # type: ignore[assignment]
         self.qpos = self.qvel = self.ctrl = self.cmd_target = self.cmd_t = self.cmd_stamp = None  # type: ignore
         self._state = self.cmd_check = self._hdr_u = None  # type: ignore[assignment]
+        self.gain_kp = self.gain_kd = self.gain_stamp = self.gain_check = None  # type: ignore[assignment]
         os.close(self._fd)
         self._mm = None

@@ -36,3 +36,20 @@ def arm_indices(model, arm: str, robot: RobotModel) -> ArmIndices:
         )
     except KeyError as e:
         raise KeyError(f"the scene has no '{arm}' arm of robot '{robot.name}' ({e})") from None
+
+
+@dataclass
+class JointIndices:
+    qpos: np.ndarray      # joint addresses in qpos
+    dof: np.ndarray       # joint addresses in qvel
+    act: np.ndarray       # each joint's actuator (same name)
+
+
+def joint_indices(model, prefix: str, joints) -> JointIndices:
+    """Indices of `<prefix>/<joint>` and its actuator of the same name, for each of `joints`."""
+    try:
+        js = [model.joint(f"{prefix}/{n}") for n in joints]
+        return JointIndices(qpos=np.array([j.qposadr[0] for j in js]), dof=np.array([j.dofadr[0] for j in js]),
+                            act=np.array([int(model.actuator(f"{prefix}/{n}").id) for n in joints]))
+    except KeyError as e:
+        raise KeyError(f"the scene has no '{prefix}' with these joints ({e})") from None

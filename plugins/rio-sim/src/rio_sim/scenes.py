@@ -5,6 +5,9 @@ Every node of a station compiles the same scene from its name, so they agree on 
 (joint addresses, actuators, bodies) without shipping a model between processes. World frame: the
 table top's center, z up; an arm's base frame is its mount.
 
+A scene may also hold a humanoid (the Unitree G1, `rio_sim.g1`) standing at the table, under its own
+prefix (`"g1/"`); `get_scene("<name>:floating")` is the same scene with its base free instead of welded.
+
 Objects sit where the packaged teleop script (`teleop.scripted`, preset "pick_place") expects them:
 a cube `PICK_OFFSET` from each arm's home tool position and a flat target pad at `PLACE_OFFSET`, so
 one script picks and places on every packaged scene, whatever the arm.
@@ -12,7 +15,7 @@ one script picks and places on every packaged scene, whatever the arm.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache, lru_cache
 
 import numpy as np
@@ -44,6 +47,18 @@ class ArmMount:
 
 
 @dataclass(frozen=True)
+class HumanoidMount:
+    """A Unitree G1 at the table: its pelvis above `pos` (x, y) at standing height (the soles on the
+    floor at home), facing `yaw`; `mounted`: welded there, as on a stand, else on a free joint."""
+
+    name: str = "g1"          # prefix of its names in the scene
+    hands: bool = True        # Dex3-1 hands, else Unitree's rubber hands
+    pos: tuple[float, float] = (0.0, 0.0)
+    yaw: float = 0.0
+    mounted: bool = True
+
+
+@dataclass(frozen=True)
 class SceneObject:
     name: str
     shape: str                # "box" | "cylinder" | "sphere"
@@ -71,6 +86,7 @@ class Scene:
     cameras: tuple[SceneCamera, ...] = ()
     table: tuple[float, float] = (0.45, 0.6)   # half extents x, y
     table_center: tuple[float, float] = (0.15, 0.0)
+    humanoid: HumanoidMount | None = None
 
     def arm(self, name: str) -> ArmMount:
         for a in self.arms:
@@ -79,8 +95,9 @@ class Scene:
         raise KeyError(f"scene '{self.name}' has no arm '{name}'; arms: {[a.name for a in self.arms]}")
 
     def camera_names(self) -> list[str]:
-        """Fixed cameras, then each arm's wrist camera as `<arm>/<camera>`."""
-        return [c.name for c in self.cameras] + [f"{a.name}/{get_robot(a.robot).wrist_camera}" for a in self.arms]
+        """Fixed cameras, then each arm's wrist camera as `<arm>/<camera>`, then a humanoid's head camera."""
+        wrists = [f"{a.name}/{get_robot(a.robot).wrist_camera}" for a in self.arms]
+        return [c.name for c in self.cameras] + wrists + ([f"{self.humanoid.name}/head"] if self.humanoid else [])
 
     @property
     def free_objects(self) -> list[SceneObject]:
@@ -163,15 +180,37 @@ def _gen3() -> Scene:
                     (0.55, 0.5), (0.35, 0.0))
 
 
+def _g1() -> Scene:
+    """The G1's wrists are 0.08-0.12 m above this table at home, 0.25 m in front of the pelvis: the cube
+    is a short reach forward and down for the right hand, the pad for the left."""
+    objs = (SceneObject("cube", "box", (CUBE / 2,) * 3, (0.33, -0.12, CUBE / 2), (0.85, 0.2, 0.2, 1)),
+            SceneObject("pad", "box", (0.03, 0.03, 0.001), (0.33, 0.12, 0.001), (0.2, 0.4, 0.9, 1), free=False))
+    return Scene("g1", "Unitree G1 (29 DoF, Dex3-1 hands) on a stand at a table: a red cube, a blue pad", (),
+                 objs, (_look((1.3, -0.6, 0.55), (0.2, 0.0, 0.1), 50),), table=(0.25, 0.5),
+                 table_center=(0.45, 0.0), humanoid=HumanoidMount())
+
+
 SCENES = {"so100": _so100, "so100_bimanual": _bimanual, "xarm7": _xarm7, "xarm6": _xarm6, "lite6": _lite6,
-          "panda": _panda, "ur5e": _ur5e, "gen3": _gen3}
+          "panda": _panda, "ur5e": _ur5e, "gen3": _gen3, "g1": _g1}
+FLOATING = ":floating"
 
 
 @cache
 def get_scene(name: str) -> Scene:
-    if name not in SCENES:
-        raise KeyError(f"unknown sim scene '{name}'; rio-sim ships: {', '.join(sorted(SCENES))}")
-    return SCENES[name]()
+    base = name.removesuffix(FLOATING)
+    if base not in SCENES:
+        raise KeyError(f"unknown sim scene '{base}'; rio-sim ships: {', '.join(sorted(SCENES))}")
+    scene = SCENES[base]()
+    if name == base:
+        return scene
+    if scene.humanoid is None:
+        raise ValueError(f"scene '{base}' has no humanoid: only a humanoid's base can float (mounted = false)")
+    return replace(scene, name=name, humanoid=replace(scene.humanoid, mounted=False))
+
+
+def scene_key(scene: str, mounted: bool = True) -> str:
+    """The name every node of a world compiles: `scene`, or its free-floating variant."""
+    return scene if mounted else f"{scene}{FLOATING}"
 
 
 def _xyaxes(pos, lookat) -> list[float]:
@@ -211,6 +250,8 @@ def build_spec(scene: Scene, max_render: tuple[int, int] = (1280, 960)):
         child = mujoco.MjSpec.from_file(str(robot.path))
         frame = wb.add_frame(pos=list(arm.pos), quat=arm.quat)
         spec.attach(child, prefix=f"{arm.name}/", frame=frame)
+    if scene.humanoid is not None:
+        _add_humanoid(spec, scene.humanoid)
     shapes = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
               "sphere": mujoco.mjtGeom.mjGEOM_SPHERE}
     for obj in scene.objects:
@@ -228,6 +269,24 @@ def build_spec(scene: Scene, max_render: tuple[int, int] = (1280, 960)):
         c.alt.type = mujoco.mjtOrientation.mjORIENTATION_XYAXES
         c.alt.xyaxes = _xyaxes(cam.pos, cam.lookat)
     return spec
+
+
+def _add_humanoid(spec, h: HumanoidMount) -> None:
+    """The G1's asset, its motors made servos (`rio_sim.g1.to_servos`), standing on the floor below `h.pos`;
+    the asset's own floor and light give way to the scene's."""
+    import mujoco
+
+    from . import g1
+
+    child = mujoco.MjSpec.from_string(g1.asset_text(h.hands))
+    child.delete(child.geom("floor"))
+    for light in list(child.lights):
+        child.delete(light)
+    child.body("pelvis").pos = [0.0, 0.0, g1.STANDING_HEIGHT]
+    g1.to_servos(child, h.mounted)
+    quat = [float(np.cos(h.yaw / 2)), 0.0, 0.0, float(np.sin(h.yaw / 2))]
+    frame = spec.worldbody.add_frame(pos=[*h.pos, -TABLE_HEIGHT], quat=quat)
+    spec.attach(child, prefix=f"{h.name}/", frame=frame)
 
 
 @lru_cache(maxsize=8)

@@ -7,6 +7,10 @@ gripper and camera nodes. Through the middleware it publishes what no other node
 simulated time, the real-time factor and the pose of every free object (ground truth for tests,
 privileged observations and success checks).
 
+A humanoid scene's world also applies the servo gains its humanoid and hand nodes configure (through
+the bus) to its own copy of the model, and with `mounted = false` compiles the scene's free-floating
+variant (every node follows: they compile what the bus names).
+
 If the machine cannot keep up, at most `max_steps_per_tick` physics steps run per tick and the rest
 of the lag is dropped: simulated time then runs slower than wall time (`rtf` < 1) instead of the
 physics spiralling behind.
@@ -14,6 +18,7 @@ physics spiralling behind.
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import numpy as np
@@ -23,9 +28,9 @@ from rio.control.interpolators import LinearInterpolator
 from rio.node import Node, NodeConfig, client_side, remote
 
 from .bus import WorldBus
-from .indices import arm_indices
+from .indices import arm_indices, joint_indices
 from .robots import get_robot
-from .scenes import SCENES, get_scene
+from .scenes import SCENES, get_scene, scene_key
 
 
 class SimWorld(Node):
@@ -34,11 +39,14 @@ class SimWorld(Node):
         world: str = Field("sim", description="name the station's sim nodes use to find this world")
         rate_hz: float = Field(250.0, gt=0, description="physics batches per second (state published at this rate)")
         max_steps_per_tick: int = Field(20, ge=1, description="physics steps per tick at most (then time slows)")
+        mounted: bool = Field(True, description="humanoid scenes: the pelvis welded to a stand at standing height "
+                                                "(upper-body work without a balance controller); false: a free-"
+                                                "floating base, which falls without a locomotion policy")
 
     def setup(self) -> None:
         c = self.config
-        self.scene_name, self.world, self.max_steps = c.scene, c.world, int(c.max_steps_per_tick)
-        self.scene = get_scene(c.scene)
+        self.scene_name, self.world, self.max_steps = scene_key(c.scene, c.mounted), c.world, int(c.max_steps_per_tick)
+        self.scene = get_scene(self.scene_name)
         self.objects = [o.name for o in self.scene.free_objects]
         n = max(len(self.objects), 1)
         self.example_data = {"sim_time": 0.0, "rtf": 1.0, "object_poses": np.zeros((n, 7))}
@@ -56,13 +64,13 @@ class SimWorld(Node):
         from .scenes import build_model
 
         self._mj = mujoco
-        self.model = build_model(self.scene_name)
+        self.model = copy.deepcopy(build_model(self.scene_name))  # its own: servo gains change on it
         self.data = mujoco.MjData(self.model)
         m = self.model
         self._obj_qadr = np.array([m.joint(o).qposadr[0] for o in self.objects], dtype=int)
         self._home()
         self.bus = WorldBus.create(self.world, self.scene_name, m.nq, m.nv, m.nu)
-        self._seen = self.bus.cmd_stamp.copy()
+        self._seen, self._gains_seen = self.bus.cmd_stamp.copy(), self.bus.gain_stamp.copy()
         self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
         self.bus.mark_ready()
 
@@ -83,6 +91,11 @@ class SimWorld(Node):
             half = robot.max_width / len(robot.finger_joints)
             d.qpos[idx.finger_qpos] = half
             d.ctrl[idx.finger_act] = half
+        if self.scene.humanoid is not None:  # at home, fingers open; a floating base where the scene stands it
+            from . import g1
+
+            idx = joint_indices(m, self.scene.humanoid.name, g1.JOINTS)
+            d.qpos[idx.qpos] = d.ctrl[idx.act] = g1.home()
         mj.mj_forward(m, d)
         t = clock.now()
         self._t_origin = t - d.time          # wall time of sim time 0
@@ -98,10 +111,22 @@ class SimWorld(Node):
         self._seen = stamp
         self._ctrl.set_target(target, t_target, t_wall, where=new)
 
+    def _pick_up_gains(self) -> None:
+        stamp, kp, kd = self.bus.read_gains(self._gains_seen)
+        new = np.flatnonzero(stamp != self._gains_seen)
+        if len(new) == 0:
+            return
+        self._gains_seen = stamp
+        m = self.model  # a position servo: force = kp (ctrl - q) - kd dq
+        m.actuator_gainprm[new, 0] = kp[new]
+        m.actuator_biasprm[new, 1] = -kp[new]
+        m.actuator_biasprm[new, 2] = -kd[new]
+
     def read_state(self) -> dict[str, Any]:
         mj, m, d = self._mj, self.model, self.data
         now = clock.now()
         self._pick_up_commands(now)
+        self._pick_up_gains()
         dt = m.opt.timestep
         n = int((now - (self._t_origin + d.time)) / dt)
         if n > self.max_steps:  # cannot keep up: drop the lag, simulated time slows down
@@ -122,7 +147,7 @@ class SimWorld(Node):
     # -- remote API -----------------------------------------------------------------------------
     @remote
     def reset(self) -> None:
-        """Put objects and arms back where the scene starts them (arms jump home)."""
+        """Put objects, arms and a humanoid back where the scene starts them (they jump home)."""
         self._home()
         self._seen = self.bus.cmd_stamp.copy()
         self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
