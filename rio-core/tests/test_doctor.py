@@ -179,3 +179,27 @@ def test_plugins_of_this_repository_declare_requirements():
                            "rio-datasets": {"pyarrow", "h5py", "zarr", "av"}}.items():
         if dist in {p.dist for p in reg.plugins.values()}:
             assert expected <= modules[dist], dist
+
+
+def _console_script_dist(root, dist: str, target: str) -> None:
+    """A fake installed distribution (dist-info only) that declares a `rio` console script, as rasterio does."""
+    info = root / f"{dist}-1.0.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text(f"[console_scripts]\nrio = {target}\n")
+
+
+def test_doctor_warns_when_another_package_also_installs_a_rio_command(tmp_path):
+    r = run_rio(["doctor", "--json"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["rio_script_clashes"] == []  # rio-core's own `rio` is no clash
+
+    _console_script_dist(tmp_path, "fakerasterio", "fakerasterio.rio.main:main_group")
+    r = run_rio(["doctor", "--json"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["rio_script_clashes"] == ["fakerasterio (fakerasterio.rio.main:main_group)"]
+
+    r = run_rio(["doctor"], tmp_path, COLUMNS="200")
+    assert r.returncode == 0, r.stderr  # a warning, not a failure
+    err = " ".join(r.stderr.split())
+    assert "also provides a `rio` command: fakerasterio" in err and "rio-robot" in err and "python -m rio" in err

@@ -6,6 +6,7 @@ imported just to be listed; a plugin's system check that fails is shown, never r
 from __future__ import annotations
 
 import platform
+import re
 import sys
 from typing import Annotated, Any
 
@@ -39,6 +40,25 @@ def _middleware_rows(reg: Any) -> list[dict[str, Any]]:
     return rows
 
 
+def rio_script_clashes() -> list[str]:
+    """Other installed distributions that also provide a `rio` console script (rasterio does, for one):
+    whichever was installed last owns `rio` on PATH. `rio-robot` and `python -m rio` always reach RIO."""
+    from importlib.metadata import entry_points
+
+    others = set()
+    for ep in entry_points(group="console_scripts", name="rio"):
+        dist = getattr(ep, "dist", None)
+        name = dist.metadata["Name"] if dist is not None else None
+        if name and re.sub(r"[-_.]+", "-", name).lower() != "rio-core":
+            others.add(f"{name} ({ep.value})")
+    return sorted(others)
+
+
+def _clash_text(clashes: list[str]) -> str:
+    return (f"another installed package also provides a `rio` command: {', '.join(clashes)}; the `rio` on PATH "
+            "may not be RIO's: use `rio-robot` or `python -m rio` (same command), or uninstall the other package")
+
+
 def _check_text(row: dict[str, Any]) -> str:
     if row["check"] is None:
         return "-"
@@ -49,9 +69,11 @@ def _check_text(row: dict[str, Any]) -> str:
 
 def doctor(as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False) -> None:
     """Python version, plugins found, what each plugin needs and whether this machine has it."""
+    from rich.markup import escape
+
     from .. import __version__
     from ..plugins import get_registry
-    from .output import console, print_json, table, warn_problems
+    from .output import console, print_json, table, warn, warn_problems
 
     reg = get_registry()
     reg.all_specs()
@@ -59,9 +81,11 @@ def doctor(as_json: Annotated[bool, typer.Option("--json", help="Machine-readabl
     needs = {dist: [evaluate(r).as_dict() for r in reqs] for dist, reqs in reg.requirements().items()}
     info = {"python": sys.version.split()[0], "platform": platform.platform(), "rio": __version__,
             "executable": sys.executable, "host": host.describe()}
+    clashes = rio_script_clashes()
     if as_json:
         print_json({**info, "plugins": [{"name": p.dist, "version": p.version} for p in reg.plugins.values()],
-                    "problems": [str(p) for p in reg.problems], "middlewares": mw_rows, "requirements": needs})
+                    "problems": [str(p) for p in reg.problems], "middlewares": mw_rows, "requirements": needs,
+                    "rio_script_clashes": clashes})
         return
     out = console()
     out.print(f"rio {info['rio']} on Python {info['python']} ({info['platform']})\n{info['executable']}\n"
@@ -78,3 +102,5 @@ def doctor(as_json: Annotated[bool, typer.Option("--json", help="Machine-readabl
                 Text(_check_text(r), style="red") if r["problem"] else _check_text(r),
                 "" if r["present"] is not False else r["install"]) for r in rows])
     warn_problems(reg)
+    if clashes:
+        warn(escape(_clash_text(clashes)))
