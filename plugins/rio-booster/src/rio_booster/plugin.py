@@ -1,11 +1,38 @@
-"""rio-booster's plugin module (entry point group `rio`). Specs only: nothing here imports the SDK."""
+"""rio-booster's plugin module (entry point group `rio`): the driver, packaged stations and requirements.
+Specs only: nothing here imports the SDK."""
 
 from __future__ import annotations
 
 from rio.hookspecs import hookimpl
+from rio.requirements import Requirement
 from rio.specs import Spec
+
+_P = "rio_booster"
 
 
 @hookimpl
 def rio_drivers() -> list[Spec]:
-    return []
+    return [
+        Spec("booster.t1", "humanoid", f"{_P}.driver:T1",
+             "Booster T1 (23 DoF) on Booster's SDK: low state in, SERIAL joint commands in custom mode, mode "
+             "changes through B1LocoClient; sdk = 'rio_booster.emulator' for the emulated T1"),
+    ]
+
+
+_STATIONS = {
+    "t1": "Booster T1: the whole body in custom mode over Booster's SDK (edit the interface; hang the robot)",
+    "t1-emulator": "Booster T1 driver against the in-process emulated T1 (SDK-object fake, no robot, no DDS)",
+}
+
+
+@hookimpl
+def rio_stations() -> list[Spec]:
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+
+
+@hookimpl
+def rio_requirements() -> list[Requirement]:
+    return [
+        Requirement("booster_robotics_sdk_python", "pip install booster-robotics-sdk-python (CPython 3.11, Linux "
+                    "x86-64; elsewhere build Booster's SDK from source)", "booster.t1 on a robot"),
+    ]

@@ -1,0 +1,316 @@
+"""`booster.t1`: a Booster T1 (23 joints) in joint space on Booster's SDK (`booster_robotics_sdk_python`).
+
+The SDK speaks DDS (a Fast DDS built into the extension, namespaced `booster_eprosima`): the robot publishes
+`rt/low_state` (`LowState`: `motor_state_serial` / `motor_state_parallel` q, dq, ddq, tau_est per motor;
+`imu_state` rpy, gyro, acc), takes `rt/joint_ctrl` (`LowCmd`: `cmd_type` SERIAL or PARALLEL, one `MotorCmd`
+q, dq, tau, kp, kd, weight, mode per motor), and serves its mode changes as an RPC (`B1LocoClient`, on
+`rt/LocoApiTopic`). `ChannelFactory.Instance().Init(domain_id, interface)` starts DDS once per process.
+
+Each cycle reads the newest low state (taken by the SDK's subscriber callback on its own thread, copied)
+and sends one SERIAL command (joint space; ankles as pitch/roll); the humanoid kind owns the targets
+(interpolation, limits, max step, the watchdog). The robot obeys `rt/joint_ctrl` only in its custom mode:
+
+- enable: (with `loco`) prepare mode first when the robot is not in prepare or custom (its own controller
+  stands it in the preparation pose; `prepare_s` to settle), one command holding the measured pose, then
+  `ChangeMode(kCustom)`;
+- disable, a fault, close: damping on the wire (kp = 0, each joint's `damping_kd`) and `ChangeMode(kDamping)`;
+  while disabled after having had control, damping every cycle.
+
+Safety, by the driver itself (each a named fault, `rio_booster.faults`): no low state for
+`state_timeout_s`; the trunk tilted beyond `fall_tilt_deg`; a stream of commands that stops (the kind's
+watchdog hold) with `on_stale = "damp"`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import threading
+import time
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field
+from rio import clock
+from rio.interfaces import FAULT_KEYS, FaultHolding, HumanoidNode
+
+from . import faults, t1
+from .commands import Commands, Frame, to_low_cmd
+
+log = logging.getLogger("rio_booster")
+
+SDK = "booster_robotics_sdk_python"
+EMULATOR = "rio_booster.emulator"
+#: The SDK's RobotMode values (kUnknown -1, kDamping 0, kPrepare 1, kWalking 2, kCustom 3, kSoccer 4).
+MODE_NAMES = {-1: "unknown", 0: "damping", 1: "prepare", 2: "walking", 3: "custom", 4: "soccer"}
+DAMPING, PREPARE, CUSTOM = 0, 1, 3
+
+# ChannelFactory is one per process: {module name: (domain_id, interface)} it was started with
+_factory_started: dict[str, tuple[int, str]] = {}
+_factory_lock = threading.Lock()
+
+
+def load_sdk(name: str) -> Any:
+    try:
+        return importlib.import_module(name)
+    except ImportError as e:
+        if name == SDK:
+            raise ImportError(f"{SDK} is not installed ({e}): pip install booster-robotics-sdk-python (CPython "
+                              "3.11, Linux x86-64), or build it from Booster's sources; "
+                              f"sdk = '{EMULATOR}' runs the driver against the emulator") from e
+        raise
+
+
+def start_channels(sdk: Any, domain_id: int, interface: str) -> None:
+    """`ChannelFactory.Instance().Init(...)` once per process; a second node asking for another domain or
+    interface is refused (the SDK's factory cannot serve two)."""
+    with _factory_lock:
+        started = _factory_started.get(sdk.__name__)
+        if started is not None and not getattr(sdk, "CHANNEL_FACTORY_REINIT", False):
+            if started != (domain_id, interface):
+                raise ValueError(f"this process already started the Booster SDK's DDS on domain {started[0]}, "
+                                 f"interface '{started[1]}'; it cannot also serve domain {domain_id}, interface "
+                                 f"'{interface}' (run that node in another process)")
+            return
+        sdk.ChannelFactory.Instance().Init(domain_id, interface)
+        _factory_started[sdk.__name__] = (domain_id, interface)
+
+
+class T1(FaultHolding, HumanoidNode):
+    class Config(HumanoidNode.Config):
+        interface: str = Field("", description="network interface on the robot's network, by name or address "
+                                               "(Booster's examples pass the address, e.g. '127.0.0.1'); '' for "
+                                               "the SDK's default")
+        domain_id: int = Field(0, ge=0, le=232, description="DDS domain (the robot's is 0)")
+        sdk: str = Field(SDK, description=f"module offering the SDK's API: '{SDK}' (the robot), or "
+                                          f"'{EMULATOR}' (an emulated T1 in this process, no DDS)")
+        loco: bool = Field(True, description="change the robot's mode through B1LocoClient (prepare -> custom on "
+                                             "enable; damping on disable, fault and close); false: put the robot "
+                                             "in custom mode yourself")
+        prepare_s: float = Field(3.0, ge=0, description="seconds to let the robot settle in prepare mode before "
+                                                        "custom (only when it was not in prepare or custom)")
+        motor_mode: int = Field(0, description="MotorCmd.mode of every motor (the SDK's examples send 0)")
+        max_step_rad: float = Field(0.004, gt=0, description="largest joint goal change per cycle (rad): 2 rad/s "
+                                                             "at 500 Hz")
+        kp: list[float] | None = Field(None, description="stiffness per joint (N·m/rad), in joint order "
+                                                         "(default: rio_booster.t1's table)")
+        kd: list[float] | None = Field(None, description="damping per joint while holding a goal (N·m·s/rad)")
+        damping_kd: list[float] | None = Field(None, description="kd per joint of the damping command (kp = 0)")
+        torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
+                                                     "effort limit")
+        state_timeout_s: float = Field(0.25, gt=0, description="fault when no rt/low_state arrives for this long")
+        connect_timeout_s: float = Field(5.0, gt=0, description="how long open() waits for the first low state")
+        fall_tilt_deg: float | None = Field(45.0, gt=0, le=180, description="fault (damping) when the trunk tilts "
+                                                                            "beyond this from upright; None: off")
+        on_stale: Literal["damp", "hold"] = Field(
+            "damp", description='when a stream of commands stops (watchdog_s): "damp" (fault, kp = 0) or "hold" '
+                                '(keep the last goal stiff)')
+
+    # -- setup --------------------------------------------------------------------------------------
+    def default_joint_names(self) -> list[str]:
+        return t1.joint_names()
+
+    def setup(self) -> None:
+        super().setup()
+        c = self.config
+        self.joints = t1.lookup(self.joint_list)
+        self.idx = np.array([j.index for j in self.joints], dtype=np.intp)
+        self.gains: dict[str, list[float]] = {}
+        for field, attr in (("kp", "kp"), ("kd", "kd"), ("damping_kd", "damping")):
+            value = getattr(c, field)
+            if value is not None and len(value) != self.dof:
+                raise ValueError(f"{field} has {len(value)} values; node '{self.name}' drives {self.dof} joints")
+            self.gains[field] = list(value) if value is not None else [getattr(j, attr) for j in self.joints]
+        self.example_data = {**self.example_data, **FAULT_KEYS, "robot_mode": -1}
+        where = "the emulator" if c.sdk == EMULATOR else f"interface '{c.interface or 'default'}'"
+        self.device_label = f"the T1 on {where} (DDS domain {c.domain_id})"
+        self.sdk: Any = None
+        self._lock = threading.Lock()
+        self._state: dict[str, np.ndarray] | None = None
+        self.t_state = -np.inf
+        self.n_states = 0
+        self.robot_mode = -1
+        self._in_control = False  # the robot is in custom mode by us (we owe it damping when we let go)
+        self._had_control = False  # we took control once: while disabled, damping on the wire every cycle
+        self._holds_seen = 0
+        self._sub = self._pub = self._loco = None
+
+    # -- hardware -----------------------------------------------------------------------------------
+    def open(self) -> None:
+        c = self.config
+        self.sdk = sdk = load_sdk(c.sdk)
+        start_channels(sdk, c.domain_id, c.interface)
+        try:
+            self._sub = sdk.B1LowStateSubscriber(self._on_low_state)
+            self._sub.InitChannel()
+            self._pub = sdk.B1LowCmdPublisher()
+            self._pub.InitChannel()
+            if c.loco:
+                self._loco = sdk.B1LocoClient()
+                self._loco.Init()
+            deadline = time.monotonic() + c.connect_timeout_s
+            while self.n_states == 0:
+                if time.monotonic() > deadline:
+                    raise TimeoutError(
+                        f"no rt/low_state on interface '{c.interface or 'default'}' (DDS domain {c.domain_id}) "
+                        f"within {c.connect_timeout_s} s: is the robot on, and this computer on its network?")
+                time.sleep(0.005)
+            self.robot_mode = self._get_mode()
+        except BaseException:
+            self._close_channels()
+            raise
+        lower, upper = self.hardware_limits()
+        self.wire = Commands(self.joints, self.gains["kp"], self.gains["kd"], self.gains["damping_kd"],
+                             np.array(lower), np.array(upper), c.torque_limit)
+
+    def close(self) -> None:
+        if self._pub is None:
+            return
+        try:
+            if self.config.disable_on_close and self._had_control:
+                self._let_go()
+        finally:
+            self._close_channels()
+
+    def hardware_limits(self) -> tuple[list[float], list[float]]:
+        return [j.lower for j in self.joints], [j.upper for j in self.joints]
+
+    def default_home(self) -> list[float]:
+        return t1.home_pose(self.joint_list)
+
+    def robot_description(self) -> dict[str, Any] | None:
+        """None: no T1 model ships with RIO yet (README, "Simulation")."""
+        return None
+
+    def set_enabled(self, enabled: bool) -> None:
+        if enabled:
+            self.check_device_fault()
+            self._take_control()
+            self._holds_seen = self.commander.watchdog_holds
+        elif self._pub is not None and self._in_control:
+            self._let_go()
+
+    def device_fault(self) -> Any:
+        """The conditions that hold now (a stale stream is not one: it ends when commands come again)."""
+        c = self.config
+        age = clock.now() - self.t_state
+        if age > c.state_timeout_s:
+            return faults.lowstate_timeout(age, c.interface or "default", c.domain_id)
+        if c.fall_tilt_deg is not None and self._state is not None:
+            tilt = faults.tilt_deg(self._state["rpy"])
+            if tilt > c.fall_tilt_deg:
+                return faults.fall(tilt, c.fall_tilt_deg)
+        return None
+
+    def on_fault(self, fault: Any) -> None:
+        super().on_fault(fault)
+        if self._in_control:
+            self._let_go()
+
+    # -- cycle --------------------------------------------------------------------------------------
+    def read_joints(self) -> dict[str, Any]:
+        self._watch()
+        s = self.state()
+        quat = faults.rpy_to_quat(s["rpy"])
+        return {"joint_pos": s["q"][self.idx], "joint_vel": s["dq"][self.idx], "base_quat": quat,
+                "base_ang_vel": s["gyro"].copy(), "robot_mode": int(self.robot_mode), **self.fault_status()}
+
+    def read_state(self) -> dict[str, Any]:
+        sample = super().read_state()
+        if not self.enabled and self._had_control:
+            self._send(self.wire.damping())
+        return sample
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self._send(self.wire.position(joint_pos, self.state()["q"][self.idx]))
+
+    # -- helpers ------------------------------------------------------------------------------------
+    def state(self) -> dict[str, np.ndarray]:
+        with self._lock:
+            s = self._state
+        assert s is not None
+        return s
+
+    def _on_low_state(self, msg: Any) -> None:
+        """The SDK's callback (its thread): copy what we use out of the message."""
+        motors = msg.motor_state_serial
+        imu = msg.imu_state
+        s = {"q": np.array([m.q for m in motors], np.float64), "dq": np.array([m.dq for m in motors], np.float64),
+             "tau": np.array([m.tau_est for m in motors], np.float64), "rpy": np.array(imu.rpy, np.float64),
+             "gyro": np.array(imu.gyro, np.float64)}
+        if s["q"].shape != (t1.NUM_JOINTS,):
+            return  # not a 23-joint T1 (or a parallel-only message): ignored
+        with self._lock:
+            self._state, self.t_state = s, clock.now()
+            self.n_states += 1
+
+    def _get_mode(self) -> int:
+        if self._loco is None:
+            return -1
+        try:
+            return int(self._loco.GetMode().mode)
+        except Exception as e:  # an SDK without GetMode, or no answer: unknown, not fatal
+            log.warning("node '%s': could not read the robot's mode: %s", self.name, e)
+            return -1
+
+    def _change_mode(self, mode: int) -> None:
+        if self._loco is None:
+            return
+        name = MODE_NAMES.get(mode, str(mode))
+        try:
+            ret = self._loco.ChangeMode(self.sdk.RobotMode(mode))
+        except Exception as e:
+            raise RuntimeError(f"node '{self.name}': ChangeMode({name}) failed: {e}") from e
+        if isinstance(ret, int) and ret != 0:  # older SDKs return a status code
+            raise RuntimeError(f"node '{self.name}': ChangeMode({name}) refused (code {ret})")
+        self.robot_mode = mode
+
+    def _take_control(self) -> None:
+        """Prepare (when needed), hold the measured pose on the wire, then custom mode."""
+        c = self.config
+        if c.loco:
+            self.robot_mode = self._get_mode()
+            if self.robot_mode not in (PREPARE, CUSTOM):
+                self._change_mode(PREPARE)
+                time.sleep(c.prepare_s)
+        q_all = self.state()["q"]
+        self.wire.hold_others_at(q_all)
+        self._send(self.wire.position(q_all[self.idx], q_all[self.idx]))
+        if c.loco and self.robot_mode != CUSTOM:
+            self._change_mode(CUSTOM)
+        self._in_control = self._had_control = True
+
+    def _let_go(self) -> None:
+        """Damping on the wire and in the robot's own mode."""
+        self._send(self.wire.damping())
+        self._in_control = False
+        try:
+            self._change_mode(DAMPING)
+        except RuntimeError as e:
+            self._in_control = True  # the next disable or fault asks again (damping goes out every cycle)
+            log.error("%s", e)
+
+    def _watch(self) -> None:
+        """The driver's own stops: the robot's silence, a fall, a stream of commands that stopped."""
+        if self.fault is not None and self.fault.code != faults.STALE_COMMANDS:
+            return
+        fault = self.device_fault()
+        if fault is None and self._commander is not None and self.commander.watchdog_holds > self._holds_seen:
+            self._holds_seen = self.commander.watchdog_holds
+            if self.config.on_stale == "damp" and self.enabled:
+                fault = faults.stale_commands(self.config.watchdog_s)
+        if fault is not None:
+            self.on_fault(fault)
+
+    def _send(self, frame: Frame) -> None:
+        if self._pub is not None:
+            self._pub.Write(to_low_cmd(self.sdk, frame, self.config.motor_mode))
+
+    def _close_channels(self) -> None:
+        for ch in (self._sub, self._pub):
+            if ch is not None:
+                try:
+                    ch.CloseChannel()
+                except Exception as e:  # closing goes on
+                    log.warning("node '%s': closing a channel failed: %s", self.name, e)
+        self._sub = self._pub = self._loco = None
