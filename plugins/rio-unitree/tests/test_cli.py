@@ -1,6 +1,8 @@
-"""`rio unitree check | damp | bridge`: the bring-up check against the bridge, and what it says when
-there is nothing to hear; damping reaching the motors; the bridge as its own process, heard across
-processes on loopback and stopped cleanly by a signal."""
+"""`rio unitree check | damp | bridge | debug-mode | stand`: the bring-up check against the bridge, and
+what it says when there is nothing to hear; damping reaching the motors; the bridge as its own process,
+heard across processes on loopback and stopped cleanly by a signal; releasing the (bridge's stand-in for)
+locomotion over the motion switcher RPC, and `stand` ramping the robot to home, refused without --yes or
+while locomotion runs."""
 
 from __future__ import annotations
 
@@ -10,6 +12,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 from rio.testing import wait_until
 from rio_unitree.cli import app
@@ -68,3 +71,47 @@ def test_the_bridge_runs_as_its_own_process_and_stops_on_a_signal(domain_id):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def test_debug_mode_releases_the_locomotion_over_the_motion_switcher(make_bridge, domain_id):
+    bridge = make_bridge()
+    args = ["debug-mode", "--interface", "lo", "--domain-id", str(domain_id)]
+    out = runner.invoke(app, [*args, "--check"])
+    assert out.exit_code == 0 and "mode: ai" in out.output, out.output
+    out = runner.invoke(app, args)  # not a terminal and no --yes: refused, naming the risk
+    assert out.exit_code == 1 and "refusing without --yes" in out.output and "falls" in out.output
+    assert not bridge.released
+    out = runner.invoke(app, [*args, "--yes"])
+    assert out.exit_code == 0 and "released: debug mode" in out.output, out.output
+    assert bridge.released and (bridge._hold.kp == 0).all()  # the stand-in let go: soft
+    out = runner.invoke(app, [*args, "--check"])
+    assert "mode: (none: debug mode)" in out.output
+
+
+def test_debug_mode_without_a_robot_says_so(domain_id):
+    out = runner.invoke(app, ["debug-mode", "--interface", "lo", "--domain-id", str(domain_id), "--timeout", "0.3",
+                              "--yes"])
+    assert out.exit_code == 1 and "no answer from the motion switcher" in out.output and "L2+R2" in out.output
+
+
+def test_stand_ramps_a_released_robot_to_home(make_bridge, domain_id):
+    from rio_unitree.g1 import HOME, joint_names
+
+    bridge = make_bridge(start_pose={})  # every joint at 0: the stand-in holds it there
+    args = ["stand", "--interface", "lo", "--domain-id", str(domain_id), "--seconds", "1.0", "--hold", "0.5"]
+    out = runner.invoke(app, args)
+    assert out.exit_code == 1 and "refusing without --yes" in out.output and "hang" in out.output
+    out = runner.invoke(app, [*args, "--yes"])  # locomotion (the stand-in) still runs: refused
+    assert out.exit_code == 1 and "debug-mode" in out.output and bridge.counts.lowcmd == 0, out.output
+    released = runner.invoke(app, ["debug-mode", "--interface", "lo", "--domain-id", str(domain_id), "--yes"])
+    assert released.exit_code == 0, released.output
+    from rio_unitree.tools import stand
+
+    report = stand("lo", domain_id, seconds=1.0, hold_s=0.5)
+    assert report.ok, report.problem
+    home = np.array([HOME.get(name, 0.0) for name in joint_names(29)])
+    assert np.abs(report.start - home).max() > 0.3  # from where the released (soft) robot sagged to
+    assert report.error < 0.08, report.error  # home, within the gravity sag of the driver's gains
+    cmd = bridge.lowcmd  # and soft at the end
+    assert cmd is not None and (cmd.kp[:29] == 0).all() and (cmd.kd[:29] > 0).all()
+    assert report.sent > 100

@@ -50,3 +50,30 @@ def test_unitrees_sdk_reads_the_bridge_and_drives_it(make_bridge, domain_id):
     assert "lowstate 5 [1.0, 0.0, 0.0, 0.0]" in proc.stdout and "sent" in proc.stdout
     assert bridge.counts.lowcmd >= 50 and bridge.counts.bad_crc == 0
     assert wait_until(lambda: abs(bridge.joint_pos()[18] - 0.3) < 0.05, timeout=3.0)
+
+
+SDK_MOTION_SWITCHER = """
+import sys
+from unitree_sdk2py.core.channel import ChannelFactoryInitialize
+from unitree_sdk2py.comm.motion_switcher.motion_switcher_client import MotionSwitcherClient
+
+ChannelFactoryInitialize(int(sys.argv[1]), "lo")
+msc = MotionSwitcherClient()
+msc.SetTimeout(5.0)
+msc.Init()
+code, result = msc.CheckMode()
+print("check", code, result["name"], flush=True)
+code, _ = msc.ReleaseMode()
+code2, result = msc.CheckMode()
+print("released", code, code2, repr(result["name"]), flush=True)
+"""
+
+
+def test_unitrees_motion_switcher_client_releases_the_bridge(make_bridge, domain_id):
+    """The RPC the bridge answers (and `rio unitree debug-mode` speaks) is the SDK's own."""
+    bridge = make_bridge()
+    proc = subprocess.run([sys.executable, "-c", SDK_MOTION_SWITCHER, str(domain_id)], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "check 0 ai" in proc.stdout and "released 0 0 ''" in proc.stdout, proc.stdout
+    assert bridge.released

@@ -1,19 +1,23 @@
-"""`rio unitree ...`: run the simulated G1 (bridge), check that a robot is heard (check), and make it
-soft (damp). Each talks DDS directly, so it works beside a running station."""
+"""`rio unitree ...`: run the simulated G1 (bridge), check that a robot is heard (check), make it soft
+(damp), release Unitree's locomotion (debug-mode) and ramp it to its home pose (stand). Each talks DDS
+directly, so it works beside a running station."""
 
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 import time
 from typing import Annotated
 
 import typer
 
-app = typer.Typer(help="Unitree G1: MuJoCo DDS bridge, bring-up check, damping.", no_args_is_help=True)
+app = typer.Typer(help="Unitree G1: MuJoCo DDS bridge, bring-up check, damping, debug mode, stand.",
+                  no_args_is_help=True)
 
 Interface = Annotated[str, typer.Option("--interface", help="network interface on the robot's network (192.168.123.x)")]
 Domain = Annotated[int, typer.Option("--domain-id", help="DDS domain (the robot's is 0)")]
+Yes = Annotated[bool, typer.Option("--yes", help="no confirmation (the robot hangs: you checked)")]
 
 
 def _interrupt(*_: object) -> None:
@@ -24,8 +28,9 @@ def _interrupt(*_: object) -> None:
 def bridge(
     interface: Annotated[str, typer.Option("--interface", help="interface to publish on")] = "lo",
     domain_id: Domain = 0,
-    model: Annotated[str | None, typer.Option("--model", help='MJCF path, or "fallback" (default: rio-sim\'s G1 when '
-                                                              "installed, else the plugin's own)")] = None,
+    model: Annotated[str | None, typer.Option("--model", help='MJCF path, "fallback", or "hands" (rio-sim\'s G1 with '
+                                                              "Dex3-1 hands: also rt/dex3/*) (default: rio-sim's G1 "
+                                                              "when installed, else the plugin's own)")] = None,
     free: Annotated[bool, typer.Option("--free", help="pelvis free on a floor instead of welded (it will fall: "
                                                       "there is no balance controller)")] = False,
     state_rate_hz: Annotated[float, typer.Option("--state-rate-hz", help="rt/lowstate rate")] = 500.0,
@@ -44,7 +49,8 @@ def bridge(
         typer.echo(f"error: {e}", err=True)
         raise typer.Exit(1) from None
     with b:
-        typer.echo(f"G1 bridge on {interface}, DDS domain {domain_id}: model {b.sim.source}, "
+        hands = f", hands {' and '.join(sorted(b.sim.hands))}" if b.sim.hands else ""
+        typer.echo(f"G1 bridge on {interface}, DDS domain {domain_id}: model {b.sim.source}{hands}, "
                    f"{'free' if free else 'mounted'}, {1 / b.dt:.0f} Hz; Ctrl-C to stop", err=True)
         t_end = None if seconds is None else time.monotonic() + seconds
         try:
@@ -88,3 +94,71 @@ def damp(interface: Interface, domain_id: Domain = 0,
         typer.echo(f"error: {e}", err=True)
         raise typer.Exit(1) from None
     typer.echo(f"sent {sent} damping commands on rt/lowcmd ({interface}, DDS domain {domain_id})")
+
+
+def _confirm(yes: bool, risk: str) -> None:
+    """Go on with --yes, or when the operator types y at a terminal; refuse otherwise, naming the risk."""
+    if yes:
+        return
+    if not sys.stdin.isatty():
+        typer.echo(f"error: refusing without --yes: {risk}", err=True)
+        raise typer.Exit(1)
+    if not typer.confirm(f"{risk}\nGo on?", default=False):
+        raise typer.Exit(1)
+
+
+@app.command("debug-mode")
+def debug_mode(interface: Interface, domain_id: Domain = 0,
+               check_only: Annotated[bool, typer.Option("--check", help="only say which mode runs")] = False,
+               yes: Yes = False,
+               timeout: Annotated[float, typer.Option("--timeout", help="seconds to wait for each answer")] = 2.0
+               ) -> None:
+    """Release Unitree's locomotion (the motion switcher's ReleaseMode): debug mode, in which the robot obeys
+    rt/lowcmd alone. A standing robot falls: hang it first."""
+    from .motion_switcher import MotionSwitcher, NoAnswer
+
+    try:
+        with MotionSwitcher(interface, domain_id, timeout_s=timeout) as ms:
+            mode = ms.check_mode().get("name", "")
+            typer.echo(f"mode: {mode or '(none: debug mode)'}")
+            if check_only or not mode:
+                return
+            _confirm(yes, f"releasing locomotion mode '{mode}' leaves the G1 without balance or posture control: a "
+                          "standing robot falls. It must hang on its gantry, feet off the ground.")
+            for _ in range(5):
+                ms.release_mode()
+                time.sleep(0.2)
+                mode = ms.check_mode().get("name", "")
+                if not mode:
+                    break
+    except (NoAnswer, RuntimeError, ValueError) as e:
+        typer.echo(f"error: {e}", err=True)
+        raise typer.Exit(1) from None
+    if mode:
+        typer.echo(f"error: mode '{mode}' still runs after 5 releases", err=True)
+        raise typer.Exit(1)
+    typer.echo("released: debug mode (rt/lowcmd only; the robot is soft until commanded)")
+
+
+@app.command()
+def stand(interface: Interface, domain_id: Domain = 0,
+          seconds: Annotated[float, typer.Option("--seconds", help="ramp duration")] = 5.0,
+          hold: Annotated[float, typer.Option("--hold", help="seconds to hold home before going soft")] = 2.0,
+          yes: Yes = False) -> None:
+    """Ramp every joint from the current pose to the home pose over --seconds on rt/lowcmd (the driver's
+    gains), hold it --hold seconds, then damping. Debug mode only, the robot hanging."""
+    from .tools import stand as run_stand
+
+    _confirm(yes, "stand drives all 29 joints stiffly on rt/lowcmd: the G1 must hang on its gantry in debug mode, "
+                  "the space around it clear, the remote or emergency stop in hand.")
+    try:
+        report = run_stand(interface, domain_id, seconds=seconds, hold_s=hold)
+    except (ValueError, OSError) as e:
+        typer.echo(f"error: {e}", err=True)
+        raise typer.Exit(1) from None
+    for line in report.lines:
+        typer.echo(line)
+    if not report.ok:
+        typer.echo(f"error: {report.problem}", err=True)
+        raise typer.Exit(1)
+    typer.echo(f"home reached: largest joint error {report.error:.3f} rad ({report.sent} commands); now damping")

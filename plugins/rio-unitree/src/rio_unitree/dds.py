@@ -23,6 +23,9 @@ from typing import Any
 log = logging.getLogger("rio_unitree")
 
 LOWSTATE, LOWCMD, ARM_SDK = "rt/lowstate", "rt/lowcmd", "rt/arm_sdk"
+# Unitree's RPC to its motion switcher service (the SDK's `GetClientChannelName("motion_switcher", ...)`)
+MOTION_SWITCHER_REQUEST = "rt/api/motion_switcher/request"
+MOTION_SWITCHER_RESPONSE = "rt/api/motion_switcher/response"
 _PRECONDITION_NOT_MET = -4
 
 _CONFIG = """<?xml version="1.0" encoding="UTF-8" ?>
@@ -39,9 +42,14 @@ def interfaces() -> list[str]:
 
 
 def _types() -> dict[str, Any]:
-    from unitree_sdk2py.idl.unitree_hg.msg.dds_ import LowCmd_, LowState_
+    from unitree_sdk2py.idl.unitree_api.msg.dds_ import Request_, Response_
+    from unitree_sdk2py.idl.unitree_hg.msg.dds_ import HandCmd_, HandState_, LowCmd_, LowState_
 
-    return {LOWSTATE: LowState_, LOWCMD: LowCmd_, ARM_SDK: LowCmd_}
+    out = {LOWSTATE: LowState_, LOWCMD: LowCmd_, ARM_SDK: LowCmd_}
+    for side in ("left", "right"):
+        out[f"rt/dex3/{side}/cmd"], out[f"rt/dex3/{side}/state"] = HandCmd_, HandState_
+    out[MOTION_SWITCHER_REQUEST], out[MOTION_SWITCHER_RESPONSE] = Request_, Response_
+    return out
 
 
 def _delete(entity: Any) -> None:

@@ -3,6 +3,7 @@ the `rio unitree ...` commands. Specs only: nothing here imports the SDK, cyclon
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from rio.hookspecs import hookimpl
@@ -20,6 +21,8 @@ def rio_drivers() -> list[Spec]:
              "whole body on rt/lowcmd (debug mode)"),
         Spec("unitree.g1_23dof", "humanoid", f"{_P}.driver:G1", "Unitree G1 (23 DoF) over DDS, as unitree.g1",
              preset={"dof": 23}),
+        Spec("unitree.dex3", "hand", f"{_P}.hand:Dex3",
+             "Unitree Dex3-1 hand (config side) over DDS: rt/dex3/<side>/cmd and state, 7 joints"),
         Spec("unitree.bridge", "sensor", f"{_P}.bridge.node:BridgeNode",
              "a simulated G1 (MuJoCo) behind the robot's DDS topics, for the G1 drivers without a robot"),
     ]
@@ -27,13 +30,17 @@ def rio_drivers() -> list[Spec]:
 
 _STATIONS = {
     "g1-bridge": "Unitree G1 (whole body, rt/lowcmd) against the MuJoCo DDS bridge on loopback (no robot)",
+    "g1-bridge-hands": "Unitree G1 and its two Dex3-1 hands against the MuJoCo DDS bridge on loopback (needs rio-sim)",
+    "g1-bridge-floating": "Unitree G1 against the MuJoCo DDS bridge, pelvis free on a floor (no robot)",
     "g1": "Unitree G1: arms and waist over rt/arm_sdk while Unitree's locomotion stands it (edit the interface)",
 }
 
 
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+    here = Path(__file__).parent / "stations"
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()
+            if (here / f"{name}.toml").is_file()]  # g1-bridge-floating: listed once its file is there
 
 
 @hookimpl

@@ -33,7 +33,8 @@ def free_domain_id(interface: str = "lo", lo: int = 100, hi: int = 200, listen_s
 
 
 class Tap:
-    """Records every sample on `topic` (decoded; `bad_crc` counts those whose CRC is wrong). `with`."""
+    """Records every sample on `topic` (decoded; `bad_crc` counts those whose CRC is wrong; the hands'
+    topics `rt/dex3/...` too). `with`."""
 
     def __init__(self, domain_id: int, topic: str, interface: str = "lo"):
         self.topic = topic
@@ -45,6 +46,11 @@ class Tap:
     def poll(self) -> list[Any]:
         new = []
         for data in self.reader.take():
+            if self.topic.startswith("rt/dex3/"):
+                from .hand_wire import HandCmd, HandState
+
+                new.append((HandState if self.topic.endswith("/state") else HandCmd).decode(data))
+                continue
             if self.topic == "rt/lowstate":
                 new.append(LowState.decode(data))
                 continue

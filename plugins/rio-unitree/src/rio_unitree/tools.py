@@ -1,4 +1,4 @@
-"""What `rio unitree check` and `rio unitree damp` do, as functions (the CLI prints, tests call).
+"""What `rio unitree check`, `damp` and `stand` do, as functions (the CLI prints, tests call).
 
 `check` is the first bring-up step: before any driver, does this machine see the robot? Interface
 present, an IPv4 address on it (the G1's network is 192.168.123.0/24: the robot's computer is .161,
@@ -16,7 +16,7 @@ import numpy as np
 
 from .dds import LOWCMD, LOWSTATE, Participant, interfaces
 from .faults import tilt_deg
-from .g1 import JOINTS, NUM_SLOTS
+from .g1 import HOME, JOINTS, NUM_SLOTS, joint_names
 from .wire import LowState, state_crc_ok
 
 
@@ -110,3 +110,95 @@ def damp(interface: str, domain_id: int = 0, seconds: float = 3.0, rate_hz: floa
             sent += 1
             time.sleep(1.0 / rate_hz)
     return sent
+
+
+@dataclass
+class StandReport:
+    ok: bool = False
+    sent: int = 0
+    start: np.ndarray | None = None  # the pose it started from (rad, slot order of the G1's 29 joints)
+    error: float = float("nan")  # max |q - home| at the end of the hold (rad)
+    problem: str = ""
+    lines: list[str] = field(default_factory=list)
+
+
+def _smoothstep(u: float) -> float:
+    u = min(1.0, max(0.0, u))
+    return u * u * (3.0 - 2.0 * u)
+
+
+def stand(interface: str, domain_id: int = 0, seconds: float = 5.0, hold_s: float = 2.0, rate_hz: float = 500.0,
+          dof: int = 29, state_timeout_s: float = 0.25, fall_tilt_deg: float = 45.0,
+          check_mode_timeout_s: float = 1.0) -> StandReport:
+    """Ramp every joint from where it is to the home pose (`g1.HOME`) over `seconds` on rt/lowcmd with the
+    driver's default gains (smoothstep in time: no jerk at either end), hold it `hold_s`, then damping.
+
+    Refuses (nothing sent) when the motion switcher says a locomotion mode still runs (lowcmd would fight
+    it: enter debug mode first). Stops with damping when rt/lowstate goes silent for `state_timeout_s` or
+    the pelvis tilts beyond `fall_tilt_deg`."""
+    from .commands import Commands
+    from .motion_switcher import MotionSwitcher, NoAnswer
+
+    r = StandReport()
+    joints = [j for j in JOINTS if j.name in set(joint_names(dof))]
+    lower, upper = np.array([j.lower for j in joints]), np.array([j.upper for j in joints])
+    wire = Commands(joints, [j.kp for j in joints], [j.kd for j in joints], [j.damping for j in joints],
+                    lower, upper, True, dof)
+    slots = wire.slots
+    home = np.clip([HOME.get(j.name, 0.0) for j in joints], lower, upper)
+    try:
+        with MotionSwitcher(interface, domain_id, timeout_s=check_mode_timeout_s) as ms:
+            mode = ms.check_mode().get("name", "")
+    except NoAnswer:
+        r.lines.append("motion switcher: no answer (going on: a simulator, or a robot without the service)")
+        mode = ""
+    if mode:
+        r.problem = (f"the robot runs locomotion mode '{mode}': lowcmd would fight it. Hang the robot, then "
+                     f"`rio unitree debug-mode --interface {interface}` (or L2+R2 on the remote in damping)")
+        return r
+    with Participant(domain_id, interface) as p:
+        states, out = p.reader(LOWSTATE), p.writer(LOWCMD)
+        state, t_state = None, time.monotonic()
+        t_end = time.monotonic() + 2.0
+        while state is None and time.monotonic() < t_end:
+            data = states.latest()
+            if data is not None and state_crc_ok(data):
+                state, t_state = LowState.decode(data), time.monotonic()
+            time.sleep(0.002)
+        if state is None:
+            r.problem = f"no rt/lowstate on '{interface}' (DDS domain {domain_id}) within 2 s: nothing sent"
+            return r
+        out.wait_matched(1.0)
+        q0 = state.q[slots].astype(np.float64)
+        r.start = q0.copy()
+        r.lines.append(f"from the current pose (largest move {np.abs(home - q0).max():.2f} rad) to home over "
+                       f"{seconds} s, then hold {hold_s} s")
+        t0, period = time.monotonic(), 1.0 / rate_hz
+        try:
+            while True:
+                now = time.monotonic()
+                data = states.latest()
+                if data is not None and state_crc_ok(data):
+                    state, t_state = LowState.decode(data), now
+                if now - t_state > state_timeout_s:
+                    r.problem = f"rt/lowstate went silent for {now - t_state:.2f} s: stopped (damping)"
+                    break
+                tilt = tilt_deg(state.quaternion)
+                if tilt > fall_tilt_deg:
+                    r.problem = f"the pelvis tilted {tilt:.0f} deg: stopped (damping)"
+                    break
+                if now - t0 > seconds + hold_s:
+                    r.error = float(np.abs(state.q[slots] - home).max())
+                    r.ok = True
+                    break
+                goal = q0 + (home - q0) * _smoothstep((now - t0) / seconds if seconds > 0 else 1.0)
+                out.write(wire.position(goal, state.q[slots].astype(np.float64), state.mode_machine).encode())
+                r.sent += 1
+                time.sleep(max(0.0, period - (time.monotonic() - now)))
+        finally:  # whatever happened (Ctrl-C too): soft, not a frozen stiff pose
+            damping = wire.damping(state.mode_machine).encode()
+            for _ in range(int(0.1 * rate_hz)):
+                out.write(damping)
+                time.sleep(period)
+    return r
+

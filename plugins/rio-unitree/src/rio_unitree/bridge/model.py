@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import dex3
 from ..g1 import BY_NAME, JOINTS
 
 # (body, joint axis, offset from the parent body, link vector to the next body (a capsule), mass kg, armature)
@@ -91,15 +92,27 @@ def fallback_mjcf(mounted: bool = True) -> str:
 
 
 FALLBACK = "fallback"
+#: `model = "hands"`: rio-sim's G1 with its two Dex3-1 hands (the bridge then serves rt/dex3/*).
+HANDS = "hands"
 
 
-def rio_sim_asset() -> Path | None:
-    """rio-sim's G1 model, when rio-sim is installed and ships one."""
+def rio_sim_asset(hands: bool = False) -> Path | None:
+    """rio-sim's G1 model (with its Dex3-1 hands: `hands`), when rio-sim is installed and ships one."""
     spec = importlib.util.find_spec("rio_sim")
     if spec is None or not spec.submodule_search_locations:
         return None
-    path = Path(next(iter(spec.submodule_search_locations))) / "assets" / "g1.xml"
+    path = Path(next(iter(spec.submodule_search_locations))) / "assets" / ("g1_hands.xml" if hands else "g1.xml")
     return path if path.is_file() else None
+
+
+@dataclass
+class HandModel:
+    """One Dex3-1 in the model: its joints in motor order (HandCmd index 0-6)."""
+
+    side: str
+    qpos: np.ndarray
+    dof: np.ndarray
+    act: np.ndarray
 
 
 @dataclass
@@ -116,6 +129,7 @@ class G1Model:
     effort: np.ndarray
     pelvis: int
     free: bool  # the pelvis has a free joint (qpos[0:7] its pose)
+    hands: dict[str, HandModel]  # the Dex3-1 hands the model has (all seven joints of a side), by side
 
 
 def load(path: str | Path | None = None, mounted: bool = True) -> G1Model:
@@ -128,6 +142,11 @@ def load(path: str | Path | None = None, mounted: bool = True) -> G1Model:
     does in the robot's motor drivers."""
     import mujoco
 
+    if str(path) == HANDS:
+        path = rio_sim_asset(hands=True)
+        if path is None:
+            raise ValueError("model 'hands' is rio-sim's G1 with Dex3-1 hands: install rio-sim "
+                             "(pip install 'rio-unitree[sim]')")
     if path is None:
         path = rio_sim_asset()
     if path is None or str(path) == FALLBACK:
@@ -145,17 +164,17 @@ def load(path: str | Path | None = None, mounted: bool = True) -> G1Model:
         joint = spec.joint(j.name)
         if joint is None:
             continue
-        lo, hi = joint.actfrcrange
-        effort = float(hi) if hi > lo else j.effort  # the file's effort limit where it has one
-        act = spec.add_actuator()
-        act.name, act.target, act.trntype = f"{j.name}_motor", j.name, mujoco.mjtTrn.mjTRN_JOINT
-        act.gaintype, act.biastype = mujoco.mjtGain.mjGAIN_FIXED, mujoco.mjtBias.mjBIAS_AFFINE
-        act.gainprm[0] = 1.0
-        act.forcelimited, act.forcerange = mujoco.mjtLimited.mjLIMITED_TRUE, [-effort, effort]
-        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
-        found.append((j.slot, j.name, effort))
+        found.append((j.slot, j.name, _motor(spec, j.name, j.effort)))
     if not found:
         raise ValueError(f"{source} has none of the G1's joints ({JOINTS[0].name}, ...)")
+    hand_joints = {}
+    for side in dex3.SIDES:
+        table = dex3.joints(side)
+        if not all(spec.joint(j.name) is not None for j in table):
+            continue
+        hand_joints[side] = [j.name for j in table]
+        for j in table:
+            _motor(spec, j.name, j.effort)
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     model = spec.compile()
     pelvis = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "pelvis")
@@ -165,6 +184,28 @@ def load(path: str | Path | None = None, mounted: bool = True) -> G1Model:
     free = jnt >= 0 and model.jnt_type[jnt] == mujoco.mjtJoint.mjJNT_FREE
     ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name) for _, name, _ in found]
     acts = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{name}_motor") for _, name, _ in found]
+    hands = {}
+    for side, names in hand_joints.items():
+        jids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in names]
+        hands[side] = HandModel(side, np.array([model.jnt_qposadr[j] for j in jids]),
+                                np.array([model.jnt_dofadr[j] for j in jids]),
+                                np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{n}_motor")
+                                          for n in names]))
     return G1Model(model, mujoco.MjData(model), source, np.array([s for s, _, _ in found]),
                    np.array([model.jnt_qposadr[j] for j in ids]), np.array([model.jnt_dofadr[j] for j in ids]),
-                   np.array(acts), np.array([e for _, _, e in found], np.float64), pelvis, bool(free))
+                   np.array(acts), np.array([e for _, _, e in found], np.float64), pelvis, bool(free), hands)
+
+
+def _motor(spec: Any, joint_name: str, default_effort: float) -> float:
+    """Add the affine motor of `joint_name` (see `load`); its effort limit (the file's where it has one)."""
+    import mujoco
+
+    lo, hi = spec.joint(joint_name).actfrcrange
+    effort = float(hi) if hi > lo else default_effort
+    act = spec.add_actuator()
+    act.name, act.target, act.trntype = f"{joint_name}_motor", joint_name, mujoco.mjtTrn.mjTRN_JOINT
+    act.gaintype, act.biastype = mujoco.mjtGain.mjGAIN_FIXED, mujoco.mjtBias.mjBIAS_AFFINE
+    act.gainprm[0] = 1.0
+    act.forcelimited, act.forcerange = mujoco.mjtLimited.mjLIMITED_TRUE, [-effort, effort]
+    act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    return effort

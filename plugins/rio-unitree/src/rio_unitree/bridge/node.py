@@ -19,8 +19,9 @@ class BridgeNode(Node):
     class Config(NodeConfig):
         interface: str = Field("lo", description="network interface the bridge publishes on")
         domain_id: int = Field(0, ge=0, le=232, description="DDS domain (use the driver's)")
-        model: str | None = Field(None, description='MJCF path, "fallback" (the plugin\'s own G1-like model), or '
-                                                    "unset: rio-sim's G1 when installed, else the fallback")
+        model: str | None = Field(None, description='MJCF path, "fallback" (the plugin\'s own G1-like model), "hands" '
+                                                    "(rio-sim's G1 with Dex3-1 hands: also rt/dex3/*), or unset: "
+                                                    "rio-sim's G1 when installed, else the fallback")
         mounted: bool = Field(True, description="pelvis welded to the world (a G1 on its gantry)")
         state_rate_hz: float = Field(500.0, gt=0, description="rt/lowstate rate (the robot's is 500 Hz)")
         rate_hz: float = Field(10.0, gt=0, description="how often the ground truth is published")

@@ -16,6 +16,15 @@ robot does:
   pelvis IMU (quaternion wxyz, gyroscope in the body frame, accelerometer as gravity in the body frame,
   rpy) and `mode_machine`.
 
+With a model that has the Dex3-1 hands (`model = "hands"`: rio-sim's G1 with hands), it also plays both
+hands: takes `rt/dex3/<side>/cmd` (each motor driven by the same law when its mode byte's status is
+non-zero and its id is its index; a motor whose id is wrong is off and counted in `counts.bad_hand_id`;
+no command yet: the hand is limp) and publishes `rt/dex3/<side>/state` at `hand_state_rate_hz`.
+
+And it answers Unitree's motion switcher RPC (`rt/api/motion_switcher/request`): CheckMode says
+`{"name": "ai", ...}` while the stand-in (its locomotion) holds the robot; ReleaseMode releases it (the
+stand-in goes soft: damping, as a released G1 does) and CheckMode says `{"name": ""}` from then on.
+
 A lagging machine slows the simulation instead of bursting steps to catch up.
 """
 
@@ -31,8 +40,10 @@ from typing import Any
 
 import numpy as np
 
-from ..dds import ARM_SDK, LOWCMD, LOWSTATE, Participant
+from .. import dex3
+from ..dds import ARM_SDK, LOWCMD, LOWSTATE, MOTION_SWITCHER_REQUEST, MOTION_SWITCHER_RESPONSE, Participant
 from ..g1 import HOME, JOINTS, NUM_SLOTS, UPPER_BODY_SLOTS, WEIGHT_SLOT
+from ..hand_wire import HandCmd, HandState
 from ..wire import LowCmd, LowState, cmd_crc_ok
 from .model import G1Model, load
 
@@ -49,6 +60,10 @@ class Counts:
     malformed: int = 0
     lowstate: int = 0
     steps: int = 0
+    hand_cmd: int = 0
+    hand_state: int = 0
+    bad_hand_id: int = 0
+    rpc: int = 0
 
 
 class Bridge:
@@ -58,9 +73,13 @@ class Bridge:
 
     def __init__(self, domain_id: int = 0, interface: str = "lo", model: str | Path | None = None,
                  mounted: bool = True, state_rate_hz: float = 500.0, mode_machine: int = 5,
-                 stand_in: bool = True, start_pose: dict[str, float] | None = None):
+                 stand_in: bool = True, start_pose: dict[str, float] | None = None,
+                 hand_state_rate_hz: float = 100.0):
         self.domain_id, self.interface = domain_id, interface
         self.sim: G1Model = load(model, mounted)
+        self.hand_state_period = 1.0 / hand_state_rate_hz
+        self.hand_cmd: dict[str, HandCmd | None] = {side: None for side in self.sim.hands}
+        self.released = False  # the motion switcher released the stand-in (its "locomotion")
         self.dt = float(self.sim.model.opt.timestep)
         self.state_period = 1.0 / state_rate_hz
         self.mode_machine = mode_machine
@@ -89,14 +108,18 @@ class Bridge:
             self._cmd_in = self.dds.reader(LOWCMD, depth=32)
             self._arm_in = self.dds.reader(ARM_SDK, depth=32)
             self._state_out = self.dds.writer(LOWSTATE)
+            self._hand_io = {side: (self.dds.reader(dex3.cmd_topic(side), depth=8),
+                                    self.dds.writer(dex3.state_topic(side))) for side in self.sim.hands}
+            self._rpc_in = self.dds.reader(MOTION_SWITCHER_REQUEST, depth=8)
+            self._rpc_out = self.dds.writer(MOTION_SWITCHER_RESPONSE)
         except BaseException:
             self.dds.close()
             raise
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="g1-bridge", daemon=True)
         self._thread.start()
-        log.info("G1 bridge on %s, DDS domain %d: %s, %d joints, %.0f Hz physics", self.interface, self.domain_id,
-                 self.sim.source, len(self.sim.slots), 1.0 / self.dt)
+        log.info("G1 bridge on %s, DDS domain %d: %s, %d joints, hands %s, %.0f Hz physics", self.interface,
+                 self.domain_id, self.sim.source, len(self.sim.slots), sorted(self.sim.hands) or "none", 1.0 / self.dt)
         return self
 
     def stop(self) -> None:
@@ -134,6 +157,11 @@ class Bridge:
         with self.lock:
             return self.sim.data.qpos[self.sim.qpos].copy()
 
+    def hand_pos(self, side: str) -> np.ndarray:
+        """Ground truth of a Dex3-1's joints, in its motor order."""
+        with self.lock:
+            return self.sim.data.qpos[self.sim.hands[side].qpos].copy()
+
     def set_base_orientation(self, quat_wxyz: Any) -> None:
         """Turn the whole robot (tilt its mount, or set a free pelvis' orientation): what a fall looks
         like to the IMU, on a model that cannot fall."""
@@ -157,10 +185,11 @@ class Bridge:
 
     # -- the loop -------------------------------------------------------------------------------------------
     def _run(self) -> None:
-        t0, steps, next_state = time.monotonic(), 0, 0.0
+        t0, steps, next_state, next_hand = time.monotonic(), 0, 0.0, 0.0
         try:
             while not self._stop.is_set():
                 self._take_commands()
+                self._answer_rpc()
                 due = int((time.monotonic() - t0) / self.dt)
                 if due - steps > _MAX_LAG_S / self.dt:
                     t0 += (due - steps - 1) * self.dt
@@ -173,10 +202,16 @@ class Bridge:
                     publish = sim_t >= next_state
                     if publish:
                         state = self._lowstate()
+                    hands = self._hand_states() if self.sim.hands and sim_t >= next_hand else {}
                 if publish:
                     next_state = sim_t + self.state_period - 1e-9
                     self._state_out.write(state.encode())
                     self.counts.lowstate += 1
+                if hands:
+                    next_hand = sim_t + self.hand_state_period - 1e-9
+                    for side, hand_state in hands.items():
+                        self._hand_io[side][1].write(hand_state.encode())
+                        self.counts.hand_state += 1
                 time.sleep(max(0.0, t0 + (steps + 1) * self.dt - time.monotonic()))
         except Exception:  # a bridge that dies says so; the driver's lowstate timeout does the rest
             log.exception("G1 bridge stopped")
@@ -200,6 +235,46 @@ class Bridge:
                 else:
                     self.arm_sdk = cmd
                     self.counts.arm_sdk += 1
+        for side, (reader, _) in self._hand_io.items():
+            for data in reader.take():
+                try:
+                    self.hand_cmd[side] = HandCmd.decode(data)
+                except Exception:
+                    self.counts.malformed += 1
+                    continue
+                self.counts.hand_cmd += 1
+
+    def _answer_rpc(self) -> None:
+        """Unitree's motion switcher, as far as releasing the locomotion goes (module docstring)."""
+        requests = self._rpc_in.take()
+        if not requests:
+            return
+        import json
+
+        from unitree_sdk2py.idl.unitree_api.msg.dds_ import Request_, Response_, ResponseHeader_, ResponseStatus_
+
+        from ..motion_switcher import CHECK_MODE, RELEASE_MODE
+
+        for data in requests:
+            try:
+                req = Request_.deserialize(data)
+            except Exception:
+                self.counts.malformed += 1
+                continue
+            self.counts.rpc += 1
+            api, code, out = req.header.identity.api_id, 0, ""
+            if api == CHECK_MODE:
+                out = json.dumps({"form": "0", "name": "" if self.released else "ai"})
+            elif api == RELEASE_MODE:
+                with self.lock:
+                    self.released = True
+                    self._hold = self._command(self.start_q, np.zeros(len(self.start_q)),
+                                               [j.damping for j in JOINTS if j.slot in set(self.sim.slots.tolist())])
+            else:
+                code = 3203  # RPC_ERR_SERVER_API_NOT_IMPL
+            if not req.header.policy.noreply:
+                self._rpc_out.write(Response_(ResponseHeader_(req.header.identity, ResponseStatus_(code)), out,
+                                              []).serialize())
 
     def _command(self, q: Any, kp: Any, kd: Any, enabled: bool = True) -> LowCmd:
         cmd = LowCmd()
@@ -233,9 +308,42 @@ class Bridge:
         d.ctrl[sim.act] = ctrl
         m.actuator_biasprm[sim.act, 1] = -kp
         m.actuator_biasprm[sim.act, 2] = -kd
+        for side, hand in sim.hands.items():
+            self._drive_hand(hand, self.hand_cmd[side])
         mujoco.mj_step(m, d)
         self.tau = d.actuator_force[sim.act].copy()
         self.counts.steps += 1
+
+    def _drive_hand(self, hand: Any, cmd: HandCmd | None) -> None:
+        m, d = self.sim.model, self.sim.data
+        if cmd is None or len(cmd.q) < dex3.NUM_MOTORS:  # limp until commanded
+            d.ctrl[hand.act] = 0.0
+            m.actuator_biasprm[hand.act, 1:3] = 0.0
+            return
+        n = dex3.NUM_MOTORS
+        motor_id, status = cmd.mode[:n] & 0x0F, (cmd.mode[:n] >> 4) & 0x07
+        wrong = (status != 0) & (motor_id != np.arange(n))
+        if wrong.any():
+            self.counts.bad_hand_id += 1
+        on = ((status != 0) & ~wrong).astype(np.float64)
+        kp, kd = cmd.kp[:n] * on, cmd.kd[:n] * on
+        d.ctrl[hand.act] = kp * cmd.q[:n] + kd * cmd.dq[:n] + on * cmd.tau[:n]
+        m.actuator_biasprm[hand.act, 1] = -kp
+        m.actuator_biasprm[hand.act, 2] = -kd
+
+    def _hand_states(self) -> dict[str, HandState]:
+        d, out = self.sim.data, {}
+        for side, hand in self.sim.hands.items():
+            st = HandState()
+            cmd = self.hand_cmd[side]
+            st.mode[:] = cmd.mode[:dex3.NUM_MOTORS] if cmd is not None and len(cmd.mode) >= dex3.NUM_MOTORS else 0
+            st.q[:], st.dq[:], st.ddq[:] = d.qpos[hand.qpos], d.qvel[hand.dof], d.qacc[hand.dof]
+            st.tau_est[:] = d.actuator_force[hand.act]
+            st.temperature[:] = 30
+            st.vol[:] = 24.0
+            st.power[:] = (24.0, 0.5, 24.0, 5.0)
+            out[side] = st
+        return out
 
     def _lowstate(self) -> LowState:
         import mujoco

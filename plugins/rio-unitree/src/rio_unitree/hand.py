@@ -1,0 +1,224 @@
+"""`unitree.dex3`: one Unitree Dex3-1 hand (config `side`) in joint space over its own DDS topics.
+
+Each cycle reads the newest `rt/dex3/<side>/state` and sends one `rt/dex3/<side>/cmd`: every motor
+with its id and status "enabled" in its mode byte (`rio_unitree.dex3`), `q` = the goal clipped to its
+limits (and, with `torque_limit`, to where kp * error stays within its effort), `dq = 0`, `tau = 0`,
+and its kp, kd. The hand kind owns the targets (interpolation, limits, max step, the watchdog).
+
+The body's safety pattern (`unitree.g1`): no hand state for `state_timeout_s` is a named fault
+(`handstate_timeout`), no state at open a named error; a stream of commands that stops (the kind's
+watchdog) damps the hand (kp = 0, each joint's `damping_kd`) with `on_stale = "damp"`; a disabled or
+faulted node sends damping every cycle, and closing it sends damping a moment before it lets go.
+
+`robot_description()` is rio-sim's Dex3-1 of that side (cut out of its G1-with-hands model, palm site in
+RIO's palm frame, finger keypoints as sites) when rio-sim is installed, so `rio teleop`'s hand trackers
+retarget onto it.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field
+from rio import clock
+from rio.interfaces import FAULT_KEYS, Fault, FaultHolding, HandNode
+
+from . import dex3
+from .dds import Participant
+from .hand_wire import HandCmd, HandState
+
+log = logging.getLogger("rio_unitree")
+
+HANDSTATE_TIMEOUT, STALE_COMMANDS = 1, 3  # the body's codes for the same two events
+
+
+class Dex3(FaultHolding, HandNode):
+    class Config(HandNode.Config):
+        side: Literal["left", "right"] = Field("right", description="which Dex3-1")
+        interface: str = Field("eth0", description="network interface on the robot's network (192.168.123.x; "
+                                                   "'lo' for the bridge on this machine)")
+        domain_id: int = Field(0, ge=0, le=232, description="DDS domain (the robot's is 0)")
+        rate_hz: float = Field(100.0, gt=0, description="loop rate (Hz)")
+        max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad): 5 rad/s "
+                                                            "at 100 Hz")
+        kp: list[float] | None = Field(None, description="stiffness per joint (N·m/rad), motor order (default 1.5, "
+                                                         "xr_teleoperate's)")
+        kd: list[float] | None = Field(None, description="damping per joint while holding a goal (default 0.2)")
+        damping_kd: list[float] | None = Field(None, description="kd per joint of the damping command (default 0.1)")
+        torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
+                                                     "effort limit")
+        state_timeout_s: float = Field(0.25, gt=0, description="fault when no hand state arrives for this long (s)")
+        connect_timeout_s: float = Field(5.0, gt=0, description="how long open() waits for the first hand state")
+        on_stale: Literal["damp", "hold"] = Field(
+            "damp", description='when a stream of commands stops (watchdog_s): "damp" (fault, kp = 0) or "hold"')
+
+    # -- setup --------------------------------------------------------------------------------------
+    def default_joint_names(self) -> list[str]:
+        return dex3.joint_names(self.config.side)
+
+    def setup(self) -> None:
+        super().setup()
+        c = self.config
+        self.joints = dex3.lookup(c.side, self.joint_list)
+        self.ids = np.array([j.index for j in self.joints], dtype=np.intp)
+        self.gains: dict[str, np.ndarray] = {}
+        for name, default in (("kp", dex3.KP), ("kd", dex3.KD), ("damping_kd", dex3.DAMPING_KD)):
+            value = getattr(c, name)
+            if value is not None and len(value) != self.dof:
+                raise ValueError(f"{name} has {len(value)} values; node '{self.name}' drives {self.dof} joints")
+            self.gains[name] = np.asarray(value if value is not None else [default] * self.dof, np.float64)
+        self.effort = np.array([j.effort for j in self.joints], np.float64)
+        self.example_data = {**self.example_data, **FAULT_KEYS}
+        self.device_label = f"the {c.side} Dex3-1 on {c.interface} (DDS domain {c.domain_id})"
+        self.state_topic, self.cmd_topic = dex3.state_topic(c.side), dex3.cmd_topic(c.side)
+        self.dds: Participant | None = None
+        self.state: HandState | None = None
+        self.t_state = -np.inf
+        self._holds_seen = 0
+
+    # -- hardware -----------------------------------------------------------------------------------
+    def open(self) -> None:
+        c = self.config
+        self.dds = Participant(c.domain_id, c.interface)
+        try:
+            self._state_in = self.dds.reader(self.state_topic)
+            self._out = self.dds.writer(self.cmd_topic)
+            deadline = time.monotonic() + c.connect_timeout_s
+            while not self._poll():
+                if time.monotonic() > deadline:
+                    raise TimeoutError(
+                        f"no {self.state_topic} on interface '{c.interface}' (DDS domain {c.domain_id}) within "
+                        f"{c.connect_timeout_s} s: is the {c.side} Dex3-1 on and connected (the G1 powers it), and "
+                        "this interface on the robot's network (192.168.123.x)?")
+                time.sleep(0.005)
+            if not self._out.wait_matched(1.0):
+                log.warning("node '%s': nothing reads %s yet: commands may go unheard", self.name, self.cmd_topic)
+        except BaseException:
+            self.dds.close()
+            self.dds = None
+            raise
+
+    def close(self) -> None:
+        if self.dds is None:
+            return
+        try:
+            if self.config.disable_on_close and self.state is not None:
+                t_end = time.monotonic() + 0.05
+                while time.monotonic() < t_end:
+                    self._send(self.damping())
+                    time.sleep(1.0 / self.config.rate_hz)
+        finally:
+            self.dds.close()
+            self.dds = None
+
+    def hardware_limits(self) -> tuple[list[float], list[float]]:
+        return [j.lower for j in self.joints], [j.upper for j in self.joints]
+
+    def default_home(self) -> list[float]:
+        return [0.0] * self.dof  # open: every Dex3-1 joint's range includes 0
+
+    def robot_description(self) -> dict[str, Any] | None:
+        """rio-sim's Dex3-1 of this side (real kinematics from Unitree's URDF), when rio-sim is installed."""
+        try:
+            from rio_sim import g1 as sim_g1
+        except ImportError:
+            return None
+        side = self.config.side
+        return {"format": "mjcf", "xml": sim_g1.hand_xml(side), "joints": list(self.joint_list),
+                "keypoints": sim_g1.keypoints(side), "palm": f"{side}_palm", "side": side}
+
+    def set_enabled(self, enabled: bool) -> None:
+        if enabled:
+            self.check_device_fault()
+            self._holds_seen = self.commander.watchdog_holds
+        elif self.dds is not None:
+            self._send(self.damping())
+
+    def device_fault(self) -> Fault | None:
+        age = clock.now() - self.t_state
+        if age > self.config.state_timeout_s:
+            c = self.config
+            return Fault(HANDSTATE_TIMEOUT, "handstate_timeout",
+                         f"no {self.state_topic} for {age:.2f} s on interface '{c.interface}' (DDS domain "
+                         f"{c.domain_id})", "check the hand's cable and the robot; clear_faults() once it publishes")
+        return None
+
+    # -- the commands -----------------------------------------------------------------------------------
+    def _cmd(self) -> HandCmd:
+        cmd = HandCmd()
+        cmd.mode[:] = [dex3.mode_byte(i) for i in range(dex3.NUM_MOTORS)]
+        return cmd
+
+    def position(self, goal: np.ndarray, measured: np.ndarray) -> HandCmd:
+        """Stiff goal at rest for this node's motors (others of the hand, if any, damped)."""
+        lower, upper = self.hardware_limits()
+        q = np.clip(goal, lower, upper)
+        kp = self.gains["kp"]
+        if self.config.torque_limit:
+            band = np.where(kp > 0, self.effort / np.maximum(kp, 1e-9), np.inf)
+            q = np.clip(q, measured - band, measured + band)
+        cmd = self.damping()
+        cmd.q[self.ids], cmd.kp[self.ids], cmd.kd[self.ids] = q, kp, self.gains["kd"]
+        return cmd
+
+    def damping(self) -> HandCmd:
+        """Every motor soft: kp = 0, kd = its damping, no torque."""
+        cmd = self._cmd()
+        cmd.kd[:] = dex3.DAMPING_KD
+        cmd.kd[self.ids] = self.gains["damping_kd"]
+        if self.state is not None:
+            cmd.q[self.ids] = self.state.q[self.ids]
+        return cmd
+
+    # -- cycle --------------------------------------------------------------------------------------
+    def read_joints(self) -> dict[str, Any]:
+        self._poll()
+        self._watch()
+        s = self.state
+        assert s is not None
+        return {"joint_pos": s.q[self.ids].astype(np.float64), "joint_vel": s.dq[self.ids].astype(np.float64),
+                **self.fault_status()}
+
+    def read_state(self) -> dict[str, Any]:
+        sample = super().read_state()
+        if not self.enabled and self.dds is not None:
+            self._send(self.damping())
+        return sample
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        s = self.state
+        assert s is not None
+        self._send(self.position(joint_pos, s.q[self.ids].astype(np.float64)))
+
+    # -- helpers ------------------------------------------------------------------------------------
+    def _poll(self) -> bool:
+        data = self._state_in.latest()
+        if data is None:
+            return False
+        state = HandState.decode(data)
+        if len(state.q) < dex3.NUM_MOTORS:
+            log.warning("node '%s': %s with %d motors (a Dex3-1 has %d): ignored", self.name, self.state_topic,
+                        len(state.q), dex3.NUM_MOTORS)
+            return False
+        self.state, self.t_state = state, clock.now()
+        return True
+
+    def _watch(self) -> None:
+        if self.fault is not None and self.fault.code != STALE_COMMANDS:
+            return
+        fault = self.device_fault()
+        if fault is None and self._commander is not None and self.commander.watchdog_holds > self._holds_seen:
+            self._holds_seen = self.commander.watchdog_holds
+            if self.config.on_stale == "damp" and self.enabled:
+                fault = Fault(STALE_COMMANDS, "stale_commands",
+                              f"the stream of commands stopped for more than watchdog_s ({self.config.watchdog_s} s): "
+                              "damping", "clear_faults() or enable() holds where the hand is; then command again")
+        if fault is not None:
+            self.on_fault(fault)
+
+    def _send(self, cmd: HandCmd) -> None:
+        assert self.dds is not None
+        self._out.write(cmd.encode())
