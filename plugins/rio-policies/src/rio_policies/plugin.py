@@ -20,6 +20,8 @@ def rio_policies() -> list[Spec]:
              "a LeRobot ACT or Diffusion checkpoint from a local directory (needs lerobot)"),
         Spec("onnx.local", "policy", f"{_P}.onnx_policy:OnnxNode",
              "an ONNX model (RL locomotion, exported policies) on onnxruntime"),
+        Spec("onnx.locomotion", "policy", f"{_P}.locomotion:LocomotionNode",
+             "RL locomotion on a humanoid (a legged_gym / unitree_rl_gym ONNX actor): velocity in, joints out"),
         Spec("replay.episode", "policy", f"{_P}.replay:ReplayNode",
              "plays back the actions of a recorded episode, time-aligned"),
     ]
@@ -31,7 +33,8 @@ def rio_requirements() -> list[Requirement]:
     core dependency; replay.episode: nothing extra)."""
     return [
         Requirement("websockets", "pip install websockets", "openpi.remote: the openpi server's websocket protocol"),
-        Requirement("onnxruntime", "pip install 'rio-policies[onnx]'", "onnx.local: running ONNX models"),
+        Requirement("onnxruntime", "pip install 'rio-policies[onnx]'",
+                    "onnx.local, onnx.locomotion: running ONNX models"),
         Requirement("lerobot", "pip install 'lerobot==0.4.4'", "lerobot.local: ACT and Diffusion checkpoints"),
         Requirement("torch", "pip install torch", "lerobot.local: the checkpoint's model (lerobot's torch)"),
     ]

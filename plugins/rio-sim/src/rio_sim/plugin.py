@@ -35,6 +35,7 @@ _STATIONS = {
     "sim-bimanual": "two SO-100 arms + grippers, wrist and front cameras (MuJoCo)",
     "sim-xarm7": "xArm7 + gripper, wrist and front (RGB-D) cameras, end-effector actions (MuJoCo)",
     "sim-g1": "Unitree G1 + Dex3-1 hands on a stand at a table, head camera, scripted hand tracking (MuJoCo)",
+    "sim-g1-floating": "Unitree G1 with a free base, for locomotion policies: rio deploy --policy onnx.locomotion",
 }
 
 

@@ -23,6 +23,26 @@ from ..specs import import_path
 from .node import PolicyNode
 
 
+def _top_level_commas(text: str) -> list[str]:
+    """`text` split at the commas outside brackets and quotes, so a value may be a JSON list or object
+    (`command=[0.3,0,0]`)."""
+    parts, depth, quote, start = [], 0, "", 0
+    for i, ch in enumerate(text):
+        if quote:
+            quote = "" if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch in "[{":
+            depth += 1
+        elif ch in "]}":
+            depth = max(depth - 1, 0)
+        elif ch == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return parts
+
+
 def parse_policy_arg(text: str) -> tuple[str, dict[str, Any]]:
     """'name,k=v,...' -> (name, {k: v}); a .toml path -> its [policy] table's driver and fields."""
     if text.endswith(".toml") and os.path.isfile(text):
@@ -32,7 +52,7 @@ def parse_policy_arg(text: str) -> tuple[str, dict[str, Any]]:
         if "driver" not in table:
             raise ConfigError(f"{text}: needs a [policy] table with a driver = \"...\" line")
         return str(table.pop("driver")), table
-    name, *pairs = [p.strip() for p in text.split(",")]
+    name, *pairs = [p.strip() for p in _top_level_commas(text)]
     fields: dict[str, Any] = {}
     for pair in pairs:
         key, sep, raw = pair.partition("=")
