@@ -33,7 +33,7 @@ REQUIRED = {
     "station": STATION, "dataset": DIR, "src": DIR, "out": "{tmp}/out", "name": "acme", "specs": "rio-acme",
     "names": "rio-acme", "controller": "rio.teleop.twist:TwistTeleop", "fmt": "zarr", "ip": "192.0.2.1",
     "port": "{missing}", "state": "on", "program": "x.urp", "path": DIR,
-    "directory": "{tmp}/out", "layout": "xarm7",
+    "directory": "{tmp}/out", "layout": "xarm7", "interface": "lo",
 }
 #: Options a command line also needs (not required by typer, but the command stops without them).
 EXTRA = {("teleop",): ["--teleop", "scripted"], ("top",): ["--once"], ("plugins", "uninstall"): ["--yes"]}
@@ -45,6 +45,8 @@ ACCEPTS = {
     ("replay", "--episode"): {"0"}, ("ur", "emulator", "--exit-with"): {"0", "-5"},
     ("ros2", "bridge", "--domain"): {"0"},
     ("datasets", "view", "--episode"): {"0"},
+    **{("unitree", c, "--domain-id"): {"0"} for c in ("bridge", "check", "damp", "debug-mode", "stand")},
+    ("unitree", "stand", "--hold"): {"0"},
 }
 #: Parameters that are paths of directories to write into / read from, or station names, by name.
 STATION_PARAMS = {"station"}
@@ -55,7 +57,7 @@ EXISTING_DIR_PARAMS = {"plugin_dir"}
 EMPTY_OK = {"instruction", "name"}
 
 #: Commands that serve until stopped when a bad value slips through: a subprocess with a deadline.
-SUBPROCESS = {("so100", "virtual-bus"), ("ur", "emulator"), ("ufactory", "emulator")}
+SUBPROCESS = {("so100", "virtual-bus"), ("ur", "emulator"), ("ufactory", "emulator"), ("unitree", "bridge")}
 SUBPROCESS_DEADLINE_S = 10
 class _Started(BaseException):  # noqa: N818 - not an error: the marker that something was started
     """Raised where a station's nodes or an installer would start: a bad value got that far."""
@@ -225,7 +227,8 @@ def test_table_knows_every_required_parameter():
 
 def test_table_covers_every_command_group():
     covered = {case.values[0].command[0] for case in _cases()}
-    assert covered >= CORE_GROUPS - {"bench", "cameras", "doctor", "plugins"} | {"datasets", "export", "replay"}
+    only_flags = {"bench", "cameras", "doctor", "plugins", "ports"}  # nothing but --json etc. to get wrong
+    assert covered >= CORE_GROUPS - only_flags | {"datasets", "export", "replay"}
 
 
 # --- Ctrl-C -----------------------------------------------------------------------------------------

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 
 class RioError(Exception):
     """Base class of every RIO error."""
@@ -70,3 +72,16 @@ class FrameGone(RioError):
         self.camera, self.timestamp = camera, timestamp
         super().__init__(f"camera '{camera}': frame {timestamp:.6f} is no longer in its ring buffer (the camera "
                          f"overwrote it; the ring keeps {capacity - 1} frames)" + (f"; {hint}" if hint else ""))
+
+
+def debug() -> bool:
+    """`rio --debug`, or RIO_DEBUG=1 in the environment (node processes inherit it): show the full
+    traceback of every error, a RioError's too."""
+    return os.environ.get("RIO_DEBUG", "").strip().lower() not in ("", "0", "false", "no", "off")
+
+
+def shows_traceback(e: BaseException) -> bool:
+    """Whether reporting `e` should include its traceback: a RioError is a problem the user can act on
+    and its message says what to do (one line; the traceback only with `debug()`); any other exception is
+    a bug, whose traceback is what to report."""
+    return debug() or not isinstance(e, RioError)

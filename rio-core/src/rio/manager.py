@@ -36,7 +36,7 @@ from pydantic import ValidationError
 from . import clock, host
 from .client import NodeClient
 from .config import error_lines
-from .errors import ConfigError, NodeDiedError, RioError
+from .errors import ConfigError, NodeDiedError, RioError, shows_traceback
 from .middleware.base import Middleware, NodeLayouts, machine_id
 from .node import Node
 from .ring_ref import ring_reference
@@ -121,6 +121,7 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
     host.exit_with_parent(parent_pid)
     clock.set_timer_slack()
     node = None
+    started = threading.Event()
 
     def report(kind: str, **payload: Any) -> None:
         try:
@@ -149,17 +150,29 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
             node.exit_event.set()
 
         threading.Thread(target=control, name=f"rio-{name}-control", daemon=True).start()
+
+        def ready() -> None:
+            started.set()
+            report("ready", address=address)
+
         try:
-            runner.run(on_ready=lambda: report("ready", address=address))
+            runner.run(on_ready=ready)
         finally:
             transport.close()
     except BaseException as e:  # reported to the manager by name, then the child exits non-zero
-        import traceback
-
-        tb = traceback.format_exc()
-        log.error("node '%s' stopped with an error:\n%s", name, tb)  # visible even after start-up
-        report("error", type=type(e).__name__, message=str(e), traceback=tb)
+        _log_node_error(name, e, started.is_set())
+        report("error", type=type(e).__name__, message=str(e))
         raise SystemExit(1) from None
+
+
+def _log_node_error(name: str, e: BaseException, after_start: bool) -> None:
+    """Say why a node stopped: a bug (or anything under `rio --debug`) with its traceback, always; an error
+    the user can act on (a RioError: no calibration, an unplugged port) in one line, and only once the
+    station has started: during start-up the manager reports it, as the command's one error line."""
+    if shows_traceback(e):
+        log.exception("node '%s' stopped with an error", name)
+    elif after_start:
+        log.error("node '%s' stopped with an error: %s: %s", name, type(e).__name__, e)
 
 
 # -- handles ----------------------------------------------------------------------------------------
@@ -192,7 +205,7 @@ class _ThreadHandle:
         try:
             self.runner.run(on_ready=self.ready.set)
         except BaseException as e:
-            log.exception("node '%s' failed", self.name)
+            _log_node_error(self.name, e, self.ready.is_set())
             self.error = f"{type(e).__name__}: {e}"
             self.transport.ended = self.error
         finally:
@@ -239,11 +252,12 @@ class _ProcessHandle:
             try:
                 msg = json.loads(self.conn.recv_bytes())
             except EOFError:
-                msg = {"kind": "error", "type": "exit", "message": "exited before ready", "traceback": ""}
+                msg = {"kind": "error", "type": "exit", "message": "exited before ready"}
             if msg["kind"] == "ready":
                 self.address = msg["address"]
                 return True
-            raise RioError(f"node '{self.name}' failed to start: {msg['type']}: {msg['message']}\n{msg['traceback']}")
+            # one line: a traceback worth showing was logged by the node's process already (_log_node_error)
+            raise RioError(f"node '{self.name}' failed to start: {msg['type']}: {msg['message']}")
         if not self.proc.is_alive():
             raise RioError(f"node '{self.name}' exited during start-up (exit code {self.proc.exitcode})")
         return False

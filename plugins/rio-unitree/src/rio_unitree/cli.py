@@ -11,12 +11,14 @@ import time
 from typing import Annotated
 
 import typer
+from rio.cli.args import non_negative, positive
 
-app = typer.Typer(help="Unitree G1: MuJoCo DDS bridge, bring-up check, damping, debug mode, stand.",
-                  no_args_is_help=True)
+app = typer.Typer(
+    help="Unitree G1: MuJoCo DDS bridge, bring-up check, damping, debug mode, stand.", no_args_is_help=True
+)
 
 Interface = Annotated[str, typer.Option("--interface", help="network interface on the robot's network (192.168.123.x)")]
-Domain = Annotated[int, typer.Option("--domain-id", help="DDS domain (the robot's is 0)")]
+Domain = Annotated[int, typer.Option("--domain-id", min=0, max=232, help="DDS domain, 0..232 (the robot's is 0)")]
 Yes = Annotated[bool, typer.Option("--yes", help="no confirmation (the robot hangs: you checked)")]
 
 
@@ -28,13 +30,27 @@ def _interrupt(*_: object) -> None:
 def bridge(
     interface: Annotated[str, typer.Option("--interface", help="interface to publish on")] = "lo",
     domain_id: Domain = 0,
-    model: Annotated[str | None, typer.Option("--model", help='MJCF path, "fallback", or "hands" (rio-sim\'s G1 with '
-                                                              "Dex3-1 hands: also rt/dex3/*) (default: rio-sim's G1 "
-                                                              "when installed, else the plugin's own)")] = None,
-    free: Annotated[bool, typer.Option("--free", help="pelvis free on a floor instead of welded (it will fall: "
-                                                      "there is no balance controller)")] = False,
-    state_rate_hz: Annotated[float, typer.Option("--state-rate-hz", help="rt/lowstate rate")] = 500.0,
-    seconds: Annotated[float | None, typer.Option("--seconds", help="stop after this long (default: Ctrl-C)")] = None,
+    model: Annotated[
+        str | None,
+        typer.Option(
+            "--model",
+            help='MJCF path, "fallback", or "hands" (rio-sim\'s G1 with '
+            "Dex3-1 hands: also rt/dex3/*) (default: rio-sim's G1 "
+            "when installed, else the plugin's own)",
+        ),
+    ] = None,
+    free: Annotated[
+        bool,
+        typer.Option(
+            "--free", help="pelvis free on a floor instead of welded (it will fall: there is no balance controller)"
+        ),
+    ] = False,
+    state_rate_hz: Annotated[
+        float, typer.Option("--state-rate-hz", callback=positive, help="rt/lowstate rate")
+    ] = 500.0,
+    seconds: Annotated[
+        float | None, typer.Option("--seconds", callback=positive, help="stop after this long (default: Ctrl-C)")
+    ] = None,
 ) -> None:
     """Simulate a G1 behind rt/lowstate, rt/lowcmd and rt/arm_sdk until Ctrl-C; point a driver (or
     Unitree's SDK examples) at --interface and --domain-id."""
@@ -43,15 +59,17 @@ def bridge(
     if threading.current_thread() is threading.main_thread():  # `kill` stops it as Ctrl-C does
         signal.signal(signal.SIGTERM, _interrupt)
     try:
-        b = Bridge(domain_id=domain_id, interface=interface, model=model, mounted=not free,
-                   state_rate_hz=state_rate_hz)
+        b = Bridge(domain_id=domain_id, interface=interface, model=model, mounted=not free, state_rate_hz=state_rate_hz)
     except (ValueError, OSError) as e:
         typer.echo(f"error: {e}", err=True)
         raise typer.Exit(1) from None
     with b:
         hands = f", hands {' and '.join(sorted(b.sim.hands))}" if b.sim.hands else ""
-        typer.echo(f"G1 bridge on {interface}, DDS domain {domain_id}: model {b.sim.source}{hands}, "
-                   f"{'free' if free else 'mounted'}, {1 / b.dt:.0f} Hz; Ctrl-C to stop", err=True)
+        typer.echo(
+            f"G1 bridge on {interface}, DDS domain {domain_id}: model {b.sim.source}{hands}, "
+            f"{'free' if free else 'mounted'}, {1 / b.dt:.0f} Hz; Ctrl-C to stop",
+            err=True,
+        )
         t_end = None if seconds is None else time.monotonic() + seconds
         try:
             while t_end is None or time.monotonic() < t_end:
@@ -62,13 +80,21 @@ def bridge(
         except KeyboardInterrupt:
             pass
         c = b.counts
-    typer.echo(f"stopped: {c.steps} steps, {c.lowstate} lowstate sent, {c.lowcmd} lowcmd and {c.arm_sdk} arm_sdk "
-               f"received, {c.bad_crc} with a bad CRC ignored", err=True)
+    typer.echo(
+        f"stopped: {c.steps} steps, {c.lowstate} lowstate sent, {c.lowcmd} lowcmd and {c.arm_sdk} arm_sdk "
+        f"received, {c.bad_crc} with a bad CRC ignored",
+        err=True,
+    )
 
 
 @app.command()
-def check(interface: Interface, domain_id: Domain = 0,
-          timeout: Annotated[float, typer.Option("--timeout", help="seconds to wait for rt/lowstate")] = 3.0) -> None:
+def check(
+    interface: Interface,
+    domain_id: Domain = 0,
+    timeout: Annotated[
+        float, typer.Option("--timeout", callback=positive, help="seconds to wait for rt/lowstate")
+    ] = 3.0,
+) -> None:
     """First bring-up step: the interface has an address and the robot's rt/lowstate arrives."""
     from .tools import check as run_check
 
@@ -82,8 +108,11 @@ def check(interface: Interface, domain_id: Domain = 0,
 
 
 @app.command()
-def damp(interface: Interface, domain_id: Domain = 0,
-         seconds: Annotated[float, typer.Option("--seconds", help="how long to send damping")] = 3.0) -> None:
+def damp(
+    interface: Interface,
+    domain_id: Domain = 0,
+    seconds: Annotated[float, typer.Option("--seconds", callback=positive, help="how long to send damping")] = 3.0,
+) -> None:
     """Send damping (kp = 0, kd > 0) on rt/lowcmd for --seconds: the robot goes soft. Only obeyed with
     Unitree's locomotion released (debug mode); in normal mode use the remote (L2+B)."""
     from .tools import damp as run_damp
@@ -108,11 +137,15 @@ def _confirm(yes: bool, risk: str) -> None:
 
 
 @app.command("debug-mode")
-def debug_mode(interface: Interface, domain_id: Domain = 0,
-               check_only: Annotated[bool, typer.Option("--check", help="only say which mode runs")] = False,
-               yes: Yes = False,
-               timeout: Annotated[float, typer.Option("--timeout", help="seconds to wait for each answer")] = 2.0
-               ) -> None:
+def debug_mode(
+    interface: Interface,
+    domain_id: Domain = 0,
+    check_only: Annotated[bool, typer.Option("--check", help="only say which mode runs")] = False,
+    yes: Yes = False,
+    timeout: Annotated[
+        float, typer.Option("--timeout", callback=positive, help="seconds to wait for each answer")
+    ] = 2.0,
+) -> None:
     """Release Unitree's locomotion (the motion switcher's ReleaseMode): debug mode, in which the robot obeys
     rt/lowcmd alone. A standing robot falls: hang it first."""
     from .motion_switcher import MotionSwitcher, NoAnswer
@@ -123,8 +156,11 @@ def debug_mode(interface: Interface, domain_id: Domain = 0,
             typer.echo(f"mode: {mode or '(none: debug mode)'}")
             if check_only or not mode:
                 return
-            _confirm(yes, f"releasing locomotion mode '{mode}' leaves the G1 without balance or posture control: a "
-                          "standing robot falls. It must hang on its gantry, feet off the ground.")
+            _confirm(
+                yes,
+                f"releasing locomotion mode '{mode}' leaves the G1 without balance or posture control: a "
+                "standing robot falls. It must hang on its gantry, feet off the ground.",
+            )
             for _ in range(5):
                 ms.release_mode()
                 time.sleep(0.2)
@@ -141,16 +177,24 @@ def debug_mode(interface: Interface, domain_id: Domain = 0,
 
 
 @app.command()
-def stand(interface: Interface, domain_id: Domain = 0,
-          seconds: Annotated[float, typer.Option("--seconds", help="ramp duration")] = 5.0,
-          hold: Annotated[float, typer.Option("--hold", help="seconds to hold home before going soft")] = 2.0,
-          yes: Yes = False) -> None:
+def stand(
+    interface: Interface,
+    domain_id: Domain = 0,
+    seconds: Annotated[float, typer.Option("--seconds", callback=positive, help="ramp duration")] = 5.0,
+    hold: Annotated[
+        float, typer.Option("--hold", callback=non_negative, help="seconds to hold home before going soft")
+    ] = 2.0,
+    yes: Yes = False,
+) -> None:
     """Ramp every joint from the current pose to the home pose over --seconds on rt/lowcmd (the driver's
     gains), hold it --hold seconds, then damping. Debug mode only, the robot hanging."""
     from .tools import stand as run_stand
 
-    _confirm(yes, "stand drives all 29 joints stiffly on rt/lowcmd: the G1 must hang on its gantry in debug mode, "
-                  "the space around it clear, the remote or emergency stop in hand.")
+    _confirm(
+        yes,
+        "stand drives all 29 joints stiffly on rt/lowcmd: the G1 must hang on its gantry in debug mode, "
+        "the space around it clear, the remote or emergency stop in hand.",
+    )
     try:
         report = run_stand(interface, domain_id, seconds=seconds, hold_s=hold)
     except (ValueError, OSError) as e:

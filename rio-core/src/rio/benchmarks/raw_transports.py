@@ -25,7 +25,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -90,6 +90,16 @@ def _report_error(conn: Any, e: BaseException) -> None:
         conn.send({"error": f"{type(e).__name__}: {e}"})
     except OSError:
         pass
+
+
+def _end_child(e: BaseException) -> NoReturn:
+    """End a server child whose error `_report_error` sent: the parent says it in one line, so the
+    child's traceback (multiprocessing prints it) is left out, unless `rio --debug`."""
+    from ..errors import debug
+
+    if debug():
+        raise e
+    raise SystemExit(1) from None
 
 
 # -- thread: threading.Condition ping-pong between two threads -------------------------------------
@@ -216,7 +226,7 @@ def _zmq_server(conn: Any) -> None:
         port = sock.bind_to_random_port("tcp://127.0.0.1")
     except BaseException as e:
         _report_error(conn, e)
-        raise
+        _end_child(e)
     conn.send({"port": port})
     while True:
         ident, msg = sock.recv_multipart()
@@ -309,7 +319,7 @@ def _zenoh_server(conn: Any, port: int, ping: str, pong: str) -> None:
         _wait_matching(pub, _READY_TIMEOUT_S, "zenoh raw (server)")
     except BaseException as e:
         _report_error(conn, e)
-        raise
+        _end_child(e)
     conn.send({"ready": True})
     try:
         conn.recv()  # stop message, or EOF when the parent goes away
@@ -404,7 +414,7 @@ def _portal_server(conn: Any) -> None:
         server.start(block=False)
     except BaseException as e:
         _report_error(conn, e)
-        raise
+        _end_child(e)
     conn.send({"port": port})
     try:
         conn.recv()
@@ -415,11 +425,11 @@ def _portal_server(conn: Any) -> None:
 
 @contextlib.contextmanager
 def open_portal(payload: np.ndarray) -> Iterator[RoundTrip]:
+    with keep_start_method():  # first: without portal installed, no server process is started to fail
+        import portal
     proc, conn = _spawn_echo_server(_portal_server, name="rio-bench-raw-portal")
     client = None
     try:
-        with keep_start_method():
-            import portal
         port = _wait_msg(conn, proc, "portal raw")["port"]
         client = portal.Client(f"127.0.0.1:{port}", name="RioBenchRawClient", logging=False)
 

@@ -1,8 +1,9 @@
 """The `rio` command line (typer + rich).
 
 Built-in commands: `plugins list`, `drivers list`, `stations list|check`, `doctor`, `new plugin`,
-`bench middleware`; plugins add their own through the `rio_cli` hook. Commands import only what
-they need, inside the command, so `rio plugins list` stays fast.
+`bench middleware`, `ports`, `find-port`, ...; plugins add their own through the `rio_cli` hook.
+Commands import only what they need, inside the command, so `rio plugins list` stays fast. What every
+command shares (`--json`, one error line, `rio --debug`, shell completion): docs/cli.md.
 """
 
 from __future__ import annotations

@@ -3,6 +3,7 @@ command ends (`RioGroup.main`)."""
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Sequence
 from typing import Annotated, Any
@@ -21,7 +22,9 @@ class Interrupted(Exception):
 class RioGroup(TyperGroup):
     """The root command. Every way a command can fail ends here, once, as one line on stderr and an
     exit status, never a traceback: a bad argument or usage (2, the line names the option), a
-    RioError (1), Ctrl-C at any moment, start-up included ("interrupted", 130)."""
+    RioError (1), Ctrl-C at any moment, start-up included ("interrupted", 130). `rio --debug` (or
+    RIO_DEBUG=1) prints a RioError's traceback above its line; an exception that is not a RioError is a
+    bug and keeps its traceback."""
 
     def main(self, args: Sequence[str] | None = None, prog_name: str | None = None,
              complete_var: str | None = None, standalone_mode: bool = True, windows_expand_args: bool = True,
@@ -67,6 +70,7 @@ def _exit_status(invoke: Any) -> int:
         error(" ".join(e.format_message().splitlines()) + _help_hint(e))
         return e.exit_code
     except RioError as e:
+        _traceback_if_debug()
         error(str(e))
         return 1
     except (KeyboardInterrupt, Interrupted):
@@ -75,6 +79,16 @@ def _exit_status(invoke: Any) -> int:
         error("aborted")
         return 1
     return result if isinstance(result, int) else 0
+
+
+def _traceback_if_debug() -> None:
+    """Under `rio --debug`: the traceback of the exception being handled, on stderr."""
+    from ..errors import debug
+
+    if debug():
+        import traceback
+
+        traceback.print_exc()
 
 
 def _interrupted() -> int:
@@ -98,6 +112,12 @@ def _version(value: bool) -> None:
         raise typer.Exit()
 
 
+def _debug(value: bool) -> None:
+    # in the environment, so that what the command starts (node processes) shows tracebacks as well
+    if value:
+        os.environ["RIO_DEBUG"] = "1"
+
+
 def build_app(load_plugins: bool = True) -> typer.Typer:
     from ..teleop import command as teleop_cmd
     from . import (
@@ -111,6 +131,7 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
         keys_cmd,
         new_cmd,
         plugins_cmd,
+        ports_cmd,
         replay_cmd,
         run_cmd,
         serve_cmd,
@@ -119,12 +140,14 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
     )
 
     app = typer.Typer(name="rio", help="RIO: real-time robot I/O for robot learning.", cls=RioGroup,
-                      no_args_is_help=True, add_completion=False, rich_markup_mode="rich",
+                      no_args_is_help=True, add_completion=True, rich_markup_mode="rich",
                       pretty_exceptions_enable=False)
 
     @app.callback()
     def root(version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
-                                                   help="Print the version and exit.")] = False) -> None:
+                                                   help="Print the version and exit.")] = False,
+             debug: Annotated[bool, typer.Option("--debug", callback=_debug, is_eager=True,
+                                                 help="Show full tracebacks (also: RIO_DEBUG=1).")] = False) -> None:
         """RIO: real-time robot I/O for robot learning."""
 
     app.add_typer(plugins_cmd.app, name="plugins")
@@ -143,6 +166,8 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
     app.command("serve")(serve_cmd.serve)
     app.command("top")(top_cmd.top)
     app.add_typer(keys_cmd.app, name="keys")
+    app.command("ports")(ports_cmd.ports)
+    app.command("find-port")(ports_cmd.find_port)
     if load_plugins:
         from ..plugins import get_registry
 

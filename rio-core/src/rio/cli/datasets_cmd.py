@@ -192,12 +192,16 @@ def merge(
 
 
 @app.command("formats")
-def formats() -> None:
+def formats(as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False) -> None:
     """Dataset formats provided by installed plugins."""
     from ..plugins import get_registry
-    from .output import table, warn_problems
+    from .output import print_json, table, warn_problems
 
     reg = get_registry()
+    if as_json:
+        print_json([{"name": s.name, "plugin": s.plugin, "target": s.target, "description": s.description}
+                    for s in reg.specs("rio_dataset_formats")])
+        return
     table("dataset formats", ("name", "plugin", "description"),
           [(s.name, s.plugin, s.description) for s in reg.specs("rio_dataset_formats")])
     warn_problems(reg)

@@ -41,7 +41,8 @@ def list_drivers(
 
 @app.command("show")
 def show(name: Annotated[str, typer.Argument(callback=not_empty,
-                                             help="Registered driver or policy name, e.g. rio.fake_arm.")]) -> None:
+                                             help="Registered driver or policy name, e.g. rio.fake_arm.")],
+         as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False) -> None:
     """The station-file fields a driver accepts (its class's `Config`): name, type, default, description.
     Imports the driver's module (not its SDK: drivers import that in `open()`)."""
     from pydantic_core import PydanticUndefined
@@ -49,7 +50,7 @@ def show(name: Annotated[str, typer.Argument(callback=not_empty,
     from ..errors import ConfigError
     from ..plugins import get_registry
     from ..suggest import unknown
-    from .output import console, table
+    from .output import console, print_json, table
 
     reg = get_registry()
     specs = {s.name: s for s in reg.specs("rio_drivers") + reg.specs("rio_policies")}
@@ -68,6 +69,11 @@ def show(name: Annotated[str, typer.Argument(callback=not_empty,
         ann = info.annotation
         type_name = ann.__name__ if isinstance(ann, type) else str(ann).replace("typing.", "")
         rows.append((field, type_name, default, info.description or ""))
+    if as_json:
+        print_json({"name": spec.name, "kind": spec.kind, "plugin": spec.plugin, "description": spec.description,
+                    "target": spec.target, "fields": [dict(zip(("field", "type", "default", "description"), r,
+                                                               strict=True)) for r in rows]})
+        return
     console().print(f"{spec.name} ({spec.kind}, plugin {spec.plugin}): {spec.description}\n"
                     f"node: {spec.target}", markup=False)
     table(f"[components.<role>] fields (driver = \"{spec.name}\")", ("field", "type", "default", "description"), rows)

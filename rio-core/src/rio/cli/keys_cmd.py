@@ -74,20 +74,28 @@ def add(
 
 
 @app.command("show")
-def show(path: Annotated[str, typer.Argument(callback=not_empty, help="One machine's keys directory.")]) -> None:
+def show(path: Annotated[str, typer.Argument(callback=not_empty, help="One machine's keys directory.")],
+         as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False) -> None:
     """Whose keys these are, which machines they trust, and when the certificate expires."""
     from .. import keys
 
     k = keys.load(path)
-    typer.echo(f"machine:  {k.identity}")
-    typer.echo(f"trusts:   {', '.join(sorted(k.peers))}")
+    expires = None
     try:
         from cryptography import x509
 
-        cert = x509.load_pem_x509_certificate(k.tls_cert.read_bytes())
-        typer.echo(f"expires:  {cert.not_valid_after_utc:%Y-%m-%d}")
+        expires = f"{x509.load_pem_x509_certificate(k.tls_cert.read_bytes()).not_valid_after_utc:%Y-%m-%d}"
     except ImportError:
         pass
+    if as_json:
+        from .output import print_json
+
+        print_json({"machine": k.identity, "trusts": sorted(k.peers), "expires": expires})
+        return
+    typer.echo(f"machine:  {k.identity}")
+    typer.echo(f"trusts:   {', '.join(sorted(k.peers))}")
+    if expires is not None:
+        typer.echo(f"expires:  {expires}")
 
 
 def _report(out: str, made: list) -> None:

@@ -32,18 +32,30 @@ def list_stations(as_json: Annotated[bool, typer.Option("--json", help="Machine-
 def check(
     station: StationArgument,
     middleware: MiddlewareOption = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
 ) -> None:
     """Validate a station completely (drivers, their fields, middleware options, embodiment) and show
     what it contains; imports the drivers' code but starts nothing."""
     from ..station import load_station
     from ..station.build import load_node_class, resolve_embodiment, resolve_middleware
-    from .output import console, table
+    from .output import console, print_json, table
 
     st = load_station(station)
     mw = resolve_middleware(st, middleware)
     emb, options = resolve_embodiment(st)
     for role in st.components:
         load_node_class(st, role)
+    if as_json:
+        from pydantic_core import to_jsonable_python
+
+        print_json(to_jsonable_python({
+            "name": st.name, "source": str(st.source), "rate_hz": st.rate_hz,
+            "middleware": {"name": mw.name, "config": mw.config.model_dump()},
+            "embodiment": {"name": emb.name, "options": options.model_dump()} if emb else None,
+            "components": [{"role": role, "kind": c.kind, "driver": c.driver, "plugin": c.spec.plugin,
+                            "config": c.kwargs()} for role, c in st.components.items()],
+            "ok": True}, fallback=str))
+        return
     rows = [(role, c.kind, c.driver, c.spec.plugin,
              ", ".join(f"{k}={v!r}" for k, v in c.kwargs().items())) for role, c in st.components.items()]
     table(f"station '{st.name}' ({st.source})", ("role", "kind", "driver", "plugin", "config"), rows)

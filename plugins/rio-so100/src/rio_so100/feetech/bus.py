@@ -18,6 +18,11 @@ from __future__ import annotations
 import time
 from collections.abc import Iterable, Mapping
 
+try:  # what pyserial's POSIX port raises when its device is unplugged under it (not an OSError)
+    from termios import error as TermiosError
+except ImportError:  # Windows
+    TermiosError = OSError  # type: ignore[misc, assignment]
+
 from rio.servo_port import port_handler
 
 from ..errors import BusError, ServoFault
@@ -130,7 +135,7 @@ class FeetechBus:
         try:
             self._ph.ser.reset_input_buffer()
             return fn()
-        except OSError as e:  # serial.SerialException (and PortNotOpenError) are OSErrors
+        except (OSError, TermiosError) as e:  # serial.SerialException (and PortNotOpenError) are OSErrors
             self.last_io_error = f"{type(e).__name__}: {e}"
             return None, IO_ERROR, 0
 
