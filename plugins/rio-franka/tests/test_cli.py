@@ -3,6 +3,8 @@ a reflex named, then cleared by libfranka's error recovery while a node holds it
 
 from __future__ import annotations
 
+import json
+
 from rio.cli import main
 from rio.testing import lifecycle
 from rio_franka import fake
@@ -17,6 +19,9 @@ def test_status_and_recover_name_and_clear_a_reflex(fake_ip, capsys):
         assert main(["franka", "status", "--ip", fake_ip, "--backend", "fake"]) == 0
         out = capsys.readouterr().out
         assert "collision" in out and "mode reflex" in out
+        assert main(["franka", "status", "--ip", fake_ip, "--backend", "fake", "--json"]) == 0
+        got = json.loads(capsys.readouterr().out)
+        assert "collision" in got["fault"] and "reflex" in got["mode"].lower() and len(got["joints_rad"]) == 7
         assert main(["franka", "recover", "--ip", fake_ip, "--backend", "fake"]) == 0
         assert "cleared collision" in capsys.readouterr().out
         assert fake.controller(fake_ip).model.name == "panda"  # the CLI left the box as the node made it

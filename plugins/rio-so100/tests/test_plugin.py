@@ -3,6 +3,7 @@ Feetech SDK imported until a bus is opened."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -63,5 +64,8 @@ def test_scan_and_torque_commands(vbus, capsys):
     assert main(["so100", "scan", "--port", vbus.port, "--max-id", "7"]) == 0
     out = capsys.readouterr().out
     assert "id 6: model 777, position 2048, 7.4 V" in out and "id 7" not in out
+    assert main(["so100", "scan", "--port", vbus.port, "--max-id", "7", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert [s["id"] for s in got] == [1, 2, 3, 4, 5, 6] and got[5]["voltage_v"] == 7.4
     assert main(["so100", "torque", "on", "--port", vbus.port, "--ids", "1,2"]) == 0
     assert vbus.servo(1).torque_on and vbus.servo(2).torque_on and not vbus.servo(3).torque_on

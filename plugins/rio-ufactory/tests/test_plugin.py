@@ -3,6 +3,7 @@ commands against an emulated controller, clear config errors, and no SDK importe
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -70,6 +71,9 @@ def test_status_clear_errors_and_enable_commands(make_emulator, capsys):
     emu.inject_fault("collision")
     assert main(["ufactory", "status", *cli_args(emu)]) == 0
     assert "C31 collision" in capsys.readouterr().out
+    assert main(["ufactory", "status", *cli_args(emu), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)  # only the JSON: the SDK's chatter goes to stderr
+    assert got["axis"] == 6 and "C31" in got["fault"] and len(got["joints_rad"]) == 6
     assert main(["ufactory", "clear-errors", *cli_args(emu)]) == 0
     assert "cleared C31 collision" in capsys.readouterr().out and emu.error_code == 0
     assert main(["ufactory", "enable", *cli_args(emu)]) == 0

@@ -6,6 +6,7 @@ while locomotion runs."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -28,6 +29,9 @@ def test_check_hears_the_bridge(make_bridge, domain_id):
     assert out.exit_code == 0, out.output
     assert "ok: the robot is heard" in out.output and "joints reporting: 29 of 29" in out.output
     assert "mode_machine 5" in out.output and "0 with a bad CRC" in out.output
+    out = runner.invoke(app, ["check", "--interface", "lo", "--domain-id", str(domain_id), "--json"])
+    got = json.loads(out.stdout)
+    assert out.exit_code == 0 and got["ok"] and got["problem"] is None and any("29 of 29" in x for x in got["lines"])
 
 
 def test_check_names_what_is_missing(domain_id):

@@ -6,6 +6,8 @@ command against an emulator, through the real command line."""
 
 from __future__ import annotations
 
+import json
+
 import pytest
 from rio.teleop import run_teleop
 from rio.testing import run_rio as rio
@@ -20,6 +22,8 @@ def test_rio_ur_status_reads_the_emulated_controller(emulator):
     emulator.inject("protective_stop")
     out = rio("ur", "status", "--ip", emulator.host, timeout=60).stdout
     assert "Robotmode: RUNNING" in out and "PROTECTIVE_STOP" in out and "remote control: true" in out, out
+    got = json.loads(rio("ur", "status", "--ip", emulator.host, "--json", timeout=60).stdout)
+    assert "PROTECTIVE_STOP" in got["safety_status"] and got["remote_control"] is True, got
     out = rio("ur", "unlock-protective-stop", "--ip", emulator.host, timeout=60).stdout
     assert "Safetystatus: NORMAL" in out and emulator.state()["safety_mode"] == 1, out
 

@@ -36,7 +36,8 @@ def _robot(ip: str, backend: str) -> Iterator[Any]:
 
 
 @app.command()
-def status(ip: Ip, backend: Backend = "franky") -> None:
+def status(ip: Ip, backend: Backend = "franky",
+           json_out: Annotated[bool, typer.Option("--json", help="Print it as JSON (stdout).")] = False) -> None:
     """Robot mode, fault and joints of a robot, and the franky / libfranka installed here."""
     from .backend import versions
     from .faults import fault_of_state, robot_mode
@@ -44,6 +45,13 @@ def status(ip: Ip, backend: Backend = "franky") -> None:
     with _robot(ip, backend) as robot:
         st = robot.state
         fault = fault_of_state(st)
+        if json_out:
+            from rio.cli.output import print_json
+
+            print_json({"ip": ip, "mode": str(robot_mode(st)), "joints_rad": [float(a) for a in st.q],
+                        "fault": str(fault) if fault else None,
+                        "versions": versions() if backend == "franky" else None})
+            return
         typer.echo(f"{ip}: mode {robot_mode(st)}, joints (rad) {[round(float(a), 4) for a in st.q]}")
         if backend == "franky":
             typer.echo(versions())

@@ -199,6 +199,7 @@ def torque(
 def scan(
     port: Port,
     max_id: Annotated[int, typer.Option(min=1, max=253, help="highest id to ping")] = 12,
+    json_out: Annotated[bool, typer.Option("--json", help="Print it as JSON (stdout).")] = False,
 ) -> None:
     """Ping ids 1..MAX_ID and list the servos that answer (model, position, voltage, temperature)."""
     from .feetech import control_table as T
@@ -209,6 +210,13 @@ def scan(
         if not found:
             typer.echo(f"no servo answered on {port} (ids 1..{max_id})")
             raise typer.Exit(1)
+        if json_out:
+            from rio.cli.output import print_json
+
+            print_json([{"id": sid, "model": model, "position": bus.read(sid, T.PRESENT_POSITION),
+                         "voltage_v": bus.read(sid, T.PRESENT_VOLTAGE) / 10,
+                         "temperature_c": bus.read(sid, T.PRESENT_TEMPERATURE)} for sid, model in found.items()])
+            return
         for sid, model in found.items():
             typer.echo(f"id {sid}: model {model}, position {bus.read(sid, T.PRESENT_POSITION)}, "
                        f"{bus.read(sid, T.PRESENT_VOLTAGE) / 10:.1f} V, {bus.read(sid, T.PRESENT_TEMPERATURE)} C")

@@ -4,6 +4,8 @@ directly (the controller accepts several clients), so it works whatever holds th
 
 from __future__ import annotations
 
+import contextlib
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Annotated, Any
@@ -23,7 +25,8 @@ def _controller(ip: str) -> Iterator[Any]:
     from .faults import XArmError
 
     try:
-        ctl = Controller.acquire(ip, connect_timeout_s=3.0)
+        with contextlib.redirect_stdout(sys.stderr):  # the SDK's connection chatter: stdout is for results
+            ctl = Controller.acquire(ip, connect_timeout_s=3.0)
     except XArmError as e:
         typer.echo(f"error: {e}", err=True)
         raise typer.Exit(1) from None
@@ -37,11 +40,20 @@ def _controller(ip: str) -> Iterator[Any]:
 
 
 @app.command()
-def status(ip: Ip) -> None:
+def status(ip: Ip,
+           json_out: Annotated[bool, typer.Option("--json", help="Print it as JSON (stdout).")] = False) -> None:
     """Model, state, mode, error and warning of a controller."""
     with _controller(ip) as ctl:
         api = ctl.api
         fault = ctl.fault()
+        if json_out:
+            from rio.cli.output import print_json
+
+            print_json({"ip": ip, "model": ctl.model.label if ctl.model else None, "axis": api.axis,
+                        "device_type": api.device_type, "firmware": api.version, "state": api.state,
+                        "mode": api.mode, "joints_rad": [float(a) for a in ctl.joints(api.axis)[0]],
+                        "fault": str(fault) if fault else None})
+            return
         typer.echo(f"{ip}: {ctl.model.label if ctl.model else 'unknown model'} (axis {api.axis}, type "
                    f"{api.device_type}), firmware {api.version}")
         typer.echo(f"state {api.state}, mode {api.mode}, joints (rad) {[round(a, 4) for a in ctl.joints(api.axis)[0]]}")

@@ -94,11 +94,19 @@ def check(
     timeout: Annotated[
         float, typer.Option("--timeout", callback=positive, help="seconds to wait for rt/lowstate")
     ] = 3.0,
+    json_out: Annotated[bool, typer.Option("--json", help="Print it as JSON (stdout).")] = False,
 ) -> None:
     """First bring-up step: the interface has an address and the robot's rt/lowstate arrives."""
     from .tools import check as run_check
 
     report = run_check(interface, domain_id, timeout)
+    if json_out:
+        from rio.cli.output import print_json
+
+        print_json(
+            {"ok": bool(report.ok), "lines": list(report.lines), "problem": None if report.ok else report.problem}
+        )
+        raise typer.Exit(0 if report.ok else 1)
     for line in report.lines:
         typer.echo(line)
     if not report.ok:

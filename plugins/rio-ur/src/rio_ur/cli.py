@@ -59,9 +59,17 @@ def load(ip: Ip, program: Annotated[str, typer.Argument(help="program file on th
 
 
 @app.command()
-def status(ip: Ip) -> None:
+def status(ip: Ip,
+           json_out: Annotated[bool, typer.Option("--json", help="Print it as JSON (stdout).")] = False) -> None:
     """Robot mode, safety status, program state, remote control, software version."""
     with _dashboard(ip) as d:
+        if json_out:
+            from rio.cli.output import print_json
+
+            print_json({"ip": ip, "version": str(d.polyscopeVersion()), "robot_mode": str(d.robotmode()),
+                        "safety_status": str(d.safetystatus()), "program_state": str(d.programState()),
+                        "remote_control": bool(d.isInRemoteControl())})
+            return
         typer.echo(f"{ip}: {d.polyscopeVersion()}")
         typer.echo(f"{d.robotmode()}; {d.safetystatus()}; program {d.programState()}")
         typer.echo(f"remote control: {str(d.isInRemoteControl()).lower()}")

@@ -77,7 +77,9 @@ def calibrate(port: Port, layout: LayoutOpt, name: Annotated[str, typer.Option(
 def read(port: Port, layout: LayoutOpt, calibration: Annotated[str, typer.Option(
         "--calibration", help="calibration name or .json path")] = "default", baudrate: Baud = 57600,
         seconds: Annotated[float, typer.Option("--seconds", callback=positive,
-                                               help="how long to print")] = 10.0) -> None:
+                                               help="how long to print")] = 10.0,
+         json_out: Annotated[bool, typer.Option("--json", help="One JSON object per reading (stdout).")] = False,
+         ) -> None:
     """Print the follower joint angles the leader reads, 5 times a second (check a calibration)."""
     from .driver import GelloLeader
 
@@ -89,7 +91,13 @@ def read(port: Port, layout: LayoutOpt, calibration: Annotated[str, typer.Option
         t_end = time.monotonic() + seconds
         while time.monotonic() < t_end:
             s = node.read_state()
-            typer.echo("  ".join(f"{q:+.3f}" for q in s["joint_pos"]) + f"   gripper {s['gripper']:.2f}")
+            if json_out:
+                import json
+
+                typer.echo(json.dumps({"joint_pos": [float(q) for q in s["joint_pos"]],
+                                       "gripper": float(s["gripper"])}))
+            else:
+                typer.echo("  ".join(f"{q:+.3f}" for q in s["joint_pos"]) + f"   gripper {s['gripper']:.2f}")
             time.sleep(0.2)
     finally:
         node.close()
