@@ -3,6 +3,7 @@ emulator against the SDK, calibration, reading at rate, leader-follower on stati
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import time
@@ -181,6 +182,11 @@ def test_calibrate_command_on_a_virtual_leader(config_home):
     assert cal.gripper_open == pytest.approx(truth.gripper_open, abs=1e-3)
     assert cal.gripper_closed == pytest.approx(truth.gripper_closed, abs=1e-3)  # measured squeezed
     assert "joint4: offset" in out.output
+    out = CliRunner().invoke(app, ["read", "--port", "virtual", "--layout", "xarm7", "--calibration", "bench",
+                                   "--seconds", "0.5", "--json"])
+    assert out.exit_code == 0, out.output
+    readings = [json.loads(line) for line in out.stdout.splitlines()]
+    assert readings and all(len(r["joint_pos"]) == 7 and 0.0 <= r["gripper"] <= 1.0 for r in readings)
 
 
 # -- reading ---------------------------------------------------------------------------------------
