@@ -705,8 +705,9 @@ def synthetic_hand_keypoints(curl: float = 0.0, pinch: bool = False, side: str =
 
 class FakeHandTracker(ifc.TeleopNode):
     """A headset's hand tracking, scripted: both wrists start at `start` (the left one mirrored in y),
-    then after `acquire_s` the tracked hands move by `move` and turn by `turn_deg` about z over
-    `seconds`, fingers curling to `curl`; optionally pinching, losing the hands, or pressing done."""
+    then from `acquire_s` the hands are tracked, still for `still_s`, then move by `move` and turn by
+    `turn_deg` about z over `seconds`, fingers curling to `curl`; optionally pinching, losing the hands,
+    or pressing done."""
 
     hand_tracker = True
 
@@ -719,6 +720,8 @@ class FakeHandTracker(ifc.TeleopNode):
         turn_deg: float = Field(0.0, description="wrist turn about z over the move (deg)")
         curl: float = Field(0.0, ge=0, le=1, description="finger curl reached at the end of the move")
         acquire_s: float = Field(0.2, ge=0, description="the hands are tracked from then on")
+        still_s: float = Field(0.4, ge=0, description="tracked and still this long before the move starts (a "
+                                                      "hand appears, then moves: the teleop anchors on it first)")
         seconds: float = Field(1.0, gt=0, description="duration of the move")
         pinch_after_s: float | None = Field(None, ge=0, description="pinch (gripper closes) from then on")
         lose_after_s: float | None = Field(None, ge=0, description="the hands are lost from then on")
@@ -736,7 +739,7 @@ class FakeHandTracker(ifc.TeleopNode):
         from .control.rotations import quat_mul, quat_to_matrix, rotvec_to_quat
 
         c, t = self.config, clock.now() - self.t0
-        u = float(np.clip((t - c.acquire_s) / c.seconds, 0.0, 1.0))
+        u = float(np.clip((t - c.acquire_s - c.still_s) / c.seconds, 0.0, 1.0))
         out = ifc.teleop.hand_tracker_sample()
         on = c.acquire_s <= t and (c.lose_after_s is None or t < c.lose_after_s)
         turn = rotvec_to_quat([0.0, 0.0, np.deg2rad(c.turn_deg) * u])

@@ -39,6 +39,9 @@ class Pair:
     aligned: bool = False
     t_aligned: float | None = None
     start_error: float = 0.0
+    #: the leader's joints as the last command saw them: what "final error to the leader" compares with
+    #: (the leader goes on moving while the run settles; the follower, no longer commanded, does not)
+    q_lead_last: np.ndarray | None = None
 
 
 def find_pairs(station: Any) -> list[tuple[str, str, str | None]]:
@@ -118,6 +121,7 @@ class LeaderFollower:
         for p in self.pairs:
             s = leaders[p.leader_role]
             q_lead, g_lead = np.asarray(s["joint_pos"], dtype=np.float64), float(s["gripper"])
+            p.q_lead_last = q_lead
             if p.aligned:
                 p.q_cmd, p.grip_cmd = q_lead.copy(), g_lead
             else:
@@ -138,7 +142,7 @@ class LeaderFollower:
     def finish(self, summary: Any) -> None:
         pairs = []
         for p in self.pairs:
-            q_l = np.asarray(p.leader.get_state()["joint_pos"])
+            q_l = np.asarray(p.leader.get_state()["joint_pos"] if p.q_lead_last is None else p.q_lead_last)
             arm = next((a for a in summary.arms if a.role == p.arm_role), None)
             q_f = None if arm is None else arm.final_q
             final = float(np.max(np.abs(q_f - q_l))) if q_f is not None and q_f.shape == q_l.shape else float("nan")
