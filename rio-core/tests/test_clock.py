@@ -35,10 +35,35 @@ def test_rate_keeps_absolute_schedule_and_counts_overruns():
     before = rate.overruns
     time.sleep(0.05)  # a tick far longer than the period
     rate.sleep()
-    assert rate.overruns == before + 1
     t1 = clock.now()
-    rate.sleep()  # re-anchored: no burst of catch-up ticks
-    assert clock.now() - t1 >= 0.8 / 200
+    assert rate.overruns == before + 1
+    deadline = rate.schedule.deadline
+    assert deadline > t1 - 1e-9  # re-anchored: no burst of catch-up ticks ...
+    rate.sleep()
+    assert clock.now() >= deadline  # ... the next tick waits for the grid's next deadline
+
+
+def test_schedule_reanchors_on_its_grid_keeping_the_phase():
+    grid = clock.Schedule(0.01, t0=100.0, phase=0.5)
+    assert grid.deadline == pytest.approx(100.005)
+    grid.advance()
+    assert grid.deadline == pytest.approx(100.015)
+    grid.reanchor(100.0731)  # fell behind: the first deadline after that time, still mid-period
+    assert grid.k == 7 and grid.deadline == pytest.approx(100.075)
+    grid.reanchor(100.02)  # never back in time
+    assert grid.k == 7
+    with pytest.raises(ValueError, match="positive period"):
+        clock.Schedule(0.0, t0=0.0)
+
+
+def test_count_rate_measures_a_counter_between_readings(monkeypatch):
+    t = iter([10.0, 12.0, 13.0])
+    monkeypatch.setattr(clock, "now", lambda: next(t))
+    n = iter([5, 25, 35])
+    meter = clock.CountRate(lambda: next(n))
+    assert meter.rate() == pytest.approx(10.0)  # 20 counts in 2 s
+    assert meter.rate() == pytest.approx(10.0)  # 10 more in 1 s
+    assert clock.CountRate(lambda: None).rate() is None  # a node without state has no rate
 
 
 def test_rate_rejects_bad_frequency():

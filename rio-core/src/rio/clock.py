@@ -8,11 +8,13 @@ until ~1 ms before the deadline and yield-spin the rest.
 
 from __future__ import annotations
 
+import math
 import time as _time
+from collections.abc import Callable
 
 from .host import yield_cpu as _yield
 
-__all__ = ["now", "precise_wait", "Rate", "set_timer_slack"]
+__all__ = ["now", "precise_wait", "Schedule", "Rate", "CountRate", "set_timer_slack"]
 
 now = _time.monotonic
 
@@ -48,11 +50,39 @@ def precise_wait(t_end: float, spin_s: float = _SPIN_S) -> None:
         _yield()
 
 
-class Rate:
-    """Fixed-rate loop timing on absolute deadlines, so one slow tick does not shift the schedule.
+class Schedule:
+    """A grid of absolute deadlines `t0 + (k + phase) * period`: the one fixed-rate schedule of RIO (node
+    loops through `Rate`, the control loop directly).
 
-    A tick that finishes after its deadline counts as an overrun; the schedule then re-anchors on the
-    current time instead of firing a burst of catch-up ticks (which would hammer hardware).
+    Deadlines are absolute so one slow tick does not shift the ones after it. A tick that ends past
+    its deadline is late; after one that ends a whole period or more behind, `reanchor(t)` moves on to
+    the first deadline after `t` (the grid's phase kept) instead of firing a burst of catch-up ticks,
+    which would hammer hardware.
+    """
+
+    def __init__(self, period: float, t0: float, phase: float = 0.0):
+        if not period > 0:
+            raise ValueError(f"a schedule needs a positive period, got {period!r}")
+        self.period, self.t0, self.phase = float(period), float(t0), float(phase)
+        self.k = 0
+
+    @property
+    def deadline(self) -> float:
+        return self.t0 + (self.k + self.phase) * self.period
+
+    def advance(self) -> None:
+        self.k += 1
+
+    def reanchor(self, t: float) -> None:
+        """Skip the deadlines already past at `t`."""
+        self.k = max(self.k, math.floor((t - self.t0) / self.period - self.phase) + 1)
+
+
+class Rate:
+    """Paces a loop on a `Schedule`: `sleep()` at the end of each tick waits for the next deadline.
+
+    A tick that ends after its deadline counts as an overrun: `sleep()` returns at once and the
+    schedule re-anchors on the grid, so the next tick waits for the first deadline after now.
     """
 
     def __init__(self, hz: float, spin_s: float = _SPIN_S):
@@ -63,20 +93,42 @@ class Rate:
         self.overruns = 0
         self.ticks = 0
         self.spin_s = spin_s
-        self._t_next = now() + self.period
+        self.schedule = Schedule(self.period, now(), phase=1.0)
 
     def sleep(self) -> None:
-        t = now()
+        t, sched = now(), self.schedule
         self.ticks += 1
-        if t > self._t_next:
+        if t > sched.deadline:
             self.overruns += 1
-            self._t_next = t + self.period
+            sched.reanchor(t)
             return
-        precise_wait(self._t_next, self.spin_s)
-        self._t_next += self.period
+        precise_wait(sched.deadline, self.spin_s)
+        sched.advance()
 
     # The paper's spelling.
     precise_sleep = sleep
 
     def reset(self) -> None:
-        self._t_next = now() + self.period
+        self.schedule = Schedule(self.period, now(), phase=1.0)
+
+
+class CountRate:
+    """The rate of a growing counter between readings (a node's published-sample count): what `rio top`
+    shows live and what a run's summary reports per node. `read` returns the counter, or None when
+    there is none (a node without state)."""
+
+    def __init__(self, read: Callable[[], int | None]):
+        self.read = read
+        self.last = self._reading()
+
+    def _reading(self) -> tuple[float, int] | None:
+        n = self.read()
+        return None if n is None else (now(), int(n))
+
+    def rate(self) -> float | None:
+        """Counts per second since the previous reading (or since construction); None without a counter."""
+        cur, last = self._reading(), self.last
+        self.last = cur
+        if cur is None or last is None or cur[0] <= last[0]:
+            return None
+        return (cur[1] - last[1]) / (cur[0] - last[0])

@@ -134,7 +134,7 @@ class ControlLoop:
         self.obs = env.reset()
         ctl.reset(self)
         tracker, objects = ArmTracker(env.robot), ObjectWatch(env.sensors)
-        counts0 = self._published()
+        published = self._publish_rates()
         if self.recorder is not None and "embodiment" not in self.recorder.info:
             self.recorder.describe_env(env)
         wait = getattr(ctl, "wait", None) or clock.precise_wait
@@ -149,36 +149,36 @@ class ControlLoop:
         if self.settle:  # let the arms arrive at their last targets before measuring
             clock.precise_wait(clock.now() + self.lead_s + 2 * dt)
             tracker.wait_still(SETTLE_MAX_S)
-        self._finish(tracker, objects, counts0, lateness)
+        self._finish(tracker, objects, published, lateness)
         return s
 
     def _loop(self, stop: StopSignals, wait: Callable[[float], Any], t_start: float, tracker: ArmTracker,
               objects: ObjectWatch, lateness: Reservoir) -> None:
         env, ctl, s, dt = self.env, self.controller, self.summary, self.dt
-        it = 0
+        grid = clock.Schedule(dt, t_start, phase=0.5)  # wake mid-cycle
         s.reason = "duration reached"
         try:
             while True:
                 if stop.received:
                     s.reason, s.signal = f"stopped by {stop.received}", stop.received
                     break
-                t_sample = t_start + (it + 0.5) * dt
+                t_sample = grid.deadline
                 if wait(t_sample):  # the controller wants a tick now (it had something arrive)
                     now = clock.now()
-                    self._tick(Tick(now, now + dt / 2 + self.lead_s, t_start, it, False, self.obs, env),
+                    self._tick(Tick(now, now + dt / 2 + self.lead_s, t_start, grid.k, False, self.obs, env),
                                tracker, objects)
                     continue
                 lateness.add(clock.now() - t_sample)
-                self._tick(Tick(t_sample, t_sample + dt / 2 + self.lead_s, t_start, it, True, self.obs, env),
+                self._tick(Tick(t_sample, t_sample + dt / 2 + self.lead_s, t_start, grid.k, True, self.obs, env),
                            tracker, objects)
-                it += 1
+                grid.advance()
                 s.ticks += 1
-                late = clock.now() - (t_start + it * dt + dt / 2)  # past the next tick's wake-up
+                late = clock.now() - grid.deadline  # past the next tick's wake-up
                 if late > 0:
                     s.late_ticks += 1
                     if late > dt:  # fell a whole period behind: re-anchor, no burst
                         s.overruns += 1
-                        it = int((clock.now() - t_start) / dt)
+                        grid.reanchor(clock.now())
                 reason = ctl.done()
                 if reason:
                     s.reason = reason
@@ -220,23 +220,21 @@ class ControlLoop:
         if self.on_tick is not None:
             self.on_tick(tick)
 
-    def _published(self) -> dict[str, tuple[float, int]]:
+    def _publish_rates(self) -> dict[str, clock.CountRate]:
+        """A publish-rate meter per node with state, started now (read once more at the end)."""
         env = self.env
         clients = {**env.robot.clients, **env.cameras, **env.sensors}
-        out = {}
-        for role, c in clients.items():
-            n = c.published() if "published" in dir(c) else None
-            if n is not None:
-                out[role] = (clock.now(), n)
-        return out
+        meters = {role: clock.CountRate(c.published) for role, c in clients.items() if "published" in dir(c)}
+        return {role: m for role, m in meters.items() if m.last is not None}
 
-    def _finish(self, tracker: ArmTracker, objects: ObjectWatch, counts0: dict[str, tuple[float, int]],
+    def _finish(self, tracker: ArmTracker, objects: ObjectWatch, published: dict[str, clock.CountRate],
                 lateness: Reservoir) -> None:
         s = self.summary
         s.arms, s.objects = tracker.report(), objects.report()
-        for role, (t1, n1) in self._published().items():
-            if role in counts0 and t1 > counts0[role][0]:
-                s.node_rates_hz[role] = round((n1 - counts0[role][1]) / (t1 - counts0[role][0]), 1)
+        for role, meter in published.items():
+            rate = meter.rate()
+            if rate is not None:
+                s.node_rates_hz[role] = round(rate, 1)
         p50, p99 = lateness.percentile(50), lateness.percentile(99)
         if p50 is not None and p99 is not None:
             s.lateness_us = {"p50": round(p50 * 1e6, 1), "p99": round(p99 * 1e6, 1),

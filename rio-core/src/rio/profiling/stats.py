@@ -17,7 +17,7 @@ from .trace import Trace
 
 log = logging.getLogger("rio.profiling")
 
-__all__ = ["ProcessSampler", "children_of"]
+__all__ = ["ProcessSampler", "ProcessReading", "children_of"]
 
 _EXTRA = "pip install 'rio-core[profile]'"
 _MB = 1024 * 1024
@@ -43,11 +43,40 @@ def children_of(pid: int) -> dict[str, int]:
     return out
 
 
+class ProcessReading:
+    """CPU % and RSS of one process, each reading covering the time since the previous one: the one
+    psutil reading that the profile's sampler and `rio top` both take."""
+
+    def __init__(self, pid: int, psutil: Any = None):
+        self.pid = pid
+        self._ps = psutil or _psutil()
+        try:
+            self.proc: Any = self._ps.Process(pid)
+            self.proc.cpu_percent(None)  # primes the counter: psutil's first call always returns 0
+        except self._ps.NoSuchProcess:
+            self.proc = None
+
+    @property
+    def gone(self) -> bool:
+        return self.proc is None
+
+    def read(self) -> tuple[float, float] | None:
+        """(CPU %, RSS MB) now, or None once the process is gone (or hidden from us)."""
+        if self.proc is None:
+            return None
+        try:
+            with self.proc.oneshot():
+                return self.proc.cpu_percent(None), self.proc.memory_info().rss / _MB
+        except (self._ps.NoSuchProcess, self._ps.ZombieProcess, self._ps.AccessDenied):
+            self.proc = None
+            return None
+
+
 @dataclass
 class _Series:
     label: str
     pid: int
-    proc: Any
+    proc: ProcessReading
     cpu: list[float] = field(default_factory=list)
     rss_mb: list[float] = field(default_factory=list)
     gpu_mb: list[float] = field(default_factory=list)
@@ -143,14 +172,11 @@ class ProcessSampler:
         ps = self._psutil
         if ps is None:
             return
-        try:
-            proc = ps.Process(pid)
-            proc.cpu_percent(None)  # primes the counter: psutil's first call always returns 0
-        except ps.NoSuchProcess:
+        proc = ProcessReading(pid, ps)
+        if proc.gone:
             log.warning("not sampling '%s': no process %d", label, pid)
-            proc = None
         with self._lock:
-            self._series[label] = _Series(label, pid, proc, gone=proc is None)
+            self._series[label] = _Series(label, pid, proc, gone=proc.gone)
 
     # -- lifecycle ----------------------------------------------------------------------------------
     def start(self) -> ProcessSampler:
@@ -185,17 +211,16 @@ class ProcessSampler:
 
     def sample(self) -> None:
         """Take one sample of every process now (the thread calls this every `period_s`)."""
-        ps, t = self._psutil, clock.now()
+        t = clock.now()
         gpu = self._gpu.sample() if self._gpu is not None else {}
         with self._lock:
             series = [s for s in self._series.values() if not s.gone]
         for s in series:
-            try:
-                with s.proc.oneshot():
-                    cpu, rss = s.proc.cpu_percent(None), s.proc.memory_info().rss / _MB
-            except (ps.NoSuchProcess, ps.ZombieProcess, ps.AccessDenied):
+            reading = s.proc.read()
+            if reading is None:
                 s.gone = True  # exited: keep what it had
                 continue
+            cpu, rss = reading
             s.cpu.append(cpu)
             s.rss_mb.append(rss)
             if s.pid in gpu:

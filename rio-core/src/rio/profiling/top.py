@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import clock, host
+from .stats import ProcessReading
 
 
 def running_stations(station: str | None = None, tmp: str | None = None) -> list[dict[str, Any]]:
@@ -53,38 +54,21 @@ class _Watched:
             self.note = "no state" if shares else f"{node['middleware']}: process only"
         else:
             self.note = "thread node: process only"
-        self.proc = None
-        if psutil is not None:
-            try:
-                self.proc = psutil.Process(self.pid)
-                self.proc.cpu_percent(None)  # starts the CPU measurement
-            except Exception:
-                self.proc = None
-        self.last: tuple[float, int] | None = self._count()
-
-    def _count(self) -> tuple[float, int] | None:
-        if self.ring is None:
-            return None
-        return clock.now(), int(self.ring.ring_buffer.count)
+        self.proc = ProcessReading(self.pid, psutil) if psutil is not None else None
+        self.rate = clock.CountRate(lambda: None if self.ring is None else int(self.ring.ring_buffer.count))
 
     def row(self) -> dict[str, Any]:
-        rate = age_ms = None
-        now = self._count()
-        if now is not None and self.last is not None and now[0] > self.last[0]:
-            rate = round((now[1] - self.last[1]) / (now[0] - self.last[0]), 1)
+        rate = self.rate.rate()
+        age_ms = None
+        if rate is not None:
             rb = self.ring.ring_buffer
-            if now[1] > 0:
+            if rb.count > 0:
                 age_ms = round((clock.now() - float(rb.get()["timestamp"])) * 1000, 2)
-        self.last = now
-        cpu = rss = None
-        if self.proc is not None:
-            try:
-                cpu = round(self.proc.cpu_percent(None), 1)
-                rss = round(self.proc.memory_info().rss / 2**20, 1)
-            except Exception:
-                self.proc = None
+        reading = self.proc.read() if self.proc is not None else None
+        cpu, rss = (round(reading[0], 1), round(reading[1], 1)) if reading is not None else (None, None)
         return {"station": self.station, "node": self.name, "middleware": self.mw, "pid": self.pid,
-                "rate_hz": rate, "age_ms": age_ms, "cpu_pct": cpu, "rss_mb": rss, "note": self.note}
+                "rate_hz": None if rate is None else round(rate, 1), "age_ms": age_ms, "cpu_pct": cpu,
+                "rss_mb": rss, "note": self.note}
 
     def close(self) -> None:
         if self.ring is not None:
