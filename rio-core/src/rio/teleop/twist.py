@@ -116,8 +116,8 @@ class TwistTeleop:
             if r == "teleop":
                 self.switch.update(bool(pressed.size > BUTTON_MODE and pressed[BUTTON_MODE]), tick.t)
             lowpass = self.filters[r]
-            if lowpass is not None:
-                p["twist"] = lowpass(p["twist"], tick.t)
+            if lowpass is not None:  # on the span it is integrated over (see LowPassFilter.over)
+                p["twist"] = lowpass.over(p["twist"], p["h"])
         for b in self.arms:
             p = polled[self.drive[b.role]]
             b.target = make_teleop_eef_cmd(b.target, p["twist"], p["h"], self.switch.mode, self.max_pos_speed,
