@@ -5,9 +5,9 @@ emulated robot it starts is stopped when it ends."""
 from __future__ import annotations
 
 import itertools
-import threading
 
 import pytest
+from rio.testing import no_new_threads, started
 
 _domains = itertools.cycle(range(100, 150))
 
@@ -22,22 +22,12 @@ def make_robot(domain_id):
     """make_robot(**options) -> a started EmulatedT1 on this test's domain, stopped after the test."""
     from rio_booster.emulator import EmulatedT1
 
-    robots = []
-
-    def make(**options):
-        robot = EmulatedT1(domain_id=domain_id, **options)
-        robots.append(robot)
-        return robot.start()
-
-    yield make
-    for r in robots:
-        r.stop()
+    with started(lambda **options: EmulatedT1(domain_id=domain_id, **options)) as make:
+        yield make
 
 
 @pytest.fixture(autouse=True)
 def no_threads_left():
     """Nothing a test started keeps running after it (emulated robots)."""
-    before = set(threading.enumerate())
-    yield
-    left = [t for t in threading.enumerate() if t not in before and t.is_alive()]
-    assert not left, f"threads left running: {left}"
+    with no_new_threads():
+        yield

@@ -4,9 +4,8 @@ starts is closed when it ends."""
 
 from __future__ import annotations
 
-import threading
-
 import pytest
+from rio.testing import no_new_threads, started
 
 pytest.importorskip("cyclonedds")
 pytest.importorskip("unitree_sdk2py")
@@ -26,23 +25,15 @@ def make_bridge(domain_id):
     pytest.importorskip("mujoco")
     from rio_unitree.bridge import Bridge
 
-    bridges = []
+    def bridge(model="fallback", **options):
+        return Bridge(domain_id=domain_id, interface="lo", model=model, **options)
 
-    def make(**options):
-        options.setdefault("model", "fallback")
-        bridge = Bridge(domain_id=domain_id, interface="lo", **options)
-        bridges.append(bridge)
-        return bridge.start()
-
-    yield make
-    for b in bridges:
-        b.stop()
+    with started(bridge) as make:
+        yield make
 
 
 @pytest.fixture(autouse=True)
 def no_threads_left():
     """Nothing a test started keeps running after it (bridges, DDS listeners)."""
-    before = set(threading.enumerate())
-    yield
-    left = [t for t in threading.enumerate() if t not in before and t.is_alive()]
-    assert not left, f"threads left running: {left}"
+    with no_new_threads():
+        yield

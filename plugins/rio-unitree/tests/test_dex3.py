@@ -11,9 +11,9 @@ import pytest
 from rio import clock
 from rio.conformance.driving import Loop, build_node, resolve_driver
 from rio.errors import InvalidRequest
+from rio.interfaces.damping import STALE_COMMANDS
 from rio.testing import lifecycle
 from rio_unitree import dex3
-from rio_unitree.hand import STALE_COMMANDS
 from rio_unitree.hand_wire import HandCmd, HandState
 from rio_unitree.testing import Tap
 

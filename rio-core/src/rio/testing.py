@@ -7,8 +7,9 @@ interpreter that must import the node class by name.
 from __future__ import annotations
 
 import os
+import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any, Literal
 
@@ -108,6 +109,36 @@ def run_scripted_square(station: str, side: float = 0.05, speed: float = 0.15) -
     assert 3.6 * side < arm.path_m < 4.6 * side, summary.format()  # four edges, a little rounding either way
     assert np.linalg.norm(arm.end[:3] - arm.start[:3]) < 0.003, summary.format()
     return summary
+
+
+@contextmanager
+def no_new_threads() -> Iterator[None]:
+    """Fail if a thread started inside the block still runs at its end: an emulator, a DDS listener or a
+    bridge a test forgot to stop would otherwise keep running into the next test (a plugin conftest's
+    autouse fixture: `with no_new_threads(): yield`)."""
+    before = set(threading.enumerate())
+    yield
+    left = [t for t in threading.enumerate() if t not in before and t.is_alive()]
+    assert not left, f"threads left running: {left}"
+
+
+@contextmanager
+def started(factory: Callable[..., Any]) -> Iterator[Callable[..., Any]]:
+    """`make(**options)`: `factory(**options).start()` (an emulated robot, a simulator bridge), and every
+    one made is stopped, in order, when the block ends, also after a failure (a plugin conftest's fixture:
+    `with started(lambda **o: Emulator(domain_id=domain_id, **o)) as make: yield make`)."""
+    made: list[Any] = []
+
+    def make(**options: Any) -> Any:
+        thing = factory(**options)
+        made.append(thing)
+        return thing.start()
+
+    try:
+        yield make
+    finally:
+        for thing in made:
+            thing.stop()
 
 
 @contextmanager

@@ -16,9 +16,11 @@ and sends one SERIAL command (joint space; ankles as pitch/roll); the humanoid k
 - disable, a fault, close: damping on the wire (kp = 0, each joint's `damping_kd`) and `ChangeMode(kDamping)`;
   while disabled after having had control, damping every cycle.
 
-Safety, by the driver itself (each a named fault, `rio_booster.faults`): no low state for
-`state_timeout_s`; the trunk tilted beyond `fall_tilt_deg`; a stream of commands that stops (the kind's
-watchdog hold) with `on_stale = "damp"`.
+Safety, by the driver itself (each a named fault, `rio.interfaces.damping`): no low state for
+`state_timeout_s` (`lowstate_timeout`); the trunk tilted beyond `fall_tilt_deg` (from the IMU's roll and
+pitch, `ImuState.rpy`); a stream of commands that stops (the kind's watchdog hold) with
+`on_stale = "damp"`. Each leaves the node disabled, sending damping (kp = 0) and asking the robot for its
+damping mode (`B1LocoClient.ChangeMode(kDamping)`), until `clear_faults()`.
 """
 
 from __future__ import annotations
@@ -27,14 +29,16 @@ import importlib
 import logging
 import threading
 import time
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from pydantic import Field
 from rio import clock
-from rio.interfaces import FAULT_KEYS, FaultHolding, HumanoidNode
+from rio.control.rotations import euler_to_quat
+from rio.interfaces import FAULT_KEYS, BodyDampingConfig, DampingSafety, HumanoidNode
+from rio.interfaces.damping import state_lost, tilt_from_rpy
 
-from . import faults, t1
+from . import t1
 from .commands import Commands, Frame, to_low_cmd
 
 log = logging.getLogger("rio_booster")
@@ -76,8 +80,10 @@ def start_channels(sdk: Any, domain_id: int, interface: str) -> None:
         _factory_started[sdk.__name__] = (domain_id, interface)
 
 
-class T1(FaultHolding, HumanoidNode):
-    class Config(HumanoidNode.Config):
+class T1(DampingSafety, HumanoidNode):
+    body = "trunk"
+
+    class Config(BodyDampingConfig, HumanoidNode.Config):
         interface: str = Field("", description="network interface on the robot's network, by name or address "
                                                "(Booster's examples pass the address, e.g. '127.0.0.1'); '' for "
                                                "the SDK's default")
@@ -98,13 +104,7 @@ class T1(FaultHolding, HumanoidNode):
         damping_kd: list[float] | None = Field(None, description="kd per joint of the damping command (kp = 0)")
         torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
                                                      "effort limit")
-        state_timeout_s: float = Field(0.25, gt=0, description="fault when no rt/low_state arrives for this long")
         connect_timeout_s: float = Field(5.0, gt=0, description="how long open() waits for the first low state")
-        fall_tilt_deg: float | None = Field(45.0, gt=0, le=180, description="fault (damping) when the trunk tilts "
-                                                                            "beyond this from upright; None: off")
-        on_stale: Literal["damp", "hold"] = Field(
-            "damp", description='when a stream of commands stops (watchdog_s): "damp" (fault, kp = 0) or "hold" '
-                                '(keep the last goal stiff)')
 
     # -- setup --------------------------------------------------------------------------------------
     def default_joint_names(self) -> list[str]:
@@ -132,7 +132,6 @@ class T1(FaultHolding, HumanoidNode):
         self.robot_mode = -1
         self._in_control = False  # the robot is in custom mode by us (we owe it damping when we let go)
         self._had_control = False  # we took control once: while disabled, damping on the wire every cycle
-        self._holds_seen = 0
         self._sub = self._pub = self._loco = None
 
     # -- hardware -----------------------------------------------------------------------------------
@@ -186,21 +185,19 @@ class T1(FaultHolding, HumanoidNode):
         if enabled:
             self.check_device_fault()
             self._take_control()
-            self._holds_seen = self.commander.watchdog_holds
         elif self._pub is not None and self._in_control:
             self._let_go()
 
-    def device_fault(self) -> Any:
-        """The conditions that hold now (a stale stream is not one: it ends when commands come again)."""
+    def state_lost(self, age: float) -> Any:
         c = self.config
-        age = clock.now() - self.t_state
-        if age > c.state_timeout_s:
-            return faults.lowstate_timeout(age, c.interface or "default", c.domain_id)
-        if c.fall_tilt_deg is not None and self._state is not None:
-            tilt = faults.tilt_deg(self._state["rpy"])
-            if tilt > c.fall_tilt_deg:
-                return faults.fall(tilt, c.fall_tilt_deg)
-        return None
+        return state_lost("lowstate_timeout", "rt/low_state", age, f"interface '{c.interface or 'default'}' (DDS "
+                          f"domain {c.domain_id})", "check the cable, the interface's address (192.168.10.x) and "
+                          "that the robot is on")
+
+    def tilt_deg(self) -> float | None:
+        with self._lock:
+            s = self._state
+        return None if s is None else tilt_from_rpy(s["rpy"])
 
     def on_fault(self, fault: Any) -> None:
         super().on_fault(fault)
@@ -209,17 +206,16 @@ class T1(FaultHolding, HumanoidNode):
 
     # -- cycle --------------------------------------------------------------------------------------
     def read_joints(self) -> dict[str, Any]:
-        self._watch()
+        self.watch_safety()
         s = self.state()
-        quat = faults.rpy_to_quat(s["rpy"])
+        quat = euler_to_quat(*s["rpy"])
         return {"joint_pos": s["q"][self.idx], "joint_vel": s["dq"][self.idx], "base_quat": quat,
                 "base_ang_vel": s["gyro"].copy(), "robot_mode": int(self.robot_mode), **self.fault_status()}
 
-    def read_state(self) -> dict[str, Any]:
-        sample = super().read_state()
-        if not self.enabled and self._had_control:
+    def send_damping(self) -> None:
+        """Damping on the wire every cycle while disabled, once we had control (before, the robot is its own)."""
+        if self._had_control:
             self._send(self.wire.damping())
-        return sample
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
         self._send(self.wire.position(joint_pos, self.state()["q"][self.idx]))
@@ -289,18 +285,6 @@ class T1(FaultHolding, HumanoidNode):
         except RuntimeError as e:
             self._in_control = True  # the next disable or fault asks again (damping goes out every cycle)
             log.error("%s", e)
-
-    def _watch(self) -> None:
-        """The driver's own stops: the robot's silence, a fall, a stream of commands that stopped."""
-        if self.fault is not None and self.fault.code != faults.STALE_COMMANDS:
-            return
-        fault = self.device_fault()
-        if fault is None and self._commander is not None and self.commander.watchdog_holds > self._holds_seen:
-            self._holds_seen = self.commander.watchdog_holds
-            if self.config.on_stale == "damp" and self.enabled:
-                fault = faults.stale_commands(self.config.watchdog_s)
-        if fault is not None:
-            self.on_fault(fault)
 
     def _send(self, frame: Frame) -> None:
         if self._pub is not None:

@@ -13,9 +13,9 @@ Two ways to command, `control`:
   (debug mode: L2+R2 on the remote while it hangs in damping, or the motion switcher's release); the
   robot is then on its own: hang it.
 
-Safety, by the driver itself (each a named fault, `rio_unitree.faults`): no lowstate for
-`state_timeout_s`; the pelvis tilted beyond `fall_tilt_deg`; and a stream of commands that stops (the
-kind's watchdog hold) with `on_stale = "damp"`. A stopped or disabled node in lowcmd mode sends
+Safety, by the driver itself (each a named fault, `rio.interfaces.damping`): no lowstate for
+`state_timeout_s` (`lowstate_timeout`); the pelvis tilted beyond `fall_tilt_deg`; and a stream of
+commands that stops (the kind's watchdog hold) with `on_stale = "damp"`. A stopped or disabled node in lowcmd mode sends
 damping (kp = 0, kd = each joint's damping) every cycle, never a frozen stiff pose; in arm_sdk mode it
 hands the arms back to Unitree's controller (weight ramped to 0).
 
@@ -32,9 +32,10 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 from rio import clock
-from rio.interfaces import FAULT_KEYS, FaultHolding, HumanoidNode
+from rio.interfaces import FAULT_KEYS, BodyDampingConfig, DampingSafety, HumanoidNode
+from rio.interfaces.damping import state_lost, tilt_from_quat
 
-from . import faults, g1
+from . import g1
 from .commands import Commands
 from .dds import ARM_SDK, LOWCMD, LOWSTATE, Participant
 from .wire import LowState, state_crc_ok
@@ -42,8 +43,10 @@ from .wire import LowState, state_crc_ok
 log = logging.getLogger("rio_unitree")
 
 
-class G1(FaultHolding, HumanoidNode):
-    class Config(HumanoidNode.Config):
+class G1(DampingSafety, HumanoidNode):
+    body = "pelvis"
+
+    class Config(BodyDampingConfig, HumanoidNode.Config):
         interface: str = Field("eth0", description="network interface on the robot's network (192.168.123.x; "
                                                    "'lo' for the bridge on this machine)")
         domain_id: int = Field(0, ge=0, le=232, description="DDS domain (the robot's is 0)")
@@ -62,16 +65,10 @@ class G1(FaultHolding, HumanoidNode):
                                                      "effort limit")
         arm_sdk_ramp_s: float = Field(1.0, gt=0, description="arm_sdk: seconds to ramp the weight 0 -> 1 (enable) "
                                                              "and 1 -> 0 (disable)")
-        state_timeout_s: float = Field(0.25, gt=0, description="fault when no rt/lowstate arrives for this long (s)")
         connect_timeout_s: float = Field(5.0, gt=0, description="how long open() waits for the first rt/lowstate")
-        fall_tilt_deg: float | None = Field(45.0, gt=0, le=180, description="fault (damping) when the pelvis tilts "
-                                                                            "beyond this from upright; None: off")
         check_state_crc: bool = Field(True, description="drop rt/lowstate messages whose CRC is wrong (false for "
                                                         "a simulator that does not sign its state, e.g. "
                                                         "unitree_mujoco)")
-        on_stale: Literal["damp", "hold"] = Field(
-            "damp", description='when a stream of commands stops (watchdog_s): "damp" (fault, kp = 0) or "hold" '
-                                '(keep the last goal stiff)')
 
     # -- setup --------------------------------------------------------------------------------------
     def default_joint_names(self) -> list[str]:
@@ -106,7 +103,6 @@ class G1(FaultHolding, HumanoidNode):
         self._weight = 0.0  # arm_sdk weight last sent
         self._t_sent = 0.0
         self._goal: np.ndarray | None = None  # last goal sent (held while the arm_sdk weight ramps down)
-        self._holds_seen = 0
 
     # -- hardware -----------------------------------------------------------------------------------
     def open(self) -> None:
@@ -168,28 +164,24 @@ class G1(FaultHolding, HumanoidNode):
     def set_enabled(self, enabled: bool) -> None:
         if enabled:
             self.check_device_fault()
-            self._holds_seen = self.commander.watchdog_holds
             self._goal = None
             self._t_sent = clock.now()
         elif self.config.control == "lowcmd" and self.dds is not None:
             self._send(self.wire.damping(self._mode_machine()))
 
-    def device_fault(self) -> Any:
-        """The conditions that hold now (a stale stream is not one: it ends when commands come again)."""
+    def state_lost(self, age: float) -> Any:
         c = self.config
-        age = clock.now() - self.t_state
-        if age > c.state_timeout_s:
-            return faults.lowstate_timeout(age, c.interface, c.domain_id)
-        if c.fall_tilt_deg is not None and self.state is not None:
-            tilt = faults.tilt_deg(self.state.quaternion)
-            if tilt > c.fall_tilt_deg:
-                return faults.fall(tilt, c.fall_tilt_deg)
-        return None
+        return state_lost("lowstate_timeout", "rt/lowstate", age, f"interface '{c.interface}' (DDS domain "
+                          f"{c.domain_id})", "check the cable, the interface's address (192.168.123.x) and that "
+                          "the robot is on")
+
+    def tilt_deg(self) -> float | None:
+        return None if self.state is None else tilt_from_quat(self.state.quaternion)
 
     # -- cycle --------------------------------------------------------------------------------------
     def read_joints(self) -> dict[str, Any]:
         self._poll()
-        self._watch()
+        self.watch_safety()
         s, idx = self.state, self.wire_slots
         assert s is not None
         quat = np.asarray(s.quaternion, np.float64)
@@ -197,12 +189,6 @@ class G1(FaultHolding, HumanoidNode):
         return {"joint_pos": s.q[idx].astype(np.float64), "joint_vel": s.dq[idx].astype(np.float64),
                 "base_quat": quat / norm if norm > 0.5 else np.full(4, np.nan),
                 "base_ang_vel": np.asarray(s.gyroscope, np.float64), **self.fault_status()}
-
-    def read_state(self) -> dict[str, Any]:
-        sample = super().read_state()
-        if not self.enabled:
-            self._send_idle()
-        return sample
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
         s = self.state
@@ -231,23 +217,11 @@ class G1(FaultHolding, HumanoidNode):
             self.bad_crc += 1
         return got
 
-    def _watch(self) -> None:
-        """The driver's own stops: the robot's silence, a fall, a stream of commands that stopped."""
-        if self.fault is not None and self.fault.code != faults.STALE_COMMANDS:
-            return
-        fault = self.device_fault()
-        if fault is None and self._commander is not None and self.commander.watchdog_holds > self._holds_seen:
-            self._holds_seen = self.commander.watchdog_holds
-            if self.config.on_stale == "damp" and self.enabled:
-                fault = faults.stale_commands(self.config.watchdog_s)
-        if fault is not None:
-            self.on_fault(fault)
-
     def _send(self, cmd: Any) -> None:
         assert self.dds is not None
         self._out.write(cmd.encode())
 
-    def _send_idle(self) -> None:
+    def send_damping(self) -> None:
         """While disabled (or stopped): damping on rt/lowcmd; on rt/arm_sdk, the weight ramped down to 0
         holding the last goal, then silence (Unitree's controller has the arms)."""
         if self.dds is None or self.state is None:
@@ -273,7 +247,7 @@ class G1(FaultHolding, HumanoidNode):
         t_end = time.monotonic() + (self.config.arm_sdk_ramp_s + 0.1 if self.config.control == "arm_sdk" else 0.05)
         while time.monotonic() < t_end:
             self._poll()
-            self._send_idle()
+            self.send_damping()
             if self.config.control == "arm_sdk" and self._goal is None:
                 break
             time.sleep(period)

@@ -5,10 +5,11 @@ with its id and status "enabled" in its mode byte (`rio_unitree.dex3`), `q` = th
 limits (and, with `torque_limit`, to where kp * error stays within its effort), `dq = 0`, `tau = 0`,
 and its kp, kd. The hand kind owns the targets (interpolation, limits, max step, the watchdog).
 
-The body's safety pattern (`unitree.g1`): no hand state for `state_timeout_s` is a named fault
-(`handstate_timeout`), no state at open a named error; a stream of commands that stops (the kind's
-watchdog) damps the hand (kp = 0, each joint's `damping_kd`) with `on_stale = "damp"`; a disabled or
-faulted node sends damping every cycle, and closing it sends damping a moment before it lets go.
+The body's damping safety (`rio.interfaces.damping`, as `unitree.g1`): no hand state for `state_timeout_s`
+is a named fault (`handstate_timeout`), no state at open a named error; a stream of commands that stops
+(the kind's watchdog) damps the hand (kp = 0, each joint's `damping_kd`) with `on_stale = "damp"`; a
+disabled or faulted node sends damping every cycle, and closing it sends damping a moment before it
+lets go.
 
 `robot_description()` is rio-sim's Dex3-1 of that side (cut out of its G1-with-hands model, palm site in
 RIO's palm frame, finger keypoints as sites) when rio-sim is installed, so `rio teleop`'s hand trackers
@@ -24,7 +25,8 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 from rio import clock
-from rio.interfaces import FAULT_KEYS, Fault, FaultHolding, HandNode
+from rio.interfaces import FAULT_KEYS, DampingConfig, DampingSafety, Fault, HandNode
+from rio.interfaces.damping import state_lost
 
 from . import dex3
 from .dds import Participant
@@ -32,11 +34,10 @@ from .hand_wire import HandCmd, HandState
 
 log = logging.getLogger("rio_unitree")
 
-HANDSTATE_TIMEOUT, STALE_COMMANDS = 1, 3  # the body's codes for the same two events
+class Dex3(DampingSafety, HandNode):
+    device_noun = "hand"
 
-
-class Dex3(FaultHolding, HandNode):
-    class Config(HandNode.Config):
+    class Config(DampingConfig, HandNode.Config):
         side: Literal["left", "right"] = Field("right", description="which Dex3-1")
         interface: str = Field("eth0", description="network interface on the robot's network (192.168.123.x; "
                                                    "'lo' for the bridge on this machine)")
@@ -50,10 +51,7 @@ class Dex3(FaultHolding, HandNode):
         damping_kd: list[float] | None = Field(None, description="kd per joint of the damping command (default 0.1)")
         torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
                                                      "effort limit")
-        state_timeout_s: float = Field(0.25, gt=0, description="fault when no hand state arrives for this long (s)")
         connect_timeout_s: float = Field(5.0, gt=0, description="how long open() waits for the first hand state")
-        on_stale: Literal["damp", "hold"] = Field(
-            "damp", description='when a stream of commands stops (watchdog_s): "damp" (fault, kp = 0) or "hold"')
 
     # -- setup --------------------------------------------------------------------------------------
     def default_joint_names(self) -> list[str]:
@@ -77,7 +75,6 @@ class Dex3(FaultHolding, HandNode):
         self.dds: Participant | None = None
         self.state: HandState | None = None
         self.t_state = -np.inf
-        self._holds_seen = 0
 
     # -- hardware -----------------------------------------------------------------------------------
     def open(self) -> None:
@@ -133,18 +130,13 @@ class Dex3(FaultHolding, HandNode):
     def set_enabled(self, enabled: bool) -> None:
         if enabled:
             self.check_device_fault()
-            self._holds_seen = self.commander.watchdog_holds
         elif self.dds is not None:
             self._send(self.damping())
 
-    def device_fault(self) -> Fault | None:
-        age = clock.now() - self.t_state
-        if age > self.config.state_timeout_s:
-            c = self.config
-            return Fault(HANDSTATE_TIMEOUT, "handstate_timeout",
-                         f"no {self.state_topic} for {age:.2f} s on interface '{c.interface}' (DDS domain "
-                         f"{c.domain_id})", "check the hand's cable and the robot; clear_faults() once it publishes")
-        return None
+    def state_lost(self, age: float) -> Fault:
+        c = self.config
+        return state_lost("handstate_timeout", self.state_topic, age, f"interface '{c.interface}' (DDS domain "
+                          f"{c.domain_id})", "check the hand's cable and the robot")
 
     # -- the commands -----------------------------------------------------------------------------------
     def _cmd(self) -> HandCmd:
@@ -176,17 +168,15 @@ class Dex3(FaultHolding, HandNode):
     # -- cycle --------------------------------------------------------------------------------------
     def read_joints(self) -> dict[str, Any]:
         self._poll()
-        self._watch()
+        self.watch_safety()
         s = self.state
         assert s is not None
         return {"joint_pos": s.q[self.ids].astype(np.float64), "joint_vel": s.dq[self.ids].astype(np.float64),
                 **self.fault_status()}
 
-    def read_state(self) -> dict[str, Any]:
-        sample = super().read_state()
-        if not self.enabled and self.dds is not None:
+    def send_damping(self) -> None:
+        if self.dds is not None:
             self._send(self.damping())
-        return sample
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
         s = self.state
@@ -205,19 +195,6 @@ class Dex3(FaultHolding, HandNode):
             return False
         self.state, self.t_state = state, clock.now()
         return True
-
-    def _watch(self) -> None:
-        if self.fault is not None and self.fault.code != STALE_COMMANDS:
-            return
-        fault = self.device_fault()
-        if fault is None and self._commander is not None and self.commander.watchdog_holds > self._holds_seen:
-            self._holds_seen = self.commander.watchdog_holds
-            if self.config.on_stale == "damp" and self.enabled:
-                fault = Fault(STALE_COMMANDS, "stale_commands",
-                              f"the stream of commands stopped for more than watchdog_s ({self.config.watchdog_s} s): "
-                              "damping", "clear_faults() or enable() holds where the hand is; then command again")
-        if fault is not None:
-            self.on_fault(fault)
 
     def _send(self, cmd: HandCmd) -> None:
         assert self.dds is not None

@@ -15,15 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .dex3 import NUM_MOTORS
-from .wire import HEADER
+from .wire import HEADER, MOTOR_CMD, MOTOR_STATE, MotorStates, motor_state
 
-_CMD_REC = np.dtype({"names": ["mode", "q", "dq", "tau", "kp", "kd", "reserve"],
-                     "formats": ["u1", "<f4", "<f4", "<f4", "<f4", "<f4", "<u4"],
-                     "offsets": [0, 4, 8, 12, 16, 20, 24], "itemsize": 28})
-_STATE_REC = np.dtype({"names": ["mode", "q", "dq", "ddq", "tau_est", "temperature", "vol", "sensor", "motorstate",
-                                 "reserve"],
-                       "formats": ["u1", "<f4", "<f4", "<f4", "<f4", ("<i2", 2), "<f4", ("<u4", 2), "<u4", ("<u4", 4)],
-                       "offsets": [0, 4, 8, 12, 16, 20, 24, 28, 36, 40], "itemsize": 56})
 _PRESS_REC = np.dtype({"names": ["pressure", "temperature", "lost", "reserve"],
                        "formats": [("<f4", 12), ("<f4", 12), "<u4", "<u4"],
                        "offsets": [0, 48, 96, 100], "itemsize": 104})
@@ -47,13 +40,13 @@ class HandCmd:
     reserve: np.ndarray = field(default_factory=lambda: np.zeros(NUM_MOTORS, np.uint32))
     tail: np.ndarray = field(default_factory=lambda: np.zeros(4, np.uint32))
 
-    _FIELDS = ("mode", "q", "dq", "tau", "kp", "kd", "reserve")
+    _FIELDS = tuple(MOTOR_CMD.names or ())
 
     def encode(self) -> bytes:
         n = len(self.q)
         buf = np.zeros(4 + 28 * n + 16, np.uint8)
         buf[0:4].view("<u4")[0] = n
-        rec = buf[4:4 + 28 * n].view(_CMD_REC)
+        rec = buf[4:4 + 28 * n].view(MOTOR_CMD)
         for name in self._FIELDS:
             rec[name] = getattr(self, name)
         buf[4 + 28 * n:].view("<u4")[:] = self.tail
@@ -65,7 +58,7 @@ class HandCmd:
             return cls._from_sample(_sdk_decode(data, "HandCmd_"))
         buf = np.frombuffer(data, np.uint8, offset=4)
         n = _count(buf, 0, 28, 16, "HandCmd_")
-        rec = buf[4:4 + 28 * n].view(_CMD_REC)
+        rec = buf[4:4 + 28 * n].view(MOTOR_CMD)
         return cls(*(rec[name].copy() for name in cls._FIELDS), buf[4 + 28 * n:4 + 28 * n + 16].view("<u4").copy())
 
     @classmethod
@@ -77,20 +70,20 @@ class HandCmd:
 
 
 @dataclass
-class HandState:
+class HandState(MotorStates):
     """One `rt/dex3/<side>/state`. `press_*`: one row per pressure sensor pad (12 values each); the IMU
     quaternion is [w, x, y, z]."""
 
-    mode: np.ndarray = field(default_factory=lambda: np.zeros(NUM_MOTORS, np.uint8))
-    q: np.ndarray = field(default_factory=_f32)
-    dq: np.ndarray = field(default_factory=_f32)
-    ddq: np.ndarray = field(default_factory=_f32)
-    tau_est: np.ndarray = field(default_factory=_f32)
-    temperature: np.ndarray = field(default_factory=lambda: np.zeros((NUM_MOTORS, 2), np.int16))
-    vol: np.ndarray = field(default_factory=_f32)
-    sensor: np.ndarray = field(default_factory=lambda: np.zeros((NUM_MOTORS, 2), np.uint32))
-    motorstate: np.ndarray = field(default_factory=lambda: np.zeros(NUM_MOTORS, np.uint32))
-    reserve: np.ndarray = field(default_factory=lambda: np.zeros((NUM_MOTORS, 4), np.uint32))
+    mode: np.ndarray = motor_state("mode", NUM_MOTORS)
+    q: np.ndarray = motor_state("q", NUM_MOTORS)
+    dq: np.ndarray = motor_state("dq", NUM_MOTORS)
+    ddq: np.ndarray = motor_state("ddq", NUM_MOTORS)
+    tau_est: np.ndarray = motor_state("tau_est", NUM_MOTORS)
+    temperature: np.ndarray = motor_state("temperature", NUM_MOTORS)
+    vol: np.ndarray = motor_state("vol", NUM_MOTORS)
+    sensor: np.ndarray = motor_state("sensor", NUM_MOTORS)
+    motorstate: np.ndarray = motor_state("motorstate", NUM_MOTORS)
+    reserve: np.ndarray = motor_state("reserve", NUM_MOTORS)
     press_pressure: np.ndarray = field(default_factory=lambda: np.zeros((NUM_MOTORS, 12), np.float32))
     press_temperature: np.ndarray = field(default_factory=lambda: np.zeros((NUM_MOTORS, 12), np.float32))
     press_lost: np.ndarray = field(default_factory=lambda: np.zeros(NUM_MOTORS, np.uint32))
@@ -101,7 +94,6 @@ class HandState:
     error: np.ndarray = field(default_factory=lambda: np.zeros(2, np.uint32))
     tail: np.ndarray = field(default_factory=lambda: np.zeros(2, np.uint32))
 
-    _MOTOR = ("mode", "q", "dq", "ddq", "tau_est", "temperature", "vol", "sensor", "motorstate", "reserve")
     _PRESS = ("pressure", "temperature", "lost", "reserve")
 
     def encode(self) -> bytes:
@@ -110,9 +102,7 @@ class HandState:
         i0 = p0 + 4 + 104 * m  # the IMU
         buf = np.zeros(i0 + 52 + 4 + 16 + 16, np.uint8)
         buf[0:4].view("<u4")[0] = n
-        rec = buf[4:p0].view(_STATE_REC)
-        for name in self._MOTOR:
-            rec[name] = getattr(self, name)
+        self.put_motor_states(buf[4:p0].view(MOTOR_STATE))
         buf[p0:p0 + 4].view("<u4")[0] = m
         press = buf[p0 + 4:i0].view(_PRESS_REC)
         for name in self._PRESS:
@@ -134,9 +124,9 @@ class HandState:
         p0 = 4 + 56 * n
         m = _count(buf, p0, 104, 52 + 4 + 32, "HandState_")
         i0 = p0 + 4 + 104 * m
-        rec, press = buf[4:p0].view(_STATE_REC), buf[p0 + 4:i0].view(_PRESS_REC)
+        press = buf[p0 + 4:i0].view(_PRESS_REC)
         tail = buf[i0 + 56:i0 + 88]
-        return cls(*(rec[name].copy() for name in cls._MOTOR), *(press[name].copy() for name in cls._PRESS),
+        return cls(*cls.motor_states_of(buf[4:p0].view(MOTOR_STATE)), *(press[name].copy() for name in cls._PRESS),
                    buf[i0:i0 + 52].view("<f4").copy(), int(buf[i0 + 52:i0 + 54].view("<i2")[0]),
                    tail[0:16].view("<f4").copy(), tail[16:24].view("<u4").copy(), tail[24:32].view("<u4").copy())
 
@@ -147,10 +137,7 @@ class HandState:
         def col(items, name, dtype):
             return np.array([getattr(x, name) for x in items], dtype)
 
-        return cls(col(ms, "mode", np.uint8), col(ms, "q", np.float32), col(ms, "dq", np.float32),
-                   col(ms, "ddq", np.float32), col(ms, "tau_est", np.float32), col(ms, "temperature", np.int16),
-                   col(ms, "vol", np.float32), col(ms, "sensor", np.uint32), col(ms, "motorstate", np.uint32),
-                   col(ms, "reserve", np.uint32), col(ps, "pressure", np.float32).reshape(-1, 12),
+        return cls(*cls.motor_states_of_sdk(ms), col(ps, "pressure", np.float32).reshape(-1, 12),
                    col(ps, "temperature", np.float32).reshape(-1, 12), col(ps, "lost", np.uint32),
                    col(ps, "reserve", np.uint32),
                    np.array([*imu.quaternion, *imu.gyroscope, *imu.accelerometer, *imu.rpy], np.float32),

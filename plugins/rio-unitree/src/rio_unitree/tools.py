@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .dds import LOWCMD, LOWSTATE, Participant, interfaces
-from .faults import tilt_deg
+from rio.interfaces.damping import tilt_from_quat
 from .g1 import HOME, JOINTS, NUM_SLOTS, joint_names
 from .wire import LowState, state_crc_ok
 
@@ -78,7 +78,7 @@ def check(interface: str, domain_id: int = 0, timeout_s: float = 3.0) -> CheckRe
     r.lines += [f"rt/lowstate: {good} messages ({rate:.0f} Hz), {bad} with a bad CRC",
                 f"mode_machine {s.mode_machine}, mode_pr {s.mode_pr}, tick {s.tick}",
                 f"joints reporting: {len(live)} of {len(JOINTS)}",
-                f"IMU: quaternion {np.round(s.quaternion, 3).tolist()}, tilt {tilt_deg(s.quaternion):.1f} deg, gyro "
+                f"IMU: quaternion {np.round(s.quaternion, 3).tolist()}, tilt {tilt_from_quat(s.quaternion):.1f} deg, gyro "
                 f"{np.round(s.gyroscope, 3).tolist()} rad/s"]
     r.ok = True
     return r
@@ -183,7 +183,7 @@ def stand(interface: str, domain_id: int = 0, seconds: float = 5.0, hold_s: floa
                 if now - t_state > state_timeout_s:
                     r.problem = f"rt/lowstate went silent for {now - t_state:.2f} s: stopped (damping)"
                     break
-                tilt = tilt_deg(state.quaternion)
+                tilt = tilt_from_quat(state.quaternion)
                 if tilt > fall_tilt_deg:
                     r.problem = f"the pelvis tilted {tilt:.0f} deg: stopped (damping)"
                     break

@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import ctypes
 import functools
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -26,13 +28,15 @@ from .g1 import NUM_SLOTS
 _LE_HEADERS = (b"\x00\x01", b"\x00\x07")  # CDR_LE (XCDR1), PLAIN_CDR2_LE: same payload for final structs
 HEADER = b"\x00\x01\x00\x00"
 
-_CMD_REC = np.dtype({"names": ["mode", "q", "dq", "tau", "kp", "kd", "reserve"],
-                     "formats": ["u1", "<f4", "<f4", "<f4", "<f4", "<f4", "<u4"],
-                     "offsets": [0, 4, 8, 12, 16, 20, 24], "itemsize": 28})
-_STATE_REC = np.dtype({"names": ["mode", "q", "dq", "ddq", "tau_est", "temperature", "vol", "sensor", "motorstate",
-                                 "reserve"],
-                       "formats": ["u1", "<f4", "<f4", "<f4", "<f4", ("<i2", 2), "<f4", ("<u4", 2), "<u4", ("<u4", 4)],
-                       "offsets": [0, 4, 8, 12, 16, 20, 24, 28, 36, 40], "itemsize": 56})
+#: One unitree_hg `MotorCmd_` in CDR, as `LowCmd_` (the body) and `HandCmd_` (a Dex3-1) carry one per motor.
+MOTOR_CMD = np.dtype({"names": ["mode", "q", "dq", "tau", "kp", "kd", "reserve"],
+                      "formats": ["u1", "<f4", "<f4", "<f4", "<f4", "<f4", "<u4"],
+                      "offsets": [0, 4, 8, 12, 16, 20, 24], "itemsize": 28})
+#: One unitree_hg `MotorState_` in CDR, as `LowState_` and `HandState_` carry one per motor.
+MOTOR_STATE = np.dtype({"names": ["mode", "q", "dq", "ddq", "tau_est", "temperature", "vol", "sensor", "motorstate",
+                                  "reserve"],
+                        "formats": ["u1", "<f4", "<f4", "<f4", "<f4", ("<i2", 2), "<f4", ("<u4", 2), "<u4", ("<u4", 4)],
+                        "offsets": [0, 4, 8, 12, 16, 20, 24, 28, 36, 40], "itemsize": 56})
 
 CMD_SIZE = 1000  # CDR payload bytes after the 4-byte header
 STATE_SIZE = 2088
@@ -42,6 +46,36 @@ _STATE_MOTORS = slice(68, 68 + 56 * NUM_SLOTS)  # motor k's record at 68 + 56k; 
 
 def _f32() -> np.ndarray:
     return np.zeros(NUM_SLOTS, np.float32)
+
+
+def motor_state(name: str, n: int) -> Any:
+    """The dataclass field of `MOTOR_STATE`'s `name` for `n` motors (zeros of its dtype and shape)."""
+    kind = MOTOR_STATE.fields[name][0]
+    return field(default_factory=lambda: np.zeros((n, *kind.shape), kind.base))
+
+
+class MotorStates:
+    """The per-motor block of a message of `MotorState_` records (`LowState`, the Dex3-1's `HandState`):
+    one array field per `MOTOR_STATE` field, each declared with `motor_state(name, n)`, and the one place
+    they are read from and written to records."""
+
+    MOTOR_FIELDS: tuple[str, ...] = tuple(MOTOR_STATE.names or ())
+
+    def put_motor_states(self, rec: np.ndarray) -> None:
+        for name in self.MOTOR_FIELDS:
+            rec[name] = getattr(self, name)
+
+    @classmethod
+    def motor_states_of(cls, rec: np.ndarray) -> list[np.ndarray]:
+        """The arrays, in field order, out of `MOTOR_STATE` records."""
+        return [rec[name].copy() for name in cls.MOTOR_FIELDS]
+
+    @classmethod
+    def motor_states_of_sdk(cls, motors: Iterable[Any]) -> list[np.ndarray]:
+        """The arrays, in field order, out of the SDK's `MotorState_` objects."""
+        motors = list(motors)
+        return [np.array([getattr(m, name) for m in motors], MOTOR_STATE.fields[name][0].base)
+                for name in cls.MOTOR_FIELDS]
 
 
 @dataclass
@@ -63,7 +97,7 @@ class LowCmd:
     def payload(self) -> np.ndarray:
         """The CDR payload (no header), with `crc` as it is."""
         buf = np.zeros(CMD_SIZE, np.uint8)
-        rec = buf[_CMD_MOTORS].view(_CMD_REC)
+        rec = buf[_CMD_MOTORS].view(MOTOR_CMD)
         for name in ("q", "dq", "tau", "kp", "kd", "reserve"):
             rec[name] = getattr(self, name)
         rec["mode"][1:] = self.mode[1:]
@@ -83,7 +117,7 @@ class LowCmd:
     @classmethod
     def decode(cls, data: bytes) -> LowCmd:
         buf = _payload(data, CMD_SIZE, "LowCmd_")
-        rec = buf[_CMD_MOTORS].view(_CMD_REC)
+        rec = buf[_CMD_MOTORS].view(MOTOR_CMD)
         mode = rec["mode"].copy()
         mode[0] = buf[2]
         return cls(int(buf[0]), int(buf[1]), mode, *(rec[n].copy() for n in ("q", "dq", "tau", "kp", "kd", "reserve")),
@@ -91,7 +125,7 @@ class LowCmd:
 
 
 @dataclass
-class LowState:
+class LowState(MotorStates):
     """One `rt/lowstate` message. The IMU quaternion is [w, x, y, z]; gyroscope in rad/s, body frame."""
 
     version: np.ndarray = field(default_factory=lambda: np.zeros(2, np.uint32))
@@ -103,28 +137,23 @@ class LowState:
     accelerometer: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))
     rpy: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))
     imu_temperature: int = 0
-    mode: np.ndarray = field(default_factory=lambda: np.zeros(NUM_SLOTS, np.uint8))
-    q: np.ndarray = field(default_factory=_f32)
-    dq: np.ndarray = field(default_factory=_f32)
-    ddq: np.ndarray = field(default_factory=_f32)
-    tau_est: np.ndarray = field(default_factory=_f32)
-    temperature: np.ndarray = field(default_factory=lambda: np.zeros((NUM_SLOTS, 2), np.int16))
-    vol: np.ndarray = field(default_factory=_f32)
-    sensor: np.ndarray = field(default_factory=lambda: np.zeros((NUM_SLOTS, 2), np.uint32))
-    motorstate: np.ndarray = field(default_factory=lambda: np.zeros(NUM_SLOTS, np.uint32))
-    reserve: np.ndarray = field(default_factory=lambda: np.zeros((NUM_SLOTS, 4), np.uint32))
+    mode: np.ndarray = motor_state("mode", NUM_SLOTS)
+    q: np.ndarray = motor_state("q", NUM_SLOTS)
+    dq: np.ndarray = motor_state("dq", NUM_SLOTS)
+    ddq: np.ndarray = motor_state("ddq", NUM_SLOTS)
+    tau_est: np.ndarray = motor_state("tau_est", NUM_SLOTS)
+    temperature: np.ndarray = motor_state("temperature", NUM_SLOTS)
+    vol: np.ndarray = motor_state("vol", NUM_SLOTS)
+    sensor: np.ndarray = motor_state("sensor", NUM_SLOTS)
+    motorstate: np.ndarray = motor_state("motorstate", NUM_SLOTS)
+    reserve: np.ndarray = motor_state("reserve", NUM_SLOTS)
     wireless_remote: np.ndarray = field(default_factory=lambda: np.zeros(40, np.uint8))
     tail: np.ndarray = field(default_factory=lambda: np.zeros(4, np.uint32))
     crc: int = 0
 
-    _MOTOR_FIELDS = ("q", "dq", "ddq", "tau_est", "temperature", "vol", "sensor", "motorstate", "reserve")
-
     def payload(self) -> np.ndarray:
         buf = np.zeros(STATE_SIZE, np.uint8)
-        rec = buf[_STATE_MOTORS].view(_STATE_REC)
-        for name in self._MOTOR_FIELDS:
-            rec[name] = getattr(self, name)
-        rec["mode"][1:] = self.mode[1:]
+        self.put_motor_states(buf[_STATE_MOTORS].view(MOTOR_STATE))  # motor 0's mode byte is moved below
         buf[0:8].view("<u4")[:] = self.version
         buf[8], buf[9] = self.mode_pr, self.mode_machine
         buf[12:16].view("<u4")[0] = self.tick
@@ -146,13 +175,12 @@ class LowState:
     @classmethod
     def decode(cls, data: bytes) -> LowState:
         buf = _payload(data, STATE_SIZE, "LowState_")
-        rec = buf[_STATE_MOTORS].view(_STATE_REC)
-        mode = rec["mode"].copy()
-        mode[0] = buf[70]
+        motors = cls.motor_states_of(buf[_STATE_MOTORS].view(MOTOR_STATE))
+        motors[0][0] = buf[70]  # motor 0's mode byte, after the IMU's temperature
         imu = buf[16:68].view("<f4").astype(np.float32)
         return cls(buf[0:8].view("<u4").copy(), int(buf[8]), int(buf[9]), int(buf[12:16].view("<u4")[0]),
-                   imu[0:4], imu[4:7], imu[7:10], imu[10:13], int(buf[68:70].view("<i2")[0]), mode,
-                   *(rec[n].copy() for n in cls._MOTOR_FIELDS), buf[2028:2068].copy(),
+                   imu[0:4], imu[4:7], imu[7:10], imu[10:13], int(buf[68:70].view("<i2")[0]), *motors,
+                   buf[2028:2068].copy(),
                    buf[2068:2084].view("<u4").copy(), int(buf[2084:2088].view("<u4")[0]))
 
 

@@ -13,6 +13,7 @@ import pytest
 from rio import clock
 from rio.errors import InvalidRequest
 from rio.interfaces import JOINT, ArmNode, GripperNode, HandNode, HumanoidNode, JointNode
+from rio.interfaces.damping import STALE_COMMANDS
 from rio.node import Node
 from rio.testing import lifecycle, wait_until
 
@@ -28,6 +29,7 @@ from .driver_base import (
     SI,
     STEP,
     WATCHDOG,
+    WATCHDOG_DAMPS,
     DriverConformance,
     KeySpec,
     far_target,
@@ -56,6 +58,9 @@ class _CommandableConformance(DriverConformance):
     move_distance: ClassVar[float] = 1.0
     #: Time the emulator may take to settle on a goal (s).
     settle_s: ClassVar[float] = 0.3
+    #: What the watchdog case expects of a silent stream: "hold" (the kind's stiff hold), "damp" (the
+    #: driver's stale_commands fault, `rio.interfaces.damping`), or None: ask the driver (`damps_on_stale`).
+    on_stale: ClassVar[str | None] = None
 
     # -- kind accessors ------------------------------------------------------------------------------
     def measure(self, sample: Mapping[str, Any]) -> np.ndarray:
@@ -88,6 +93,13 @@ class _CommandableConformance(DriverConformance):
 
     def _label(self, i: int) -> str:
         return f"{self.what} {i}" if self.what == "joint" else self.what
+
+    def damps_on_stale(self, node: Any) -> bool:
+        """Whether the node under test damps a silent stream instead of holding it (`on_stale`, else the
+        driver's `damps_on_stale`, which `rio.interfaces.DampingSafety` drivers have)."""
+        if self.on_stale is not None:
+            return self.on_stale == "damp"
+        return bool(getattr(node, "damps_on_stale", False))
 
     def request_keys(self, node: Node) -> KeySpec:
         return {"t_cmd_target": ((), FLOAT)}
@@ -188,6 +200,9 @@ class _CommandableConformance(DriverConformance):
             s = loop.tick()
             if s is not None and clock.now() - t_last < 0.5 * watchdog:
                 expect(not s["holding"], self.kind, WATCHDOG, "`holding` was true right after a fresh command")
+            if self.damps_on_stale(node):
+                self._check_damped(node, loop, t_last, q0, target, j)
+                return
             loop.run(until=lambda s: clock.now() - t_last > watchdog + 0.1, timeout=watchdog + 5.0)
             loop.run(seconds=self.settle_s)
             s = loop.last
@@ -214,6 +229,54 @@ class _CommandableConformance(DriverConformance):
             expect(spread[k] <= self.tracking_tol, self.kind, WATCHDOG,
                    f"{self._label(k)}: measured moved {spread[k]:.4f} {self.unit} while the goal was held "
                    f"(tracking_tol {self.tracking_tol})")
+
+    def _check_damped(self, node: Any, loop: Loop, t_last: float, q0: np.ndarray, target: np.ndarray,
+                      j: int) -> None:
+        """The watchdog case of a driver that damps: it stops itself (disabled, its stale_commands fault),
+        never before watchdog_s, is driven no more, refuses commands, and clear_faults() holds where it is."""
+        watchdog = float(node.config.watchdog_s)
+        s = loop.run(until=lambda s: not s["enabled"], timeout=watchdog + 5.0)
+        waited = clock.now() - t_last
+        expect(s is not None and not s["enabled"], self.kind, WATCHDOG_DAMPS,
+               f"still enabled {waited:.2f} s after the last command (watchdog_s {watchdog})")
+        expect(waited >= watchdog, self.kind, WATCHDOG_DAMPS,
+               f"stopped {waited:.2f} s after the last command, before watchdog_s {watchdog} had passed")
+        held = loop.goals[-1] if loop.goals else q0
+        expect(abs(target[j] - held[j]) >= 0.5 * abs(target[j] - q0[j]), self.kind, WATCHDOG_DAMPS,
+               f"{self._label(j)}: the goal went to {held[j]:.4f} {self.unit}, most of the way to a target "
+               f"{target[j]:.4f} due in 20 s, instead of stopping {watchdog} s after the stream went silent")
+        s = loop.run(cycles=2)  # the sample of the cycle that faulted may predate the fault
+        if s is None:
+            violated(self.kind, WATCHDOG_DAMPS, f"no sample in {loop.ticks} ticks after the stop")
+        expect(s.get("fault_code", STALE_COMMANDS) == STALE_COMMANDS and s["holding"], self.kind, WATCHDOG_DAMPS,
+               f"after the stop a sample has fault_code={s.get('fault_code')}, holding={s['holding']} (expected "
+               f"{STALE_COMMANDS}, stale_commands, and holding)")
+        n0 = len(loop.writes)
+        s = loop.run(cycles=5) or s
+        expect(len(loop.writes) == n0, self.kind, WATCHDOG_DAMPS,
+               f"{len(loop.writes) - n0} goals written to the driver in 5 cycles after it damped")
+        try:
+            self.command(node, target, clock.now() + 1.0)
+        except InvalidRequest as e:
+            expect(e.node == node.name, self.kind, WATCHDOG_DAMPS,
+                   f"the InvalidRequest names node '{e.node}', not '{node.name}': {e}")
+        else:
+            violated(self.kind, WATCHDOG_DAMPS, "a command after the stop was accepted (it must be refused, "
+                                                "naming the fault, until clear_faults())")
+        q_off = self.measure(s)
+        expect(hasattr(node, "clear_faults"), self.kind, WATCHDOG_DAMPS,
+               "the node has no clear_faults(): a driver that damps holds its fault (rio.interfaces.FaultHolding)")
+        node.clear_faults()
+        n0 = len(loop.writes)
+        s = loop.run(cycles=5)
+        goals = loop.goals[n0:]
+        expect(goals and s is not None and s["enabled"], self.kind, WATCHDOG_DAMPS,
+               f"clear_faults() did not enable the node again ({len(goals)} goals written in 5 cycles)")
+        d = np.abs(goals[0] - q_off)
+        k = int(np.argmax(d))
+        expect(d[k] <= self.tracking_tol, self.kind, WATCHDOG_DAMPS,
+               f"{self._label(k)}: after clear_faults() the goal written was {goals[0][k]:.4f} {self.unit}; the "
+               f"device was at {q_off[k]:.4f} (tracking_tol {self.tracking_tol})")
 
     def test_disabled_refuses_commands_and_enable_holds_the_pose(self, driver_under_test, driver_fields):
         node = self.make(driver_under_test, driver_fields)

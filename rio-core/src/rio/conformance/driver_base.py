@@ -44,6 +44,8 @@ SI = "values are in SI units (m, rad, s)"
 CLIP = "limit clipping: a target beyond a limit ends at the limit, never beyond"
 STEP = "maximum step: the goal moves at most max_step per cycle"
 WATCHDOG = "watchdog hold: a stream that goes silent mid-move is held where it is"
+WATCHDOG_DAMPS = ("watchdog damping: a driver that damps a silent stream (on_stale = 'damp') stops it with its "
+                  "stale_commands fault, disabled, once watchdog_s has passed, and clear_faults() holds where it is")
 DISABLED = "a disabled device refuses commands and is not driven"
 ENABLE = "enable holds the present pose (nothing moves until the next command)"
 FOLLOWS = "NaN for unmeasured values: a finite eef_pose follows the joints"

@@ -13,6 +13,8 @@
                 yield {"port": emu.port}
 
         bad_config = {"port": "/dev/nope"}   # optional: a config whose open() must fail
+        on_stale = "damp"                    # optional: what a silent stream gets, "hold" or "damp"
+                                             # (default: the driver's `damps_on_stale`, else "hold")
 
 Base classes (none named `Test*`, so importing one collects nothing): `ArmConformance`,
 `GripperConformance`, `HandConformance`, `HumanoidConformance`, `CameraConformance`,

@@ -22,12 +22,16 @@ at which the target should be reached; None means "as soon as possible" (sent as
 | camera   | rgb (H,W,3) uint8, intrinsics (3,3); depth (H,W) uint16, depth_scale m | - |
 | teleop   | twist (6: m/s, rad/s), gripper (0 closed .. 1 open), buttons (n)     | - |
 
+A humanoid or hand on its low-level topics stops itself soft (kp = 0) when its state goes silent, it
+falls or its stream of commands stops: `rio.interfaces.damping`.
+
 Every sample also carries `timestamp` (added by the runtime). A value a driver cannot measure is
 published as NaN, never as a made-up number.
 """
 
 from .arm import EEF, IDENTITY_POSE, JOINT, ArmNode
 from .camera import CameraNode
+from .damping import BodyDampingConfig, DampingConfig, DampingSafety
 from .faults import FAULT_KEYS, Fault, FaultHolding
 from .grabber import CameraError, Grabber, GrabbingCamera, SourceFinished, SourceLost
 from .gripper import GripperNode
@@ -38,4 +42,5 @@ from .teleop import TeleopNode
 
 __all__ = ["ArmNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "JointNode",
            "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolding", "FAULT_KEYS", "ModelTableArm",
-           "Grabber", "GrabbingCamera", "CameraError", "SourceLost", "SourceFinished"]
+           "Grabber", "GrabbingCamera", "CameraError", "SourceLost", "SourceFinished", "DampingSafety",
+           "DampingConfig", "BodyDampingConfig"]

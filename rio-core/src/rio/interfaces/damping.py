@@ -1,0 +1,173 @@
+"""Damping safety: the stops a low-level humanoid (or hand) driver makes by itself, leaving the device soft.
+
+A humanoid on its low-level topics obeys whatever it last received and reports no faults a driver could
+act on, so the driver stops it itself, each time with a named fault (`rio.interfaces.Fault`) held until
+`clear_faults()`, which refuses while the cause lasts:
+
+| code | name (the driver's)  | when                                                                |
+|------|----------------------|---------------------------------------------------------------------|
+| 1    | e.g. lowstate_timeout | no state from the device for `state_timeout_s` (a cable, a reboot) |
+| 2    | fall                 | the base tilted beyond `fall_tilt_deg` from upright (humanoids)      |
+| 3    | stale_commands       | a stream of commands stopped (the kind's watchdog) with `on_stale = "damp"` |
+
+Why damping and not the kind's usual hold: a stiff hold of the last pose of a body that is falling, or
+that a crashed policy left mid-step, fights the fall and the people catching it; kp = 0 with some
+damping lets it go down slowly. `on_stale = "hold"` keeps the kind's stiff hold for a stale stream.
+
+A driver mixes `DampingSafety` in ahead of its kind (`class G1(DampingSafety, HumanoidNode)`) and
+`DampingConfig` (or `BodyDampingConfig`, which adds the fall limit) into its `Config`, sets `t_state`
+(`rio.clock.now()`) whenever a state arrives, calls `watch_safety()` in `read_joints()` once it has read
+the state, and calls `check_device_fault()` in `set_enabled(True)`. What is the vendor's stays in its hooks:
+
+- `state_lost(age)`: its named fault for the silence (`state_lost(...)` below, with its topic and address);
+- `tilt_deg()`: its base's tilt from its IMU (`tilt_from_quat` or `tilt_from_rpy`), None without one;
+- `send_damping()`: its soft command, sent every cycle the node is disabled or faulted;
+- its own mode changes (asking the robot for its damping mode) in `set_enabled(False)` / `on_fault()`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field
+
+from .. import clock
+from ..config import Config
+from ..control.rotations import quat_to_matrix
+from .faults import Fault, FaultHolding
+
+#: `fault_code` of each stop (the same on every driver, so a script can match them across vendors).
+STATE_LOST, FALL, STALE_COMMANDS = 1, 2, 3
+
+OnStale = Literal["damp", "hold"]
+
+
+# -- the faults ---------------------------------------------------------------------------------------------
+def state_lost(name: str, topic: str, seconds: float, where: str, check: str) -> Fault:
+    """No `topic` for `seconds` on `where` ("interface 'eth0' (DDS domain 0)"); `check`: what to look at
+    first ("check the cable, ..."), before `clear_faults()`."""
+    return Fault(STATE_LOST, name, f"no {topic} for {seconds:.2f} s on {where}",
+                 f"{check}; clear_faults() once it publishes again")
+
+
+def fall(tilt_deg: float, limit_deg: float, body: str) -> Fault:
+    """`body` ("pelvis", "trunk": where the IMU sits) tilted `tilt_deg` from upright, beyond `limit_deg`."""
+    return Fault(FALL, "fall", f"the {body} is tilted {tilt_deg:.0f} deg from upright (fall_tilt_deg "
+                               f"{limit_deg:.0f}): damping",
+                 "hang or stand the robot upright, then clear_faults()")
+
+
+def stale_commands(watchdog_s: float, device: str = "robot") -> Fault:
+    return Fault(STALE_COMMANDS, "stale_commands",
+                 f"the stream of commands stopped for more than watchdog_s ({watchdog_s} s): damping",
+                 f"clear_faults() or enable() holds where the {device} is; then command again")
+
+
+# -- tilt from an IMU ---------------------------------------------------------------------------------------
+def tilt_from_quat(quat_wxyz: Any) -> float:
+    """Angle (deg) between the body's up axis and the world's, from the IMU's orientation [w, x, y, z]
+    (any norm): yaw never counts. NaN for a quaternion an IMU could not have meant (zero, NaN)."""
+    q = np.asarray(quat_wxyz, dtype=np.float64)
+    n = float(q @ q)
+    if not math.isfinite(n) or n < 1e-9:
+        return math.nan
+    up_z = float(quat_to_matrix(q)[2, 2])  # z of the body's z axis in the world frame
+    return math.degrees(math.acos(max(-1.0, min(1.0, up_z))))
+
+
+def tilt_from_rpy(rpy: Any) -> float:
+    """The same from roll, pitch, yaw (rad; fixed-axis x-y-z, `rio.control.rotations.euler_to_quat`'s),
+    as IMUs that report Euler angles give them: the body's up axis has world z = cos(roll) cos(pitch)."""
+    r, p = float(rpy[0]), float(rpy[1])
+    if not (math.isfinite(r) and math.isfinite(p)):
+        return math.nan
+    return math.degrees(math.acos(max(-1.0, min(1.0, math.cos(r) * math.cos(p)))))
+
+
+# -- config -------------------------------------------------------------------------------------------------
+class DampingConfig(Config):
+    """Station fields of a driver with damping safety (mixed into its Config)."""
+
+    state_timeout_s: float = Field(0.25, gt=0, description="fault (damping) when no state arrives from the "
+                                                           "device for this long (s)")
+    on_stale: OnStale = Field("damp", description='when a stream of commands stops (watchdog_s): "damp" (fault, '
+                                                  'kp = 0) or "hold" (keep the last goal stiff)')
+
+
+class BodyDampingConfig(DampingConfig):
+    """A humanoid's: damping safety plus the fall limit."""
+
+    fall_tilt_deg: float | None = Field(45.0, gt=0, le=180, description="fault (damping) when the base tilts "
+                                                                        "beyond this from upright; None: off")
+
+
+# -- the mixin ----------------------------------------------------------------------------------------------
+class DampingSafety(FaultHolding):
+    """Mixed in ahead of a joint kind: the three stops, and damping every cycle while disabled."""
+
+    config: Any
+    _commander: Any
+    #: `rio.clock.now()` of the last state the device sent (the driver sets it).
+    t_state: float = -math.inf
+    #: Where the IMU sits, as the fall fault names it.
+    body: str = "body"
+    #: What a cleared stale fault holds ("robot", "hand").
+    device_noun: str = "robot"
+    _holds_seen = 0
+
+    # -- driver hooks -----------------------------------------------------------------------------------
+    def state_lost(self, age: float) -> Fault:
+        """The driver's named fault for `age` seconds without a state (built with `state_lost(...)`)."""
+        raise NotImplementedError(f"{type(self).__name__} must define state_lost(age)")
+
+    def tilt_deg(self) -> float | None:
+        """The base's tilt from upright now (deg), or None: no IMU, or no state yet."""
+        return None
+
+    def send_damping(self) -> None:
+        """Send the device's soft command (kp = 0); called every cycle the node is disabled or faulted."""
+        raise NotImplementedError(f"{type(self).__name__} must define send_damping()")
+
+    # -- shared -------------------------------------------------------------------------------------------
+    @property
+    def damps_on_stale(self) -> bool:
+        """Whether a stream of commands that stops is damped (a fault) rather than held stiff."""
+        return bool(self.config.on_stale == "damp")
+
+    def device_fault(self) -> Fault | None:
+        """The conditions that hold now (a stale stream is not one: it ends when commands come again)."""
+        age = clock.now() - self.t_state
+        if age > self.config.state_timeout_s:
+            return self.state_lost(age)
+        tilt = self.tilt_deg()
+        if tilt is not None and self.config.fall_tilt_deg is not None and tilt > self.config.fall_tilt_deg:
+            return fall(tilt, self.config.fall_tilt_deg, self.body)
+        return None
+
+    def check_device_fault(self) -> None:
+        """Before enabling: refused while a cause lasts; a stream that went stale before now is forgotten."""
+        super().check_device_fault()
+        if self._commander is not None:
+            self._holds_seen = self._commander.watchdog_holds
+
+    def watch_safety(self) -> None:
+        """The driver's own stops, once per cycle after reading the state: the device's silence, a fall,
+        a stream of commands that stopped (the kind's watchdog held it) while `on_stale = "damp"`."""
+        if self.fault is not None and self.fault.code != STALE_COMMANDS:
+            return
+        fault = self.device_fault()
+        holds = self._commander.watchdog_holds if self._commander is not None else self._holds_seen
+        if fault is None and holds > self._holds_seen:
+            self._holds_seen = holds
+            if self.damps_on_stale and self.enabled:
+                fault = stale_commands(self.config.watchdog_s, self.device_noun)
+        if fault is not None:
+            self.on_fault(fault)
+
+    def read_state(self) -> dict[str, Any]:
+        sample: dict[str, Any] = super().read_state()  # type: ignore[misc]  # the kind's
+        if not self.enabled:
+            self.send_damping()
+        return sample
