@@ -15,27 +15,8 @@ pytest.importorskip("onnxruntime")
 onnx = pytest.importorskip("onnx")
 from onnx import TensorProto, helper, numpy_helper  # noqa: E402
 from rio_policies.locomotion import G1_DEFAULT_POSE, G1_JOINTS, LocomotionPolicy, projected_gravity  # noqa: E402
-
-N_OBS = 47  # unitree_rl_gym's G1: 3 + 3 + 3 + 12 + 12 + 12 + 2
-
-
-def save(graph, path) -> str:
-    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
-    model.ir_version = 8
-    onnx.checker.check_model(model)
-    onnx.save(model, str(path))
-    return str(path)
-
-
-def echo_model(path, picks: list[int], gain: float = 1.0, n_in: int = N_OBS) -> str:
-    """actions[k] = gain * obs[picks[k]] (a zero model when gain is 0)."""
-    w = np.zeros((len(picks), n_in), np.float32)
-    w[np.arange(len(picks)), picks] = gain
-    graph = helper.make_graph([helper.make_node("Gemm", ["obs", "W"], ["actions"], transB=1)], "loco",
-                              [helper.make_tensor_value_info("obs", TensorProto.FLOAT, [1, n_in])],
-                              [helper.make_tensor_value_info("actions", TensorProto.FLOAT, [1, len(picks)])],
-                              [numpy_helper.from_array(w, "W")])
-    return save(graph, path)
+from rio_policies.testing import G1_STANDING as STANDING  # noqa: E402
+from rio_policies.testing import N_OBS, echo_model, save  # noqa: E402
 
 
 def quat(axis, angle) -> np.ndarray:
@@ -140,11 +121,6 @@ def test_recurrent_state_and_start_ramp(tmp_path):
     pol.reset()
     pol.config.ramp_s = 0.0
     np.testing.assert_allclose(pol(obs, None, t_obs=20.0).actions[0][:12], default[:12] + 1.0, rtol=1e-6)
-
-
-#: A pose the free G1 holds by itself with sim-g1-floating's gains: feet flat, centre of mass over the ankles.
-STANDING = {f"{s}_{j}_joint": v for s in ("left", "right") for j, v in (("hip_pitch", -0.17), ("knee", 0.3),
-                                                                         ("ankle_pitch", -0.13))}
 
 
 def test_deploy_on_the_free_floating_g1_stands_for_10_s(tmp_path):

@@ -26,6 +26,10 @@ dof_vel 0.05, commands [lin_vel 2.0, lin_vel 2.0, ang_vel 0.25], clip 100), the 
 `deploy/deploy_mujoco/deploy_mujoco.py` assembles them (47 = 3 + 3 + 3 + 12 + 12 + 12 + 2). Base linear
 velocity (legged_gym's quadrupeds' first term) is not measured by an IMU and is not offered.
 
+The command is `command` (constant), or with `command_from = "teleop"` the station's teleop device's
+twist (linear x, y and angular z, times `twist_gain`, zeroed within `deadband`, clipped to +-`command_max`:
+`rio_policies.velocity_command`), read at each policy step.
+
 Recurrent actors (unitree_rl_gym's G1 is an LSTM): a model with more than one input treats inputs 2..k as
 its state, fed back from outputs 2..k of the previous step (zeros after reset).
 """
@@ -75,6 +79,16 @@ class LocomotionPolicy(Policy):
         path: str = Field(description="the .onnx file (input: the observation [1, N]; first output: [1, n] actions)")
         command: list[float] = Field([0.0, 0.0, 0.0], min_length=3, max_length=3,
                                      description="constant velocity command [vx m/s, vy m/s, wz rad/s], base frame")
+        command_from: str | None = Field(None, description='a station teleop role ("teleop", "teleop2"): the command '
+                                                           "is that device's twist instead of `command`")
+        twist_gain: list[float] = Field([1.0, 1.0, 1.0], min_length=3, max_length=3,
+                                        description="command per unit of the device's linear x, y (m/s) and angular "
+                                                    "z (rad/s)")
+        deadband: list[float] = Field([0.05, 0.05, 0.05], min_length=3, max_length=3,
+                                      description="command components smaller than this are 0 (m/s, m/s, rad/s)")
+        command_max: list[float] = Field([1.0, 0.5, 1.0], min_length=3, max_length=3,
+                                         description="the command is clipped to +- this (m/s, m/s, rad/s)")
+        command_timeout_s: float = Field(0.5, gt=0, description="a device silent this long commands standing still")
         joints: list[str] = Field(list(G1_LEGS), min_length=1,
                                   description="the joints the model drives, in its output (and observation) order; "
                                               "default: the G1's 12 leg joints")
@@ -115,6 +129,7 @@ class LocomotionPolicy(Policy):
         self.last = np.zeros(len(self.config.joints))
         self.held: np.ndarray | None = None
         self.state: dict[str, np.ndarray] = {}
+        self.device: Any = None  # rio_policies.velocity_command.DeviceCommand with command_from
 
     # -- loading ------------------------------------------------------------------------------------
     def load(self, layout: Any) -> None:
@@ -136,6 +151,11 @@ class LocomotionPolicy(Policy):
         self.default_body = np.array([c.default_pose.get(j, 0.0) for j in body])
         self.default = self.default_body[self.idx]
         self.nbody = nbody
+        if c.command_from is not None:
+            from .velocity_command import DeviceCommand
+
+            self.device = DeviceCommand(layout, c.command_from, c.twist_gain, c.deadband, c.command_max,
+                                        c.command_timeout_s)
         opts = ort.SessionOptions()
         opts.intra_op_num_threads = c.threads
         self.session = ort.InferenceSession(c.path, opts, providers=["CPUExecutionProvider"])
@@ -154,6 +174,15 @@ class LocomotionPolicy(Policy):
         if oshape and isinstance(oshape[-1], int) and oshape[-1] != len(c.joints):
             raise ValueError(f"{c.path} outputs {oshape[-1]} actions; joints names {len(c.joints)}")
         self.reset()
+
+    def close(self) -> None:
+        if self.device is not None:
+            self.device.close()
+            self.device = None
+
+    def command(self) -> np.ndarray:
+        """The velocity command [vx, vy, wz] of this step (unscaled)."""
+        return self.device() if self.device is not None else np.asarray(self.config.command, dtype=np.float64)
 
     def obs_size(self) -> int:
         n = len(self.config.joints)
@@ -211,7 +240,7 @@ class LocomotionPolicy(Policy):
             elif term == "gravity":
                 parts.append(projected_gravity(obs.base_quat))
             elif term == "command":
-                parts.append(np.asarray(c.command) * np.asarray(c.command_scale))
+                parts.append(self.command() * np.asarray(c.command_scale))
             elif term == "joint_pos":
                 parts.append((q - self.default) * c.dof_pos_scale)
             elif term == "joint_vel":

@@ -45,6 +45,25 @@ def bridge(
             "--free", help="pelvis free on a floor instead of welded (it will fall: there is no balance controller)"
         ),
     ] = False,
+    gantry: Annotated[
+        bool,
+        typer.Option(
+            "--gantry",
+            help="free pelvis held up by a gantry until released (Enter, or --release-after), then lowered onto "
+            "its feet (implies --free)",
+        ),
+    ] = False,
+    release_after: Annotated[
+        float | None,
+        typer.Option(
+            "--release-after",
+            callback=non_negative,
+            help="with --gantry: lower it this many seconds after the legs are first commanded stiff on rt/lowcmd",
+        ),
+    ] = None,
+    lower_s: Annotated[
+        float, typer.Option("--lower-s", callback=positive, help="with --gantry: seconds lowering takes")
+    ] = 2.0,
     state_rate_hz: Annotated[
         float, typer.Option("--state-rate-hz", callback=positive, help="rt/lowstate rate")
     ] = 500.0,
@@ -53,13 +72,19 @@ def bridge(
     ] = None,
 ) -> None:
     """Simulate a G1 behind rt/lowstate, rt/lowcmd and rt/arm_sdk until Ctrl-C; point a driver (or
-    Unitree's SDK examples) at --interface and --domain-id."""
+    Unitree's SDK examples) at --interface and --domain-id. With --gantry the free G1 hangs, as a real one
+    is brought up on its hoist, until you press Enter (or --release-after passes once its legs are held)."""
     from .bridge import Bridge
 
     if threading.current_thread() is threading.main_thread():  # `kill` stops it as Ctrl-C does
         signal.signal(signal.SIGTERM, _interrupt)
+    if release_after is not None and not gantry:
+        typer.echo("error: --release-after releases the gantry: add --gantry", err=True)
+        raise typer.Exit(1)
+    free = free or gantry
     try:
-        b = Bridge(domain_id=domain_id, interface=interface, model=model, mounted=not free, state_rate_hz=state_rate_hz)
+        b = Bridge(domain_id=domain_id, interface=interface, model=model, mounted=not free, state_rate_hz=state_rate_hz,
+                   gantry=gantry, release_after_s=release_after, lower_s=lower_s)
     except (ValueError, OSError) as e:
         typer.echo(f"error: {e}", err=True)
         raise typer.Exit(1) from None
@@ -67,13 +92,25 @@ def bridge(
         hands = f", hands {' and '.join(sorted(b.sim.hands))}" if b.sim.hands else ""
         typer.echo(
             f"G1 bridge on {interface}, DDS domain {domain_id}: model {b.sim.source}{hands}, "
-            f"{'free' if free else 'mounted'}, {1 / b.dt:.0f} Hz; Ctrl-C to stop",
+            f"{'on its gantry' if gantry else 'free' if free else 'mounted'}, {1 / b.dt:.0f} Hz; Ctrl-C to stop",
             err=True,
         )
+        enter = gantry and sys.stdin.isatty()
+        if gantry:
+            when = [f"{release_after:g} s after its legs are held stiff on rt/lowcmd"] if release_after is not None \
+                else []
+            when += ["when you press Enter"] if enter else []
+            typer.echo(f"the gantry holds it; it is lowered onto its feet over {lower_s:g} s "
+                       + (" or ".join(when) or "never (no terminal, no --release-after)"), err=True)
         t_end = None if seconds is None else time.monotonic() + seconds
         try:
             while t_end is None or time.monotonic() < t_end:
-                time.sleep(0.1)
+                if enter and _enter_pressed(0.1):
+                    b.release_gantry()
+                    enter = False
+                    typer.echo("lowering the gantry", err=True)
+                else:
+                    time.sleep(0.1)
                 if not b.running:
                     typer.echo("error: the bridge stopped (see the log above)", err=True)
                     raise typer.Exit(1)
@@ -85,6 +122,16 @@ def bridge(
         f"received, {c.bad_crc} with a bad CRC ignored",
         err=True,
     )
+
+
+def _enter_pressed(timeout: float) -> bool:
+    """Whether a line was typed at the terminal within `timeout` s (the line is consumed)."""
+    import select
+
+    ready, _, _ = select.select([sys.stdin], [], [], timeout)
+    if ready:
+        sys.stdin.readline()
+    return bool(ready)
 
 
 @app.command()

@@ -31,7 +31,8 @@ def rio_drivers() -> list[Spec]:
 _STATIONS = {
     "g1-bridge": "Unitree G1 (whole body, rt/lowcmd) against the MuJoCo DDS bridge on loopback (no robot)",
     "g1-bridge-hands": "Unitree G1 and its two Dex3-1 hands against the MuJoCo DDS bridge on loopback (needs rio-sim)",
-    "g1-bridge-floating": "Unitree G1 against the MuJoCo DDS bridge, pelvis free on a floor (no robot)",
+    "g1-bridge-floating": "Unitree G1, free base held by a gantry until lowered, against the MuJoCo DDS bridge "
+                          "(locomotion policies; no robot)",
     "g1": "Unitree G1: arms and waist over rt/arm_sdk while Unitree's locomotion stands it (edit the interface)",
 }
 
@@ -40,7 +41,7 @@ _STATIONS = {
 def rio_stations() -> list[Spec]:
     here = Path(__file__).parent / "stations"
     return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()
-            if (here / f"{name}.toml").is_file()]  # g1-bridge-floating: listed once its file is there
+            if (here / f"{name}.toml").is_file()]
 
 
 @hookimpl

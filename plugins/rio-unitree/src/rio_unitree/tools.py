@@ -13,9 +13,9 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from rio.interfaces.damping import tilt_from_quat
 
 from .dds import LOWCMD, LOWSTATE, Participant, interfaces
-from rio.interfaces.damping import tilt_from_quat
 from .g1 import HOME, JOINTS, NUM_SLOTS, joint_names
 from .wire import LowState, state_crc_ok
 
@@ -78,7 +78,8 @@ def check(interface: str, domain_id: int = 0, timeout_s: float = 3.0) -> CheckRe
     r.lines += [f"rt/lowstate: {good} messages ({rate:.0f} Hz), {bad} with a bad CRC",
                 f"mode_machine {s.mode_machine}, mode_pr {s.mode_pr}, tick {s.tick}",
                 f"joints reporting: {len(live)} of {len(JOINTS)}",
-                f"IMU: quaternion {np.round(s.quaternion, 3).tolist()}, tilt {tilt_from_quat(s.quaternion):.1f} deg, gyro "
+                f"IMU: quaternion {np.round(s.quaternion, 3).tolist()}, "
+                f"tilt {tilt_from_quat(s.quaternion):.1f} deg, gyro "
                 f"{np.round(s.gyroscope, 3).tolist()} rad/s"]
     r.ok = True
     return r

@@ -76,6 +76,20 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
                         registry=registry, log=log)
 
 
+def _device_rings(session: Any) -> dict[str, dict[str, Any]]:
+    """Ring references of the station's teleop devices, for a policy commanded by one (`ObsLayout.inputs`);
+    a device whose middleware does not share rings has none."""
+    from ..station.roles import kind_of
+
+    out = {}
+    for role in sorted(session.clients):
+        if kind_of(role) == "teleop":
+            ref = getattr(session.stack.enter_context(session.clients[role]()), "ring_ref", None)
+            if ref is not None:
+                out[role] = ref
+    return out
+
+
 class PolicyController:
     """Controller (rio.control.loop) over a running policy node: see the module docstring."""
 
@@ -94,7 +108,9 @@ class PolicyController:
         from ..manager import ServerManager, connect, serve
 
         env, mw, st = session.env, session.middleware, session.station
-        layout = ObsLayout.of(env.reset().observation).to_dict()
+        obs_layout = ObsLayout.of(env.reset().observation)
+        obs_layout.inputs = _device_rings(session)
+        layout = obs_layout.to_dict()
         session.log(f"loading policy '{policy}' ...")
         kwargs = {**policy_kwargs, "observation": layout}
         server = serve(node_cls, mw, name=POLICY_ROLE, **kwargs)

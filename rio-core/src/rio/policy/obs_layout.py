@@ -10,6 +10,11 @@ Camera frames travel one of two ways, fixed per camera when the layout is made:
 - by copy otherwise (network middlewares), or when asked (`copying()`, the policy node's `frames="copy"`):
   the frames are copied into the request as uint8 arrays.
 
+Inputs that are not observations (a teleop device's twist as a locomotion policy's velocity command)
+travel the camera-frame way: `inputs` names the rings of such station nodes (role -> `rio.ring_ref`
+reference, filled in by `rio deploy` for the station's teleop devices where the middleware shares rings),
+and a policy that wants one reads its newest sample in place (`rio.ring_ref.SharedRing`).
+
 `ObsLayout.of(observation)` reads the layout off a first observation (its class, every array or scalar
 field it fills, each camera's shapes and source), so one layout works for any embodiment. It is plain
 JSON, which is how it travels to the policy node's constructor (`observation=layout.to_dict()`).
@@ -43,6 +48,8 @@ class ObsLayout:
     #: `rio.ring_ref` reference when its frames go by reference.
     cameras: dict[str, dict[str, Any]] = field(default_factory=dict)
     instruction_bytes: int = 256
+    #: Station role -> ring reference of a node a policy may read in place (see the module docstring).
+    inputs: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     # -- building -----------------------------------------------------------------------------------
     @classmethod

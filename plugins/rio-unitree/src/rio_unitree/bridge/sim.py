@@ -25,6 +25,10 @@ And it answers Unitree's motion switcher RPC (`rt/api/motion_switcher/request`):
 `{"name": "ai", ...}` while the stand-in (its locomotion) holds the robot; ReleaseMode releases it (the
 stand-in goes soft: damping, as a released G1 does) and CheckMode says `{"name": ""}` from then on.
 
+With a free base (`mounted=False`) and `gantry=True`, a gantry holds the pelvis up from the start until
+it is released and lowered (`gantry.py`): `release_gantry()`, or `release_after_s` seconds after the legs
+are first commanded stiff on rt/lowcmd.
+
 A lagging machine slows the simulation instead of bursting steps to catch up.
 """
 
@@ -45,6 +49,7 @@ from ..dds import ARM_SDK, LOWCMD, LOWSTATE, MOTION_SWITCHER_REQUEST, MOTION_SWI
 from ..g1 import HOME, JOINTS, NUM_SLOTS, UPPER_BODY_SLOTS, WEIGHT_SLOT
 from ..hand_wire import HandCmd, HandState
 from ..wire import LowCmd, LowState, cmd_crc_ok
+from .gantry import Gantry
 from .model import G1Model, load
 
 log = logging.getLogger("rio_unitree.bridge")
@@ -69,14 +74,23 @@ class Counts:
 class Bridge:
     """`with Bridge(domain_id=..., interface="lo") as b:` runs it until the block ends (or `start()` /
     `stop()`). `model`: an MJCF path, "fallback", or None (rio-sim's G1 when installed, else the
-    fallback); `mounted`: pelvis welded to the world."""
+    fallback); `mounted`: pelvis welded to the world; `gantry` (free base only): held up until released
+    (`release_after_s` after the legs are first commanded stiff, or `release_gantry()`), then lowered
+    over `lower_s`."""
 
     def __init__(self, domain_id: int = 0, interface: str = "lo", model: str | Path | None = None,
                  mounted: bool = True, state_rate_hz: float = 500.0, mode_machine: int = 5,
                  stand_in: bool = True, start_pose: dict[str, float] | None = None,
-                 hand_state_rate_hz: float = 100.0):
+                 hand_state_rate_hz: float = 100.0, gantry: bool = False, release_after_s: float | None = None,
+                 lower_s: float = 2.0):
         self.domain_id, self.interface = domain_id, interface
+        if gantry and mounted:
+            raise ValueError("gantry: it holds a free-floating G1 (mounted = false); a mounted one is welded already")
+        if release_after_s is not None and not gantry:
+            raise ValueError("release_after_s releases the gantry: set gantry = true (and mounted = false)")
         self.sim: G1Model = load(model, mounted)
+        if gantry and not self.sim.free:
+            raise ValueError(f"gantry: {self.sim.source} has no free joint on its pelvis to hold")
         self.hand_state_period = 1.0 / hand_state_rate_hz
         self.hand_cmd: dict[str, HandCmd | None] = {side: None for side in self.sim.hands}
         self.released = False  # the motion switcher released the stand-in (its "locomotion")
@@ -90,6 +104,9 @@ class Bridge:
         self.dds: Participant | None = None
         n = len(self.sim.slots)
         pose = HOME if start_pose is None else start_pose
+        unknown = sorted(set(pose) - {j.name for j in JOINTS})
+        if unknown:
+            raise ValueError(f"start_pose: unknown G1 joints {unknown}")
         by_slot = {j.slot: j for j in JOINTS}
         self.start_q = np.array([pose.get(by_slot[s].name, 0.0) for s in self.sim.slots])
         kp, kd = zip(*(_stand_in_gains(by_slot[s].name) for s in self.sim.slots), strict=True)
@@ -99,6 +116,13 @@ class Bridge:
         self.tau = np.zeros(n)  # each motor's torque in the last step
         self._upper = np.array([s in UPPER_BODY_SLOTS for s in self.sim.slots])
         self._mode_pr = 0
+        self._legs = np.array([s < 12 for s in self.sim.slots])  # leg motors: slots 0-11
+        self.gantry: Gantry | None = None
+        if gantry:
+            m = self.sim.model
+            jnt = int(m.body_jntadr[self.sim.pelvis])
+            self.gantry = Gantry(m, self.sim.data, self.sim.pelvis, int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt]),
+                                 release_after_s=release_after_s, lower_s=lower_s)
         self.reset()
 
     # -- lifecycle ------------------------------------------------------------------------------------
@@ -151,6 +175,21 @@ class Bridge:
             mujoco.mj_resetData(m, d)
             d.qpos[self.sim.qpos] = self.start_q
             mujoco.mj_forward(m, d)
+            if self.gantry is not None:
+                self.gantry.engage()
+
+    def release_gantry(self) -> None:
+        """Lower the gantry now (over `lower_s`): the feet take the robot's weight."""
+        if self.gantry is None:
+            raise ValueError("this bridge has no gantry (gantry = true, with a free base)")
+        with self.lock:
+            self.gantry.release()
+
+    def base_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Ground truth: the pelvis' position (m, world) and orientation (quaternion wxyz)."""
+        with self.lock:
+            d = self.sim.data
+            return d.xpos[self.sim.pelvis].copy(), d.xquat[self.sim.pelvis].copy()
 
     def joint_pos(self) -> np.ndarray:
         """Ground truth, in motor-slot order of the model's joints."""
@@ -310,6 +349,10 @@ class Bridge:
         m.actuator_biasprm[sim.act, 2] = -kd
         for side, hand in sim.hands.items():
             self._drive_hand(hand, self.hand_cmd[side])
+        if self.gantry is not None:
+            if self.lowcmd is not None and np.all((kp > 0)[self._legs]):
+                self.gantry.legs_stiff()
+            self.gantry.apply()
         mujoco.mj_step(m, d)
         self.tau = d.actuator_force[sim.act].copy()
         self.counts.steps += 1
