@@ -213,3 +213,25 @@ def test_intrinsics_are_a_labelled_guess_unless_configured(webcam):
     calibrated = UvcCamera(width=640, height=480, fx=600, fy=601, cx=322, cy=241)
     np.testing.assert_allclose(calibrated.k, [[600, 0, 322], [0, 601, 241], [0, 0, 1]])
     assert calibrated.camera_info()["intrinsics"].startswith("calibration")
+
+
+def test_a_calibrated_lens_distortion_is_published_with_every_frame(webcam):
+    """A webcam calibrated with OpenCV (its K and [k1, k2, p1, p2, k3] in the station file) publishes the
+    distortion beside the intrinsics; an uncalibrated one publishes none (a pinhole camera); a bad model
+    or too many coefficients is a config error naming the field."""
+    from rio.schema import DISTORTION_MODELS
+
+    coeffs = [-0.28, 0.07, 0.001, -0.0005, 0.0]
+    with lifecycle(UvcCamera(device=0, width=64, height=48, fx=60, distortion_model="brown_conrady",
+                             distortion=coeffs)) as node:
+        s = next_sample(node)
+    assert DISTORTION_MODELS[int(s["distortion_model"])] == "brown_conrady"
+    np.testing.assert_array_equal(s["distortion"], coeffs)
+    with lifecycle(UvcCamera(device=0, width=64, height=48)) as node:
+        assert "distortion" not in next_sample(node)
+    with pytest.raises(ValidationError, match="unknown distortion model 'plumb'"):
+        UvcCamera(distortion_model="plumb")
+    with pytest.raises(ValidationError, match="at most 5 finite coefficients"):
+        UvcCamera(distortion_model="brown_conrady", distortion=[0.1] * 8)
+    with pytest.raises(ValidationError, match="name their model"):
+        UvcCamera(distortion=[0.1])

@@ -44,6 +44,10 @@ def test_three_cameras_record_and_export_to_lerobot_with_their_frames(tmp_path, 
         rec.keep()
     ep = Dataset(root).episode(0)
     assert set(ep.cameras) >= set(CAMERAS) and len(ep) == len(seen["wrist"]) > 10
+    for key in ("front.rgb", "front.depth", "side.rgb"):  # the lens as the SDK reported it, beside the intrinsics
+        info = ep.streams[key]
+        assert info["distortion_model"] == "inverse_brown_conrady" and info["distortion"] == [0.0] * 5, key
+        assert np.asarray(info["intrinsics"]).shape == (3, 3)
     out = tmp_path / "lerobot"
     get_format("lerobot", {"codec": "h264"}).export(Dataset(root), out)
     for cam in CAMERAS:

@@ -142,10 +142,29 @@ def test_never_publishes_a_frame_twice(serial):
 
 def test_colour_only(serial, collect):
     cam = software(serial)
-    assert set(cam.example_data) == {"rgb", "intrinsics", "frame_number", "t_frame", "frame_age", "timestamp"}
+    keys = {"rgb", "intrinsics", "distortion_model", "distortion", "frame_number", "t_frame", "frame_age", "timestamp"}
+    assert set(cam.example_data) == keys
     with lifecycle(cam):
         s = collect(cam, 2)[-1]
-    assert set(s) == {"rgb", "intrinsics", "frame_number", "t_frame", "timestamp", "frame_age"}
+    assert set(s) == keys
+
+
+def test_the_colour_lens_distortion_comes_from_the_sdk(serial, collect, monkeypatch):
+    """The colour stream's distortion model and coefficients, as the SDK's intrinsics report them (here
+    set on the software camera's profile), are published with every frame and reach `Camera.meta`."""
+    import dataclasses
+
+    from rio.schema import DISTORTION_MODELS, Camera
+
+    coeffs = (0.12, -0.25, 0.001, -0.002, 0.08)
+    monkeypatch.setitem(MODELS, "d400", dataclasses.replace(MODELS["d400"], color_distortion=("brown_conrady", coeffs)))
+    cam = software(serial, depth=True)
+    with lifecycle(cam):
+        s = collect(cam, 2)[-1]
+    assert DISTORTION_MODELS[int(s["distortion_model"])] == "brown_conrady"
+    np.testing.assert_allclose(s["distortion"], coeffs, rtol=1e-6)  # the SDK keeps them as float32
+    meta = Camera.from_sample({**s, "timestamp": s["timestamp"]}).meta
+    assert meta["distortion_model"] == "brown_conrady" and np.allclose(meta["distortion"], coeffs, rtol=1e-6)
 
 
 def test_settings_reach_the_sensor_options(serial):

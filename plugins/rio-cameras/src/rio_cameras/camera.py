@@ -42,6 +42,8 @@ class ThreadedCamera(GrabbingCamera, CameraNode):
         super().setup()
         self.example_data.update(timestamp=0.0, frame_age=0.0, frame_index=np.int64(0))
         self.grabber: Grabber | None = None
+        #: the lens distortion fields of a driver that declared them (`declare_distortion`), else none
+        self.distortion: dict[str, Any] = {}
 
     # -- what a driver writes ------------------------------------------------------------------------------
     def connect(self) -> Source:
@@ -88,7 +90,7 @@ class ThreadedCamera(GrabbingCamera, CameraNode):
             return None
         frame, index = got
         out: dict[str, Any] = {"rgb": frame.rgb, "intrinsics": frame.intrinsics, "timestamp": frame.t,
-                               "frame_age": clock.now() - frame.t, "frame_index": np.int64(index)}
+                               "frame_age": clock.now() - frame.t, "frame_index": np.int64(index), **self.distortion}
         if self.has_depth:
             out["depth"] = frame.depth
             out["depth_scale"] = float(frame.depth_scale)

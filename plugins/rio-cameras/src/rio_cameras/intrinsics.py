@@ -5,6 +5,11 @@ calibration (`fx, fy, cx, cy` in the station file, in pixels of the published wi
 pinhole *guess* from a horizontal field of view (`hfov_deg`, default 70 degrees, typical of USB webcams;
 look up your camera's data sheet). A guess keeps the contract's shape and is good enough for rough
 geometry; it is never presented as a calibration: `camera_info()` and the open log say which one is in use.
+
+A calibration may also give the lens distortion (`distortion_model`, e.g. "brown_conrady" for OpenCV's
+`calibrateCamera` [k1, k2, p1, p2, k3], and `distortion`): the camera then publishes it with every frame
+(`rio.interfaces.camera.distortion_fields`) and recordings keep it beside the intrinsics. Unset, the camera
+is a pinhole camera ("none") to its consumers.
 """
 
 from __future__ import annotations
@@ -12,8 +17,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 from rio.interfaces import CameraNode
+from rio.interfaces.camera import distortion_fields
 
 
 class IntrinsicsConfig(CameraNode.Config):
@@ -26,6 +32,17 @@ class IntrinsicsConfig(CameraNode.Config):
     cy: float | None = Field(None, description="principal point y (pixels); unset: the image centre")
     hfov_deg: float = Field(70.0, gt=1, lt=179, description="horizontal field of view for the pinhole GUESS "
                             "used when fx is unset (not a calibration)")
+    distortion_model: str = Field("none", description="lens distortion model of the calibration: none, "
+                                  "brown_conrady (OpenCV's k1 k2 p1 p2 k3), kannala_brandt4 (fisheye), ...")
+    distortion: list[float] = Field(default_factory=list, description="its coefficients (up to 5), e.g. "
+                                    "OpenCV's [k1, k2, p1, p2, k3]")
+
+    @model_validator(mode="after")
+    def _known_distortion(self) -> IntrinsicsConfig:
+        distortion_fields(self.distortion_model, self.distortion or None, camera="distortion_model / distortion")
+        if self.distortion_model == "none" and any(self.distortion):
+            raise ValueError("distortion coefficients given with distortion_model = 'none': name their model")
+        return self
 
 
 def pinhole(width: int, height: int, fx: float | None = None, fy: float | None = None, cx: float | None = None,

@@ -6,6 +6,8 @@ One driver for the D400 family (D405, D415, D435(i), D455) and, through the spec
 (the colour stream's, 3x3), with `depth = true` also `depth` (H, W) uint16 aligned to colour and
 `depth_scale` (m per unit, read from the depth sensor), plus
 
+- `distortion_model`, `distortion`: the colour stream's lens distortion as the SDK reports it (model and
+  5 coefficients: `rio.interfaces.camera.distortion_fields`), recorded beside the intrinsics;
 - `frame_number`: the camera's frame counter (restarts when the camera is replugged);
 - `t_frame`: when the camera took the frame, on the station clock (`rio_realsense.timebase`); it is
   also the sample's `timestamp`, so an observation's camera time is the picture's time, not the time
@@ -82,6 +84,7 @@ class RealSenseCamera(GrabbingCamera, CameraNode):
     def setup(self) -> None:
         super().setup()
         self.example_data.update(frame_number=np.int64(0), t_frame=0.0, frame_age=0.0, timestamp=0.0)
+        self.declare_distortion()  # the colour stream's, from the SDK's intrinsics
         self.grabber: Grabber | None = None
         self.stream: RealSenseStream | None = None
         self.serial = ""
@@ -155,7 +158,7 @@ class RealSenseCamera(GrabbingCamera, CameraNode):
         frame = got[0]
         out: dict[str, Any] = {"rgb": frame.rgb, "intrinsics": frame.intrinsics, "frame_number": np.int64(frame.number),
                                "t_frame": frame.t_frame, "timestamp": frame.t_frame,
-                               "frame_age": clock.now() - frame.t_frame}
+                               "frame_age": clock.now() - frame.t_frame, **frame.distortion}
         if self.has_depth:
             out["depth"] = frame.depth
             out["depth_scale"] = self.depth_scale

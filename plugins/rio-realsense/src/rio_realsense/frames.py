@@ -3,7 +3,8 @@ whichever source they came from (a camera's pipeline or the software camera's sy
 
 Per frameset: depth aligned to colour with `rs.align` (so depth pixel (v, u) is the distance along the
 colour camera's pixel (v, u)), copies of the pixel data (the SDK recycles its buffers), the colour
-stream's intrinsics as a 3x3 matrix, and the frame's camera timestamp mapped onto the station clock.
+stream's intrinsics as a 3x3 matrix with its lens distortion (model and coefficients, as the SDK reports
+them), and the frame's camera timestamp mapped onto the station clock.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from rio.interfaces.camera import distortion_fields
 
 from .errors import RealSenseError
 from .timebase import FrameClock
@@ -28,6 +30,8 @@ class Frame:
     t_frame: float
     t_arrival: float
     intrinsics: np.ndarray
+    #: the colour stream's lens distortion: `distortion_model` and `distortion` sample fields
+    distortion: dict[str, Any]
 
     @property
     def t(self) -> float:
@@ -38,6 +42,12 @@ class Frame:
 def intrinsics_matrix(intr: Any) -> np.ndarray:
     """The 3x3 pinhole matrix of an `rs.intrinsics` (fx, fy, ppx, ppy in pixels)."""
     return np.array([[intr.fx, 0.0, intr.ppx], [0.0, intr.fy, intr.ppy], [0.0, 0.0, 1.0]])
+
+
+def distortion_of(intr: Any, serial: str) -> dict[str, Any]:
+    """The distortion sample fields of an `rs.intrinsics` (its model, named as `rs.distortion` names it,
+    and its 5 coefficients)."""
+    return distortion_fields(intr.model.name, list(intr.coeffs), camera=f"RealSense {serial}")
 
 
 class FrameProcessor:
@@ -51,6 +61,7 @@ class FrameProcessor:
         self._align = rs.align(rs.stream.color) if depth else None
         self.clock = FrameClock(clock_window_s)
         self._k: np.ndarray | None = None
+        self._distortion: dict[str, Any] = {}
 
     def complete(self, frames: Any) -> bool:
         """Whether a frameset has every stream the node publishes (a syncer may hand over colour alone
@@ -70,6 +81,7 @@ class FrameProcessor:
         if self._align is not None:
             depth = np.array(frames.get_depth_frame().get_data(), dtype=np.uint16, copy=True)
         if self._k is None:
-            self._k = intrinsics_matrix(color.profile.as_video_stream_profile().get_intrinsics())
+            intr = color.profile.as_video_stream_profile().get_intrinsics()
+            self._k, self._distortion = intrinsics_matrix(intr), distortion_of(intr, self.serial)
         t_frame = self.clock.map(color.get_timestamp(), arrival, color.get_frame_timestamp_domain())
-        return Frame(rgb, depth, int(color.get_frame_number()), t_frame, arrival, self._k)
+        return Frame(rgb, depth, int(color.get_frame_number()), t_frame, arrival, self._k, self._distortion)

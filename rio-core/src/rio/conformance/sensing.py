@@ -11,6 +11,7 @@ import pytest
 
 from rio.interfaces import CameraNode, TeleopNode
 from rio.node import Node
+from rio.schema import DISTORTION_MODELS
 from rio.testing import lifecycle
 
 from .driver_base import (
@@ -62,6 +63,12 @@ class CameraConformance(DriverConformance):
             scale = float(sample["depth_scale"])
             expect(0.0 < scale <= 0.1, self.kind, SI,
                    f"sample {i}: depth_scale {scale} is not meters per depth unit in (0, 0.1]")
+        if "distortion" in node.example_data:  # declared (CameraNode.declare_distortion)
+            model, coeffs = sample.get("distortion_model"), np.asarray(sample.get("distortion"), dtype=np.float64)
+            expect(model is not None and 0 <= int(model) < len(DISTORTION_MODELS), self.kind, SI,
+                   f"sample {i}: distortion_model {model} is not an index into rio.schema.DISTORTION_MODELS")
+            expect(coeffs.shape == (5,) and bool(np.isfinite(coeffs).all()), self.kind, SI,
+                   f"sample {i}: distortion {fmt(coeffs)} is not 5 finite coefficients")
 
 
 class TeleopConformance(DriverConformance):

@@ -22,6 +22,9 @@ at which the target should be reached; None means "as soon as possible" (sent as
 | camera   | rgb (H,W,3) uint8, intrinsics (3,3); depth (H,W) uint16, depth_scale m | - |
 | teleop   | twist (6: m/s, rad/s), gripper (0 closed .. 1 open), buttons (n)     | - |
 
+A camera may also publish its lens distortion (`CameraNode.declare_distortion()`): `distortion_model`
+(index into `rio.schema.DISTORTION_MODELS`) and `distortion` (5 coefficients).
+
 A humanoid or hand on its low-level topics stops itself soft (kp = 0) when its state goes silent, it
 falls or its stream of commands stops: `rio.interfaces.damping`.
 

@@ -1,7 +1,9 @@
 """The camera contract: RGB (and optionally depth) frames at the camera's own rate.
 
 A driver's `read_state()` returns `rgb` (H, W, 3) uint8 and `intrinsics` (3x3, pixels); with depth also
-`depth` (H, W) uint16 and `depth_scale` (m per unit). Frames it could not grab are not published.
+`depth` (H, W) uint16 and `depth_scale` (m per unit). A driver that knows its lens distortion declares it
+(`declare_distortion`) and also returns `distortion_model` and `distortion` (`distortion_fields`). Frames it
+could not grab are not published.
 """
 
 from __future__ import annotations
@@ -11,9 +13,8 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from ..errors import FrameGone
 from ..node import Node, NodeConfig, client_side
-from ..schema import Camera, RingCamera
+from ..schema import DISTORTION_MODELS, Camera, RingCamera, camera_meta
 
 
 class CameraNode(Node):
@@ -38,20 +39,26 @@ class CameraNode(Node):
         until first read (`rio.schema.RingCamera`): what `Env` puts in each observation."""
         ring = self.ring_buffer
         s = ring.get(copy=False)  # checked views; only the small fields are copied now
-        ts = float(s["timestamp"])
-        meta: dict[str, Any] = {"timestamp": ts}
-        if "intrinsics" in s:
-            meta["intrinsics"] = np.array(s["intrinsics"])
-        name = self.name
+        return RingCamera(ring, self.name, camera_meta(s))
 
-        def load() -> Camera:
-            sample = ring.find(ts)
-            if sample is None:
-                raise FrameGone(name, ts, ring.capacity, "read an observation's pixels within that many frames, "
-                                "or copy the ones you keep")
-            return Camera.from_sample(sample)
+    def declare_distortion(self) -> None:
+        """For a driver that knows its lens distortion (call it in `setup`, after `super().setup()`): its
+        samples then carry `distortion_model` and `distortion` (`distortion_fields` makes them). Cameras
+        that do not declare it are pinhole cameras to their consumers ("none")."""
+        self.example_data.update(distortion_fields("none"))
 
-        return RingCamera(load, meta)
+
+def distortion_fields(model: str, coefficients: Any = None, camera: str = "camera") -> dict[str, Any]:
+    """A sample's lens distortion fields: `distortion_model` (the index of `model` in
+    `rio.schema.DISTORTION_MODELS`, the ring holding numbers only) and `distortion` (5,) float64 (zeros
+    when not given; fewer than 5 are padded with zeros). A bad model or coefficient names `camera`."""
+    if model not in DISTORTION_MODELS:
+        raise ValueError(f"{camera}: unknown distortion model '{model}'; one of {list(DISTORTION_MODELS)}")
+    k = np.zeros(5) if coefficients is None else np.asarray(coefficients, np.float64).ravel()
+    if k.size > 5 or not np.isfinite(k).all():
+        raise ValueError(f"{camera}: distortion needs at most 5 finite coefficients, got {k.tolist()}")
+    return {"distortion_model": np.uint8(DISTORTION_MODELS.index(model)),
+            "distortion": np.pad(k, (0, 5 - k.size))}
 
 
 CameraConfig = CameraNode.Config

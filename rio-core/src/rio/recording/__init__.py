@@ -12,10 +12,10 @@
 """
 
 from .dataset import DamagedEpisode, DamagedEpisodeWarning, Dataset, DatasetError, Episode
-from .recorder import DiskFull, Recorder, RecordingError
+from .recorder import DiskFull, Recorder, RecordingError, station_depth
 from .video import VideoOptions
 
-__all__ = ["Recorder", "RecordingError", "DiskFull", "Dataset", "DatasetError", "DamagedEpisode",
+__all__ = ["Recorder", "RecordingError", "DiskFull", "station_depth", "Dataset", "DatasetError", "DamagedEpisode",
            "DamagedEpisodeWarning", "Episode", "VideoOptions", "repair_dataset", "replay_episode", "DatasetFormat",
            "get_format", "export_dataset", "merge_datasets", "MergeError"]
 

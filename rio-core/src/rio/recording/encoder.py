@@ -59,13 +59,22 @@ class EncoderProcess:
         self.errors.pop(key, None)
         self._send(("open", key, str(path), kind, int(height), int(width), float(rate), options.to_json()))
 
-    def put(self, key: str, frame: np.ndarray) -> int | None:
-        """Copy a frame into the stream's ring; its slot, or None if the ring is full (dropped)."""
+    def reserve(self, key: str) -> tuple[int, np.ndarray] | None:
+        """A free slot of the stream's ring and its array, to fill in place and then `commit`; None if the
+        ring is full (the frame is dropped)."""
         self.poll()  # slots the encoder released since
-        return self.rings[key].try_put(frame)
+        ring = self.rings[key]
+        slot = ring.reserve()
+        return None if slot is None else (slot, ring.view(slot))
 
-    def encode(self, key: str, slot: int) -> None:
-        self._send(("frame", key, int(slot)))
+    def commit(self, key: str) -> None:
+        """The slot `reserve` gave is filled (not yet sent: `encode` it, now or once its stream is open)."""
+        self.rings[key].commit()
+
+    def encode(self, key: str, slot: int, depth_scale: float | None = None) -> None:
+        """Encode a committed slot. `depth_scale`: the slot holds depth in units of that many meters (as
+        the camera published it), not meters."""
+        self._send(("frame", key, int(slot), depth_scale))
 
     def close_streams(self, keys: list[str], timeout: float = 60.0) -> dict[str, dict]:
         token = next(self._tokens)

@@ -6,7 +6,8 @@ small commands over a pipe (frames themselves arrive through `FrameRing` shared 
 
     ("ring", key, shape, dtype, slots) + an fd    map a stream's frame ring
     ("open", key, path, kind, h, w, rate, opts)   start writing a stream to a file
-    ("frame", key, slot)                          encode that slot, then release it
+    ("frame", key, slot, depth_scale)             encode that slot, then release it (depth_scale: the
+                                                  slot's depth is in those units, None: in meters)
     ("close", token, keys)                        finish streams, fsync, reply ("closed", token, result)
     ("abort", token, keys)                        stop streams without caring, reply ("aborted", token)
     ("exit",)
@@ -73,12 +74,12 @@ def encoder_main(conn: Any, nice: int = 10) -> None:
             return
         op = msg[0]
         if op == "frame":
-            _, key, slot = msg
+            _, key, slot, depth_scale = msg
             ring = rings[key]
             w = writers.get(key)
             try:
                 if w is not None:
-                    w.write(ring.view(slot))
+                    w.write(ring.view(slot), depth_scale)
             except Exception as e:  # noqa: BLE001
                 report(key, f"encoding failed: {type(e).__name__}: {e}")
                 writers.pop(key, None)

@@ -1,8 +1,9 @@
 """Writes one episode into its `.partial` directory, then finishes it: fsync, rename, done.
 
 Used by `Recorder` (one at a time). Steps are appended as fixed-size records as they arrive; each
-new camera frame is copied into the encoder's shared-memory ring and logged (capture time, step)
-in its `*.frames.bin`. A camera's nominal rate is estimated from its first frames' timestamps
+new camera frame is copied once, from its camera node's ring straight into the encoder's shared-memory
+ring (depth as the camera's integers: the encoder converts if its unit differs), and logged (capture
+time, step) in its `*.frames.bin`. A camera's nominal rate is estimated from its first frames' timestamps
 (unless given), so a 30 fps camera in a 100 Hz loop is stored as 30 fps video, not 100.
 """
 
@@ -19,14 +20,34 @@ from typing import Any
 import numpy as np
 
 from .. import clock
+from ..errors import FrameGone
+from ..schema import depth_meters
 from . import paths as L
 from .durable import AppendFile, describe_files, fsync_dir, move_aside, write_json_atomic
 from .encoder import EncoderProcess
 from .flatten import StepSchema, flat_meta
-from .video import VideoOptions
+from .video import VideoOptions, depth_units
 
 FRAME_RECORD = np.dtype([("t", "<f8"), ("step", "<i8")])
 _RATE_SAMPLES = 4  # distinct frames used to estimate a camera's rate
+
+
+def fill_slot(dest: np.ndarray, frame: np.ndarray, depth_scale: float | None, unit_m: float) -> float | None:
+    """Copy one frame into an encoder ring slot (the one copy a recorded frame costs the control loop);
+    returns the depth_scale the encoder is to read the slot in (None: meters, or not depth).
+
+    A stream's ring holds what its first frame came as: a camera's depth in its own units (uint16, from
+    a camera node's ring: copied as it is, the encoder turns it into the stored units) or in meters (a
+    `Camera` made by hand). A later frame in the other form is converted on the way in (rare: its pixels
+    were taken out of the ring first), with the arithmetic the encoder uses, so what is stored is the same."""
+    if depth_scale is not None and dest.dtype.kind == "f":  # units into a meters ring
+        np.copyto(dest, depth_meters(frame, depth_scale))
+        return None
+    if depth_scale is None and dest.dtype.kind == "u" and frame.dtype.kind == "f":  # meters into a units ring
+        np.copyto(dest, depth_units(frame, unit_m))
+        return unit_m
+    np.copyto(dest, frame, casting="same_kind")
+    return depth_scale
 
 
 def estimate_rate(stamps: list[float], fallback: float) -> float:
@@ -52,9 +73,10 @@ class _Stream:
     dropped: int = 0
     last_ts: float | None = None
     opened: bool = False
-    pending: list[int] = field(default_factory=list)
+    pending: list[tuple[int, float | None]] = field(default_factory=list)  # (slot, depth_scale) until opened
     stamps: list[float] = field(default_factory=list)
     intrinsics: list | None = None
+    distortion: tuple[str, list] = ("none", [0.0] * 5)  # (model, coefficients) beside the intrinsics
 
 
 class EpisodeWriter:
@@ -126,44 +148,76 @@ class EpisodeWriter:
         assert self.schema is not None  # made by _start() at the first step
         for cam, kinds in self.schema.cameras.items():
             c = cams.get(cam)
+            ts = c.meta.get("timestamp") if c is not None and c.meta else None
+            ts = None if ts is None else float(ts)
+            new = []
             for kind in kinds:
-                col = f"cam.{cam}.{kind}"
-                arr = None if c is None else getattr(c, kind, None)
-                key = L.stream_key(cam, kind)
-                s = self.streams.get(key)
-                if c is None or arr is None:
-                    out[col] = -1 if s is None else s.count - 1
-                    continue
-                ts = c.meta.get("timestamp") if c.meta else None
-                ts = None if ts is None else float(ts)
-                if s is not None and ts is not None and s.count and ts == s.last_ts:
-                    out[col] = s.count - 1  # the same frame as last step: not encoded twice
-                    continue
-                if s is None:
-                    s = self._stream(cam, kind, arr, c)
-                if tuple(arr.shape) != s.shape:
-                    self._warn(f"{key}: frame shape changed from {s.shape} to {arr.shape}; frame dropped")
-                    s.dropped += 1
-                    out[col] = s.count - 1
-                    continue
-                slot = self.encoder.put(key, arr)
-                if slot is None:
-                    s.dropped += 1
-                    out[col] = s.count - 1
-                    continue
-                s.file.write(np.array((t if ts is None else ts, i), FRAME_RECORD).tobytes())
-                s.count += 1
-                s.last_ts = ts
-                if s.opened:
-                    self.encoder.encode(key, slot)
+                s = self.streams.get(L.stream_key(cam, kind))
+                if c is None or (s is not None and ts is not None and s.count and ts == s.last_ts):
+                    # no camera this step, or the same frame as last step: not encoded twice
+                    out[f"cam.{cam}.{kind}"] = -1 if s is None else s.count - 1
                 else:
-                    s.pending.append(slot)
-                    if ts is not None:
-                        s.stamps.append(ts)
-                    if ts is None or len(s.stamps) >= _RATE_SAMPLES or len(s.pending) >= self.buffer_frames // 2:
-                        self._open(s)
-                out[col] = s.count - 1
+                    new.append(kind)
+            if new:
+                self._camera_frames(cam, c, new, i, t if ts is None else ts, ts, out)
         return out
+
+    def _camera_frames(self, cam: str, c: Any, kinds: list[str], i: int, t: float, ts: float | None,
+                       out: dict[str, int]) -> None:
+        """Copy a camera's new frame into the encoder's rings: once, straight from where its pixels are
+        (`Camera.in_place`: a camera node's ring slot), committed only if the slot still held that frame
+        after the copy; a frame overwritten meanwhile is dropped and counted, never stored torn."""
+        staged: list[tuple[_Stream, int, float | None]] = []  # (stream, slot, the slot's depth_scale)
+        settled: set[str] = set()  # kinds whose outcome (no pixels, dropped) is final whatever the check says
+        try:
+            with c.in_place() as px:
+                for kind in kinds:
+                    key, col = L.stream_key(cam, kind), f"cam.{cam}.{kind}"
+                    arr = px.get(kind)
+                    s = self.streams.get(key)
+                    if arr is None:
+                        out[col] = -1 if s is None else s.count - 1
+                        settled.add(kind)
+                        continue
+                    if s is None:
+                        s = self._stream(cam, kind, arr, c)
+                    reserved = None
+                    if tuple(arr.shape) != s.shape:
+                        self._warn(f"{key}: frame shape changed from {s.shape} to {arr.shape}; frame dropped")
+                    else:
+                        reserved = self.encoder.reserve(key)
+                    if reserved is None:  # a changed shape, or the encoder's ring full (it fell behind)
+                        s.dropped += 1
+                        out[col] = s.count - 1
+                        settled.add(kind)
+                        continue
+                    slot, dest = reserved
+                    scale = px.get("depth_scale") if kind == "depth" else None
+                    staged.append((s, slot, fill_slot(dest, arr, scale, self.video.depth_unit_m)))
+        except FrameGone:
+            self._warn(f"{cam}: a frame was gone from its camera's ring before it was recorded (the step reached "
+                       "the recorder more than a ring of frames after it was observed); dropped")
+            for kind in kinds:
+                if kind not in settled:
+                    s = self.streams.get(L.stream_key(cam, kind))
+                    if s is not None:
+                        s.dropped += 1
+                    out[f"cam.{cam}.{kind}"] = -1 if s is None else s.count - 1
+            return
+        for s, slot, scale in staged:
+            self.encoder.commit(s.key)
+            s.file.write(np.array((t, i), FRAME_RECORD).tobytes())
+            s.count += 1
+            s.last_ts = ts
+            if s.opened:
+                self.encoder.encode(s.key, slot, scale)
+            else:
+                s.pending.append((slot, scale))
+                if ts is not None:
+                    s.stamps.append(ts)
+                if ts is None or len(s.stamps) >= _RATE_SAMPLES or len(s.pending) >= self.buffer_frames // 2:
+                    self._open(s)
+            out[f"cam.{s.camera}.{s.kind}"] = s.count - 1
 
     def _stream(self, cam: str, kind: str, arr: np.ndarray, c: Any) -> _Stream:
         key = L.stream_key(cam, kind)
@@ -171,9 +225,12 @@ class EpisodeWriter:
         dtype = np.uint8 if kind == "rgb" else arr.dtype
         self.encoder.ensure_ring(key, shape, np.dtype(dtype), self.buffer_frames)
         rate = self.camera_fps.get(cam) if isinstance(self.camera_fps, dict) else self.camera_fps
-        k = c.meta.get("intrinsics") if c.meta else None
+        meta = c.meta or {}
+        k = meta.get("intrinsics")
         s = _Stream(key, cam, kind, shape, AppendFile(self.dir / L.frames_file(cam, kind)), rate=rate,
                     intrinsics=None if k is None else np.asarray(k).tolist())
+        if "distortion" in meta:
+            s.distortion = (str(meta.get("distortion_model", "none")), np.asarray(meta["distortion"], float).tolist())
         self.streams[key] = s
         return s
 
@@ -182,8 +239,8 @@ class EpisodeWriter:
             s.rate = estimate_rate(s.stamps, self.fps)
         h, w = s.shape[0], s.shape[1]
         self.encoder.open(s.key, self.dir / L.video_file(s.camera, s.kind), s.kind, h, w, s.rate, self.video)
-        for slot in s.pending:
-            self.encoder.encode(s.key, slot)
+        for slot, scale in s.pending:
+            self.encoder.encode(s.key, slot, scale)
         s.pending.clear()
         s.opened = True
 
@@ -229,8 +286,9 @@ class EpisodeWriter:
             info["codec"] = "ffv1" if s.kind == "depth" else self.video.codec
             if s.kind == "depth":
                 info["depth_unit_m"] = self.video.depth_unit_m
-            if s.intrinsics is not None:
+            if s.intrinsics is not None:  # a camera that publishes no distortion is a pinhole camera: "none"
                 info["intrinsics"] = s.intrinsics
+                info["distortion_model"], info["distortion"] = s.distortion
             if r.get("error"):
                 info["error"] = r["error"]
             if info["frames"] != s.count:

@@ -123,7 +123,7 @@ class StepSchema:
             fields.append((name, _numeric_dtype(v).str, np.asarray(v).shape))
         cameras: dict[str, list[str]] = {}
         for cam, c in (step.observation.cameras or {}).items():
-            kinds = [k for k in CAMERA_KINDS if getattr(c, k, None) is not None]
+            kinds = [k for k in CAMERA_KINDS if k in c.kinds()]  # not c.rgb: that would copy the pixels out
             if kinds:
                 cameras[cam] = kinds
                 fields.extend((f"cam.{cam}.{k}", "<i4", ()) for k in kinds)

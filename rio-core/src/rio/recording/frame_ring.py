@@ -2,8 +2,9 @@
 
 A ring of fixed-size slots in anonymous shared memory (a memfd on Linux, an unlinked temporary
 file elsewhere): the memory vanishes when the last process holding it exits, so a SIGKILL leaves
-nothing in /dev/shm. The recorder copies a frame into the next free slot (one memcpy) and sends
-only the slot number; the encoder answers "released" when done with a slot. The writer never waits:
+nothing in /dev/shm. The recorder copies a frame into the next free slot (one memcpy, straight from
+the camera's own ring where the frame still is: `rio.schema.RingCamera.in_place`) and sends only the
+slot number; the encoder answers "released" when done with a slot. The writer never waits:
 when every slot is taken (the encoder fell seconds behind) the frame is dropped and counted.
 
 Memory order: both hand-overs go through the socket between the two processes, never through a
@@ -39,20 +40,31 @@ class FrameRing:
     # -- writer side (recorder) ---------------------------------------------------------------------
     def try_put(self, frame: np.ndarray) -> int | None:
         """Copy `frame` into a free slot; its slot number, or None when the ring is full."""
-        n = self.produced
-        if n - self.consumed >= self.slots:
+        slot = self.reserve()
+        if slot is None:
             return None
-        slot = n % self.slots
         np.copyto(self._data[slot], frame, casting="same_kind")
-        self.produced = n + 1
+        self.commit()
         return slot
+
+    def reserve(self) -> int | None:
+        """The next free slot, to be filled (`view`) and then `commit`ted, or None when the ring is full.
+        Until committed it is not handed over: a frame found torn while it was copied in is simply not
+        committed, and the slot is filled again by the next one."""
+        n = self.produced
+        return None if n - self.consumed >= self.slots else n % self.slots
+
+    def commit(self) -> None:
+        """The reserved slot is filled: it counts as produced (the encoder may be told about it)."""
+        self.produced += 1
 
     def released(self) -> None:
         """The encoder is done with the oldest slot in use (its "released" message arrived)."""
         self.consumed += 1
 
-    # -- reader side (encoder) ----------------------------------------------------------------------
+    # -- both sides ---------------------------------------------------------------------------------
     def view(self, slot: int) -> np.ndarray:
+        """Slot `slot` in place: the writer fills a reserved one, the encoder reads a handed-over one."""
         return self._data[slot]
 
     def close(self) -> None:

@@ -52,6 +52,32 @@ def free_bytes(path: str | os.PathLike) -> int:
     return shutil.disk_usage(path).free
 
 
+def station_depth(station: Any) -> bool:
+    """Whether a `rio.station.Station` has a camera publishing depth (its config's `depth`; a camera whose
+    config has no such field is taken to have depth, so its encoder is checked before the first episode)."""
+    from ..station.roles import kind_of
+
+    return any(kind_of(role) == "camera" and bool(getattr(c.config, "depth", True))
+               for role, c in station.components.items())
+
+
+def env_depth(env: Any) -> bool | None:
+    """Whether a camera of `env` (a `rio.env.Env`) publishes depth: its connected clients' samples say so.
+    One not yet connected (`with env:`) cannot tell, so a camera is taken to have depth (its encoder is
+    checked); None for an object without cameras at all."""
+    if getattr(env, "camera_clients", None) is None:
+        return None
+    clients = getattr(env, "cameras", None) or {}
+    if not clients:
+        return bool(env.camera_clients)
+
+    def publishes_depth(client: Any) -> bool:
+        ring = getattr(client, "ring_buffer", None)
+        return ring is None or "depth" in ring.layout.names
+
+    return any(publishes_depth(c) for c in clients.values())
+
+
 def _size(n: int) -> str:
     return f"{n / 1e6:.1f} MB" if n < 10**9 else f"{n / 1e9:.2f} GB"
 
@@ -66,7 +92,7 @@ class Recorder:
                  episodes: int | None = None, instruction: str | None = None, metadata: dict | None = None,
                  station: str | None = None, on_exit: str = "keep", keep_discarded: bool = True,
                  buffer_frames: int = 60, encoder_nice: int = 10, cameras: bool | None = None,
-                 min_free_bytes: int = MIN_FREE_BYTES):
+                 depth: bool | None = None, min_free_bytes: int = MIN_FREE_BYTES):
         """
         root:        dataset directory (created if missing; new episodes are appended)
         fps:         the control rate the steps arrive at (default: `env.rate_hz`)
@@ -77,6 +103,9 @@ class Recorder:
         on_exit:     what leaving the `with` block does to an episode in progress: "keep" or "discard"
         cameras:     whether camera streams will be recorded (default: whether `env` has cameras); when
                      true, `open()` refuses if they could not be encoded (PyAV or its encoder missing)
+        depth:       whether depth streams will be (their lossless encoder, FFV1, is then required too);
+                     default: whether a camera of `env` publishes depth (`station_depth` for a Station),
+                     else as `cameras`
         min_free_bytes: free disk space below which recording stops (DiskFull), keeping what was written
         """
         self.root = Path(root)
@@ -99,6 +128,9 @@ class Recorder:
         if cameras is None and env is not None:
             cameras = bool(getattr(env, "camera_clients", None))
         self.cameras = bool(cameras)
+        if depth is None:
+            depth = env_depth(env)
+        self.depth = self.cameras and (True if depth is None else bool(depth))
         if env is not None:
             self.describe_env(env)
         self.kept: list[dict[str, Any]] = []
@@ -127,7 +159,7 @@ class Recorder:
     def open(self) -> Recorder:
         if self.encoder is not None:
             return self
-        if self.cameras and (why := video_problem(self.video)) is not None:
+        if self.cameras and (why := video_problem(self.video, depth=self.depth)) is not None:
             raise RecordingError(f"cannot record the station's cameras: {why}")
         self.root.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.root / L.LOCK, os.O_RDWR | os.O_CREAT, 0o644)

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from ..schema import depth_meters
+
 if TYPE_CHECKING:
     from av.video.stream import VideoStream
 
@@ -81,6 +83,13 @@ def video_problem(options: VideoOptions, depth: bool = True) -> str | None:
     return None
 
 
+def depth_units(meters: np.ndarray, unit_m: float) -> np.ndarray:
+    """Depth in meters as the stored uint16 multiples of `unit_m` (no reading, NaN or inf: 0). When a
+    camera's own unit is `unit_m`, this gives back exactly its integers (float32 round trip, rounded)."""
+    d = np.nan_to_num(meters / unit_m, nan=0.0, posinf=0.0, neginf=0.0)
+    return np.clip(np.rint(d), 0, 65535).astype(np.uint16)
+
+
 def _rate(rate: float) -> Fraction:
     return Fraction(rate).limit_denominator(1001)
 
@@ -117,22 +126,26 @@ class StreamWriter:
             self.enc_h, self.enc_w = height + height % 2, width + width % 2
         self.stream.height, self.stream.width = self.enc_h, self.enc_w
 
-    def _prepare(self, frame: np.ndarray) -> np.ndarray:
+    def _prepare(self, frame: np.ndarray, depth_scale: float | None = None) -> np.ndarray:
         if self.kind == "depth":
+            if depth_scale is not None:  # the camera's own units: stored as they are when they are ours
+                if np.float32(depth_scale) == np.float32(self.options.depth_unit_m):
+                    return np.ascontiguousarray(frame, dtype=np.uint16)
+                frame = depth_meters(frame, depth_scale)
             if frame.dtype.kind == "f":
-                d = np.nan_to_num(frame / self.options.depth_unit_m, nan=0.0, posinf=0.0, neginf=0.0)
-                frame = np.clip(np.rint(d), 0, 65535).astype(np.uint16)
+                return depth_units(frame, self.options.depth_unit_m)
             return np.ascontiguousarray(frame, dtype=np.uint16)
         if (self.enc_h, self.enc_w) != frame.shape[:2]:
             frame = np.pad(frame, ((0, self.enc_h - frame.shape[0]), (0, self.enc_w - frame.shape[1]), (0, 0)),
                            mode="edge")
         return np.ascontiguousarray(frame, dtype=np.uint8)
 
-    def write(self, frame: np.ndarray) -> None:
+    def write(self, frame: np.ndarray, depth_scale: float | None = None) -> None:
+        """Encode one frame: rgb (H, W, 3) uint8; depth in meters, or in units of `depth_scale` meters."""
         import av
 
         fmt = "gray16le" if self.kind == "depth" else "rgb24"
-        vf = av.VideoFrame.from_ndarray(self._prepare(frame), format=fmt)
+        vf = av.VideoFrame.from_ndarray(self._prepare(frame, depth_scale), format=fmt)
         vf.pts = self.frames
         self.frames += 1
         for packet in self.stream.encode(vf):

@@ -98,13 +98,13 @@ def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, i
     A run ended by a signal is kept (headless) and ends the session. Returns the last run's summary."""
     import sys
 
-    from ..recording import Recorder
+    from ..recording import Recorder, station_depth
     from .loop import prepare_station
 
     ask = on_end == "ask" or (on_end == "auto" and sys.stdin.isatty())
     st = prepare_station(station)
     with Recorder(root, fps=rate or st.rate_hz, station=st.name, instruction=instruction, cameras=st.has_cameras,
-                  episodes=episodes) as rec:
+                  depth=station_depth(st), episodes=episodes) as rec:
         while not rec.done:
             summary = run(recorder=rec)
             if not json_out:

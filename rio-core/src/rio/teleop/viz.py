@@ -65,6 +65,29 @@ class RerunViz:
         """A depth frame; `meter`: how many of its units make a meter (1.0: it is in meters)."""
         self.rr.log(path, self.rr.DepthImage(depth, meter=meter))
 
+    def camera(self, path: str, cam: Any) -> None:
+        """A step's camera frame (`rio.schema.Camera`): `path`/rgb and `path`/depth. The pixels are read
+        where they are (`Camera.in_place`: the camera node's ring slot, no copy out first) and copied
+        once, into rerun's own buffers, as its archetypes are made; they are logged only if the slot
+        still held that frame afterwards. A frame gone from the ring is skipped: the viewer shows the
+        next one. Depth goes as the camera's integers with their scale (rerun's `meter`), not meters."""
+        from ..errors import FrameGone
+
+        rr = self.rr
+        try:
+            with cam.in_place() as px:
+                logs = []
+                if (rgb := px.get("rgb")) is not None:
+                    logs.append((f"{path}/rgb", rr.Image(rgb)))
+                if (depth := px.get("depth")) is not None:
+                    scale = px.get("depth_scale")
+                    meter = 1.0 if scale is None else 1.0 / float(scale)
+                    logs.append((f"{path}/depth", rr.DepthImage(depth, meter=meter)))
+        except FrameGone:
+            return
+        for where, archetype in logs:
+            rr.log(where, archetype)
+
     def scalar(self, path: str, value: float) -> None:
         self.rr.log(path, self._scalars(float(value)))
 
@@ -93,10 +116,7 @@ class RerunViz:
         rr = self.rr
         self.time(t, it)
         for name, cam in step.observation.cameras.items():
-            if cam.rgb is not None:
-                self.image(f"cameras/{name}/rgb", cam.rgb)
-            if cam.depth is not None:
-                self.depth(f"cameras/{name}/depth", np.asarray(cam.depth, np.float32))
+            self.camera(f"cameras/{name}", cam)
         for b in arms:
             s = b.client.get_state()
             for i, q in enumerate(np.asarray(s["joint_pos"])):

@@ -1,7 +1,8 @@
 """`OpenCvCamera`: the base of `cameras.uvc` and `cameras.stream` (one grab path, two ways to open).
 
-Colour only (OpenCV captures carry no depth), and intrinsics from the station config or a field-of-view
-guess (`rio_cameras.intrinsics`): an OpenCV capture knows nothing about its lens.
+Colour only (OpenCV captures carry no depth), and intrinsics (with the lens distortion, if calibrated) from
+the station config or a field-of-view guess (`rio_cameras.intrinsics`): an OpenCV capture knows nothing about
+its lens.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field, model_validator
+from rio.interfaces.camera import distortion_fields
 
 from ..camera import ThreadedCamera
 from ..intrinsics import IntrinsicsConfig, pinhole
@@ -30,6 +32,9 @@ class OpenCvCamera(ThreadedCamera):
         super().setup()
         c = self.config
         self.k, self.k_source = pinhole(self.width, self.height, c.fx, c.fy, c.cx, c.cy, c.hfov_deg)
+        if c.distortion_model != "none":  # a calibrated lens: published with every frame
+            self.declare_distortion()
+            self.distortion = distortion_fields(c.distortion_model, c.distortion or None, camera=self.name)
 
     def default_intrinsics(self) -> np.ndarray | None:
         return self.k

@@ -57,11 +57,15 @@ class SoftwareModel:
     depth_units: float
     emitter: bool  # has an IR projector the driver can switch (D400)
     sync: bool  # has the inter-camera sync option (D400)
+    #: the colour stream's lens distortion as its SDK reports it (rs.distortion name, 5 coefficients); the
+    #: scene is rendered as a pinhole camera, so the emulated models report zeros (a D435's colour does)
+    color_distortion: tuple[str, tuple[float, ...]] = ("inverse_brown_conrady", (0.0,) * 5)
 
 
 MODELS = {
     "d400": SoftwareModel("Intel RealSense D435", "D400", 69.0, 87.0, 0.015, 0.001, True, True),
-    "l500": SoftwareModel("Intel RealSense L515", "L500", 70.0, 70.0, 0.01, 0.00025, False, False),
+    "l500": SoftwareModel("Intel RealSense L515", "L500", 70.0, 70.0, 0.01, 0.00025, False, False,
+                          ("brown_conrady", (0.0,) * 5)),
 }
 FIRMWARE = "0.0.0.0 (software)"
 DEFAULT_SERIAL = "software"
@@ -102,7 +106,7 @@ class SoftwareSource:
         self._depth_profile = depth_sensor.add_video_stream(
             _stream(rs, rs.stream.depth, 1, self.depth_cam, self.fps, rs.format.z16, 2))
         self._color_profile = color_sensor.add_video_stream(
-            _stream(rs, rs.stream.color, 2, self.color_cam, self.fps, rs.format.rgb8, 3))
+            _stream(rs, rs.stream.color, 2, self.color_cam, self.fps, rs.format.rgb8, 3, m.color_distortion))
         to_color = rs.extrinsics()
         to_color.rotation = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
         to_color.translation = [-m.baseline_m, 0.0, 0.0]  # colour sits baseline_m to the right
@@ -172,10 +176,11 @@ class SoftwareSource:
             self.injected = n
 
 
-def _stream(rs: Any, kind: Any, uid: int, cam: scene.Pinhole, fps: int, fmt: Any, bpp: int) -> Any:
+def _stream(rs: Any, kind: Any, uid: int, cam: scene.Pinhole, fps: int, fmt: Any, bpp: int,
+            distortion: tuple[str, tuple[float, ...]] = ("none", (0.0,) * 5)) -> Any:
     k = rs.intrinsics()
     k.width, k.height, k.fx, k.fy, k.ppx, k.ppy = cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy
-    k.model, k.coeffs = rs.distortion.none, [0.0] * 5
+    k.model, k.coeffs = getattr(rs.distortion, distortion[0]), list(distortion[1])
     s = rs.video_stream()
     s.type, s.index, s.uid, s.width, s.height, s.fps, s.bpp, s.fmt = kind, 0, uid, cam.width, cam.height, fps, bpp, fmt
     s.intrinsics = k
