@@ -3,14 +3,17 @@
 A hand-tracking teleop cycle solves each dexterous hand (`rio.kinematics.HandRetargeter`: 20-joint test
 hand, keypoints of a hand closing into a fist over the run, warm-started as in the loop) and a
 humanoid's two wrists together (`rio.kinematics.MultiFrameIK`, the test upper body, wrists moving on a
-circle). The reference, measured in the same run, is the arm IK every joint-space teleop already runs
-per cycle (`MinkSolver`, the 6-joint test arm, 10 iterations warm-started, tool on a circle). Figures are
-per-solve times, p50 / p99 in ms, and each one's ratio to the reference's p50; a 50 Hz loop has 20 ms.
+circle), without and with self-collision avoidance, and the same on rio-sim's G1 (29 joints, 330 geom
+pairs) when rio-sim is installed. The reference, measured in the same run, is the arm IK every joint-space
+teleop already runs per cycle (`MinkSolver`, the 6-joint test arm, 10 iterations warm-started, tool on a
+circle). Figures are per-solve times, p50 / p99 in ms, and each one's ratio to the reference's p50; a 50 Hz
+loop has 20 ms.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import time
 from collections.abc import Callable
@@ -23,7 +26,6 @@ from rio.testing import (
     five_finger_hand_description,
     synthetic_hand_keypoints,
     upper_body_description,
-    upper_body_home,
 )
 
 
@@ -57,9 +59,19 @@ def hand(n: int) -> np.ndarray:
     return _times(lambda i: rt(frames[i]), n)
 
 
-def wrists(n: int) -> np.ndarray:
-    ik = MultiFrameIK(upper_body_description())
-    state = {"q": np.asarray(upper_body_home(), dtype=np.float64)}
+def g1_description() -> dict[str, Any] | None:
+    """rio-sim's G1 as its humanoid node describes itself, or None without rio-sim."""
+    if importlib.util.find_spec("rio_sim") is None:
+        return None
+    from rio_sim import g1
+
+    return {"format": "mjcf", "xml": g1.asset_text(), "joints": list(g1.JOINTS), "frames": dict(g1.FRAMES),
+            "frame_type": "site", "home": g1.home()}
+
+
+def wrists(n: int, description: dict[str, Any], self_collision: bool) -> np.ndarray:
+    ik = MultiFrameIK({**description, "self_collision": self_collision})
+    state = {"q": np.asarray(description["home"], dtype=np.float64)}
     start = {f: ik.fk(state["q"], f) for f in ("left", "right")}
 
     def step(i: int) -> None:
@@ -80,17 +92,23 @@ def main() -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     args = p.parse_args()
     ref = arm_reference(args.solves)
+    body = upper_body_description()
     cases = {"arm IK, 6 joints (reference)": ref, "hand retarget, 20 joints": hand(args.solves),
-             "humanoid wrists, 2 frames": wrists(args.solves)}
+             "humanoid wrists, 2 frames": wrists(args.solves, body, False),
+             "humanoid wrists + self-collision": wrists(args.solves, body, True)}
+    g1 = g1_description()
+    if g1 is not None:
+        cases["G1 wrists"] = wrists(args.solves, g1, False)
+        cases["G1 wrists + self-collision"] = wrists(args.solves, g1, True)
     r50 = float(np.percentile(ref, 50))
     out = {name: {"p50_ms": round(float(np.percentile(t, 50)), 3), "p99_ms": round(float(np.percentile(t, 99)), 3),
                   "ratio_p50": round(float(np.percentile(t, 50)) / r50, 2)} for name, t in cases.items()}
     if args.json:
         print(json.dumps(out))
         return
-    print(f"{'case':32} {'p50 ms':>8} {'p99 ms':>8} {'x ref':>6}")
+    print(f"{'case':34} {'p50 ms':>8} {'p99 ms':>8} {'x ref':>6}")
     for name, f in out.items():
-        print(f"{name:32} {f['p50_ms']:8.3f} {f['p99_ms']:8.3f} {f['ratio_p50']:6.2f}")
+        print(f"{name:34} {f['p50_ms']:8.3f} {f['p99_ms']:8.3f} {f['ratio_p50']:6.2f}")
 
 
 if __name__ == "__main__":
