@@ -1,7 +1,8 @@
 """The Unitree G1 of rio-sim: what its drivers and scenes need to know about `assets/g1.xml` (29 DoF) and
-`assets/g1_hands.xml` (with Dex3-1 hands), and how a scene turns the asset's torque motors into the joint
-servos a teleoperated G1 runs. Both files are generated from Unitree's URDF (see their header and
-`tools/g1_from_urdf.py`); joint and actuator names and order are a contract shared with Unitree's SDK.
+`assets/g1_hands.xml` (with Dex3-1 hands); a scene turns the asset's torque motors into the joint servos
+a teleoperated G1 runs (`rio_sim.humanoid_models.to_servos`, with the gains below). Both files are
+generated from Unitree's URDF (see their header and `tools/g1_from_urdf.py`); joint and actuator names
+and order are a contract shared with Unitree's SDK.
 
 Servo gains (kp N m/rad, kd N m s/rad) are Unitree's own for upper-body teleoperation (xr_teleoperate's G1
 arm controller): 300/3 on the hips, knees and waist (the joints it holds "locked"), 80/3 on the shoulders
@@ -20,6 +21,8 @@ from functools import cache
 from .robots import ASSETS
 
 ASSET, HANDS_ASSET = "g1.xml", "g1_hands.xml"
+#: The root body, on `FREE_JOINT` when the scene does not mount it.
+BASE, FREE_JOINT = "pelvis", "floating_base_joint"
 
 _LEG = ("hip_pitch", "hip_roll", "hip_yaw", "knee", "ankle_pitch", "ankle_roll")
 _ARM = ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow", "wrist_roll", "wrist_pitch", "wrist_yaw")
@@ -70,6 +73,8 @@ def home() -> list[float]:
 
 #: The wrists' tool frames (sites), as `robot_description()` names them.
 FRAMES = {"left": "left_wrist", "right": "right_wrist"}
+#: Nothing more for the wrists' IK: 7-DoF arms hold the hands' orientation too.
+IK: dict[str, float] = {}
 
 
 def keypoints(side: str) -> dict[str, str]:
@@ -97,23 +102,3 @@ def hand_xml(side: str) -> str:
     defaults = text[text.index("  <default>"):text.index("  <worldbody>")]
     return (f'<mujoco model="dex3_{side}">\n  <compiler angle="radian" autolimits="true"/>\n{defaults}'
             f'  <worldbody>\n{indent}{text[start:end]}\n  </worldbody>\n</mujoco>\n')
-
-
-def to_servos(spec, mounted: bool) -> None:
-    """Turn the asset's torque motors into joint PD servos at the physics rate (position actuators: the
-    target is `ctrl`; kp, kd as in `GAINS` until the drivers send theirs), limited to each joint's range
-    and effort; when `mounted`, weld the pelvis (remove its free joint) and feed gravity forward."""
-    import mujoco
-
-    for act in spec.actuators:
-        kp, kd = GAINS[group(act.target)]
-        act.set_to_position(kp=kp, kv=kd)
-        act.ctrlrange = spec.joint(act.target).range
-        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
-    if not mounted:
-        return
-    spec.delete(spec.joint("floating_base_joint"))
-    for body in spec.bodies:
-        body.gravcomp = 1.0
-    for joint in spec.joints:
-        joint.actgravcomp = True

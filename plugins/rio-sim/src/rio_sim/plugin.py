@@ -25,6 +25,8 @@ def rio_drivers() -> list[Spec]:
              "simulated camera: RGB and depth by offscreen rendering"),
         Spec("sim.g1", "humanoid", f"{_S}.humanoid:SimG1",
              "simulated Unitree G1 (29 DoF): joint PD servos, pelvis IMU, wrist IK model; on a stand or free"),
+        Spec("sim.t1", "humanoid", f"{_S}.humanoid:SimT1",
+             "simulated Booster T1 (23 DoF): joint PD servos, trunk IMU, hand IK model; on a stand or free"),
         Spec("sim.g1_hand", "hand", f"{_S}.humanoid:SimG1Hand",
              "simulated Unitree Dex3-1 hand of a sim.g1 (7 DoF), with its model for hand-tracking retargeting"),
     ]
@@ -35,6 +37,7 @@ _STATIONS = {
     "sim-bimanual": "two SO-100 arms + grippers, wrist and front cameras (MuJoCo)",
     "sim-xarm7": "xArm7 + gripper, wrist and front (RGB-D) cameras, end-effector actions (MuJoCo)",
     "sim-g1": "Unitree G1 + Dex3-1 hands on a stand at a table, head camera, scripted hand tracking (MuJoCo)",
+    "sim-t1": "Booster T1 on a stand at a table, head camera, scripted hand tracking (MuJoCo)",
     "sim-g1-floating": "Unitree G1 with a free base, for locomotion policies: rio deploy --policy onnx.locomotion",
 }
 

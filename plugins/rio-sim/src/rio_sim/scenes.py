@@ -5,8 +5,9 @@ Every node of a station compiles the same scene from its name, so they agree on 
 (joint addresses, actuators, bodies) without shipping a model between processes. World frame: the
 table top's center, z up; an arm's base frame is its mount.
 
-A scene may also hold a humanoid (the Unitree G1, `rio_sim.g1`) standing at the table, under its own
-prefix (`"g1/"`); `get_scene("<name>:floating")` is the same scene with its base free instead of welded.
+A scene may also hold a humanoid (the Unitree G1 or the Booster T1, `rio_sim.humanoid_models`) standing
+at the table, under its own prefix (`"g1/"`, `"t1/"`); `get_scene("<name>:floating")` is the same scene
+with its base free instead of welded.
 
 Objects sit where the packaged teleop script (`teleop.scripted`, preset "pick_place") expects them:
 a cube `PICK_OFFSET` from each arm's home tool position and a flat target pad at `PLACE_OFFSET`, so
@@ -48,11 +49,12 @@ class ArmMount:
 
 @dataclass(frozen=True)
 class HumanoidMount:
-    """A Unitree G1 at the table: its pelvis above `pos` (x, y) at standing height (the soles on the
-    floor at home), facing `yaw`; `mounted`: welded there, as on a stand, else on a free joint."""
+    """A humanoid at the table: its root above `pos` (x, y) at standing height (the soles on the floor
+    at home), facing `yaw`; `mounted`: welded there, as on a stand, else on a free joint."""
 
     name: str = "g1"          # prefix of its names in the scene
-    hands: bool = True        # Dex3-1 hands, else Unitree's rubber hands
+    hands: bool = True        # the G1's Dex3-1 hands, else Unitree's rubber hands (the T1 has none)
+    robot: str = "g1"         # key of rio_sim.humanoid_models (g1, t1)
     pos: tuple[float, float] = (0.0, 0.0)
     yaw: float = 0.0
     mounted: bool = True
@@ -190,8 +192,19 @@ def _g1() -> Scene:
                  table_center=(0.45, 0.0), humanoid=HumanoidMount())
 
 
+def _t1() -> Scene:
+    """The T1 is shorter than the G1: at home its hands are ~0.09 m above this (same) table, 0.35 m in
+    front of the trunk, its elbows just below the top, so the table starts 0.28 m in front of the trunk,
+    clear of the forearms. The cube is a reach forward and down for the right hand, the pad for the left."""
+    objs = (SceneObject("cube", "box", (CUBE / 2,) * 3, (0.4, -0.12, CUBE / 2), (0.85, 0.2, 0.2, 1)),
+            SceneObject("pad", "box", (0.03, 0.03, 0.001), (0.4, 0.12, 0.001), (0.2, 0.4, 0.9, 1), free=False))
+    return Scene("t1", "Booster T1 (23 DoF) on a stand at a table: a red cube, a blue pad", (), objs,
+                 (_look((1.3, -0.6, 0.55), (0.3, 0.0, 0.05), 50),), table=(0.25, 0.5), table_center=(0.53, 0.0),
+                 humanoid=HumanoidMount(name="t1", hands=False, robot="t1"))
+
+
 SCENES = {"so100": _so100, "so100_bimanual": _bimanual, "xarm7": _xarm7, "xarm6": _xarm6, "lite6": _lite6,
-          "panda": _panda, "ur5e": _ur5e, "gen3": _gen3, "g1": _g1}
+          "panda": _panda, "ur5e": _ur5e, "gen3": _gen3, "g1": _g1, "t1": _t1}
 FLOATING = ":floating"
 
 
@@ -272,18 +285,19 @@ def build_spec(scene: Scene, max_render: tuple[int, int] = (1280, 960)):
 
 
 def _add_humanoid(spec, h: HumanoidMount) -> None:
-    """The G1's asset, its motors made servos (`rio_sim.g1.to_servos`), standing on the floor below `h.pos`;
-    the asset's own floor and light give way to the scene's."""
+    """The humanoid's asset, its motors made servos (`rio_sim.humanoid_models.to_servos`), standing on the
+    floor below `h.pos`; the asset's own floor and light give way to the scene's."""
     import mujoco
 
-    from . import g1
+    from .humanoid_models import get_humanoid, to_servos
 
-    child = mujoco.MjSpec.from_string(g1.asset_text(h.hands))
+    robot = get_humanoid(h.robot)
+    child = mujoco.MjSpec.from_string(robot.asset_text(h.hands))
     child.delete(child.geom("floor"))
     for light in list(child.lights):
         child.delete(light)
-    child.body("pelvis").pos = [0.0, 0.0, g1.STANDING_HEIGHT]
-    g1.to_servos(child, h.mounted)
+    child.body(robot.BASE).pos = [0.0, 0.0, robot.STANDING_HEIGHT]
+    to_servos(child, robot, h.mounted)
     quat = [float(np.cos(h.yaw / 2)), 0.0, 0.0, float(np.sin(h.yaw / 2))]
     frame = spec.worldbody.add_frame(pos=[*h.pos, -TABLE_HEIGHT], quat=quat)
     spec.attach(child, prefix=f"{h.name}/", frame=frame)

@@ -103,3 +103,30 @@ def check_replay_repeats_the_task(station: str, root: Any, rollout: Any, duratio
     taught, replayed = cube_path(root), cube_path(rollout)
     assert np.linalg.norm(replayed[-1, :2] - replayed[0, :2]) > 0.10, said
     assert np.linalg.norm(replayed[-1, :2] - taught[-1, :2]) < 0.02, said
+
+
+def check_humanoid_replay(root: Any, station: str, body_dof: int) -> None:
+    """Episode 0 of `root` (a humanoid teleop recording on sim `station`) replays (`rio replay`'s code,
+    thread middleware) to the same joint trajectory: every joint's median error under 0.02 rad, to within
+    a control period of timing; the body's `body_dof` joints (first in the proprio) never more than 0.1 rad
+    off. The hands' joints, after them, may jump as the tracker acquires the hands (~1 rad at the hand
+    node's step limit per cycle: as fast as that node runs, which a loaded machine slows)."""
+    import numpy as np
+    from rio.recording.dataset import Dataset
+    from rio.recording.replay import replay_episode
+
+    ep = Dataset(root).episode(0)
+    t_rec = ep.column("t") - ep.column("t")[0]
+    q_rec = ep.column("obs.proprio")
+    seen: list = []
+    replay_episode(root, 0, station, middleware="thread", approach_s=0.3, log=None, on_tick=lambda tick: seen.append(
+        (tick.step.meta["t_obs"], np.asarray(tick.step.observation.proprio))))
+    t_rep = np.array([s[0] for s in seen]) - seen[0][0]
+    q_rep = np.stack([s[1] for s in seen])
+    mid = (t_rep > 0.3) & (t_rep < t_rec[-1] - 0.3)
+    shifts = np.array([-1.0, 0.0, 1.0])[:, None] / ep.fps
+    for j in range(q_rec.shape[1]):
+        err = np.abs(q_rep[mid, j] - np.interp(t_rep[mid] + shifts, t_rec, q_rec[:, j])).min(axis=0)
+        assert np.median(err) < 0.02, (j, float(np.median(err)))
+        assert j >= body_dof or err.max() < 0.1, (j, float(err.max()))
+    np.testing.assert_allclose(q_rep[-1], q_rec[-1], atol=0.03)

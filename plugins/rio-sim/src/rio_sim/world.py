@@ -92,10 +92,11 @@ class SimWorld(Node):
             d.qpos[idx.finger_qpos] = half
             d.ctrl[idx.finger_act] = half
         if self.scene.humanoid is not None:  # at home, fingers open; a floating base where the scene stands it
-            from . import g1
+            from .humanoid_models import get_humanoid
 
-            idx = joint_indices(m, self.scene.humanoid.name, g1.JOINTS)
-            d.qpos[idx.qpos] = d.ctrl[idx.act] = g1.home()
+            robot = get_humanoid(self.scene.humanoid.robot)
+            idx = joint_indices(m, self.scene.humanoid.name, robot.JOINTS)
+            d.qpos[idx.qpos] = d.ctrl[idx.act] = robot.home()
         mj.mj_forward(m, d)
         t = clock.now()
         self._t_origin = t - d.time          # wall time of sim time 0
