@@ -16,7 +16,7 @@ onnx = pytest.importorskip("onnx")
 from onnx import TensorProto, helper, numpy_helper  # noqa: E402
 from rio_policies.locomotion import G1_DEFAULT_POSE, G1_JOINTS, LocomotionPolicy, projected_gravity  # noqa: E402
 from rio_policies.testing import G1_STANDING as STANDING  # noqa: E402
-from rio_policies.testing import N_OBS, echo_model, save  # noqa: E402
+from rio_policies.testing import N_OBS, echo_model, save, standing_policy  # noqa: E402
 
 
 def quat(axis, angle) -> np.ndarray:
@@ -136,11 +136,7 @@ def test_deploy_on_the_free_floating_g1_stands_for_10_s(tmp_path):
     from rio_sim.scenes import TABLE_HEIGHT, build_model
 
     gain = 1e-4
-    path = echo_model(tmp_path / "stand.onnx", list(range(12)), gain)
-    pose = ", ".join(f"{k} = {v}" for k, v in STANDING.items())
-    spec = tmp_path / "policy.toml"
-    spec.write_text(f'[policy]\ndriver = "onnx.locomotion"\npath = "{path}"\ncommand = [0.1, -0.05, 0.2]\n'
-                    f"default_pose = {{ {pose} }}\n")
+    spec, _ = standing_policy(tmp_path, gain, command=[0.1, -0.05, 0.2])
     model = build_model("g1:floating")
     data = mujoco.MjData(model)
     adr, table = int(model.joint("g1/floating_base_joint").qposadr[0]), model.geom("table").id

@@ -17,7 +17,7 @@ from rio.schema import HumanoidObs
 pytest.importorskip("onnxruntime")
 pytest.importorskip("onnx")
 from rio_policies.locomotion import G1_DEFAULT_POSE, G1_JOINTS, LocomotionPolicy  # noqa: E402
-from rio_policies.testing import G1_STANDING, echo_model  # noqa: E402
+from rio_policies.testing import G1_STANDING, echo_model, standing_policy  # noqa: E402
 from rio_policies.velocity_command import twist_to_command  # noqa: E402
 
 COMMAND = slice(6, 9)  # the command term in unitree_rl_gym's G1 observation
@@ -102,11 +102,7 @@ def test_deploy_on_sim_g1_floating_passes_the_teleop_twist_to_the_model(tmp_path
     station = tmp_path / "sim-g1-floating-teleop.toml"
     station.write_text(text + '\n[components.teleop]\ndriver = "rio.fake_teleop"\ntwist = [0.4, 0.1, 0, 0, 0, 0.5]\n')
     gain = 1e-4
-    model = echo_model(tmp_path / "probe.onnx", list(range(12)), gain)
-    pose = ", ".join(f"{k} = {v}" for k, v in G1_STANDING.items())
-    spec = tmp_path / "policy.toml"
-    spec.write_text(f'[policy]\ndriver = "onnx.locomotion"\npath = "{model}"\ncommand_from = "teleop"\n'
-                    f"twist_gain = [2.0, 1.0, 1.0]\nramp_s = 0.0\ndefault_pose = {{ {pose} }}\n")
+    spec, _ = standing_policy(tmp_path, gain, command_from="teleop", twist_gain=[2.0, 1.0, 1.0], ramp_s=0.0)
     chunks: list = []
 
     def on_tick(tick):

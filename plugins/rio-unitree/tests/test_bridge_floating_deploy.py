@@ -42,14 +42,10 @@ def test_a_zero_policy_stands_the_free_g1_after_the_gantry_lowers_it(domain_id, 
     pytest.importorskip("rio_sim")  # the G1 model that stands with these gains (the fallback is only G1-like)
     from rio.policy.deploy import run_deploy
     from rio_policies.locomotion import G1_DEFAULT_POSE, G1_JOINTS
-    from rio_policies.testing import G1_STANDING, echo_model
+    from rio_policies.testing import G1_STANDING, standing_policy
 
     gain = 1e-4
-    model = echo_model(tmp_path / "stand.onnx", list(range(12)), gain)
-    pose = ", ".join(f"{k} = {v}" for k, v in G1_STANDING.items())
-    spec = tmp_path / "policy.toml"
-    spec.write_text(f'[policy]\ndriver = "onnx.locomotion"\npath = "{model}"\ncommand = [0.1, -0.05, 0.2]\n'
-                    f"default_pose = {{ {pose} }}\n")
+    spec, _ = standing_policy(tmp_path, gain, command=[0.1, -0.05, 0.2])
     trace: list[tuple[float, float, float, float]] = []  # sim time, pelvis height, tilt, gantry load
     chunks: list = []
 

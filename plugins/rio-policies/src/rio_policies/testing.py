@@ -43,3 +43,18 @@ def echo_model(path: str | Path, picks: list[int], gain: float = 1.0, n_in: int 
                               [helper.make_tensor_value_info("actions", TensorProto.FLOAT, [1, len(picks)])],
                               [numpy_helper.from_array(w, "W")])
     return save(graph, path)
+
+
+def standing_policy(directory: str | Path, gain: float = 1e-4, **fields: object) -> tuple[str, str]:
+    """A policy file for `rio deploy --policy FILE`: `onnx.locomotion` running `echo_model(obs[0:12] x gain)`
+    (below 3e-5 rad on any target with the default gain: it holds `G1_STANDING`), plus `fields` (command,
+    command_from, ...; lists, strings and numbers). Returns (the policy file, the model file)."""
+    import json
+
+    directory = Path(directory)
+    model = echo_model(directory / "stand.onnx", list(range(12)), gain)
+    pose = ", ".join(f"{k} = {v}" for k, v in G1_STANDING.items())
+    extra = "".join(f"{k} = {json.dumps(v)}\n" for k, v in fields.items())
+    spec = directory / "policy.toml"
+    spec.write_text(f'[policy]\ndriver = "onnx.locomotion"\npath = "{model}"\n{extra}default_pose = {{ {pose} }}\n')
+    return str(spec), model

@@ -255,14 +255,8 @@ class _CommandableConformance(DriverConformance):
         s = loop.run(cycles=5) or s
         expect(len(loop.writes) == n0, self.kind, WATCHDOG_DAMPS,
                f"{len(loop.writes) - n0} goals written to the driver in 5 cycles after it damped")
-        try:
-            self.command(node, target, clock.now() + 1.0)
-        except InvalidRequest as e:
-            expect(e.node == node.name, self.kind, WATCHDOG_DAMPS,
-                   f"the InvalidRequest names node '{e.node}', not '{node.name}': {e}")
-        else:
-            violated(self.kind, WATCHDOG_DAMPS, "a command after the stop was accepted (it must be refused, "
-                                                "naming the fault, until clear_faults())")
+        self._expect_refused(node, target, WATCHDOG_DAMPS, "a command after the stop was accepted (it must be "
+                                                           "refused, naming the fault, until clear_faults())")
         q_off = self.measure(s)
         expect(hasattr(node, "clear_faults"), self.kind, WATCHDOG_DAMPS,
                "the node has no clear_faults(): a driver that damps holds its fault (rio.interfaces.FaultHolding)")
@@ -278,6 +272,16 @@ class _CommandableConformance(DriverConformance):
                f"{self._label(k)}: after clear_faults() the goal written was {goals[0][k]:.4f} {self.unit}; the "
                f"device was at {q_off[k]:.4f} (tracking_tol {self.tracking_tol})")
 
+    def _expect_refused(self, node: Any, target: np.ndarray, rule: str, accepted: str) -> None:
+        """A command now must raise InvalidRequest naming the node; `accepted` says why it must not pass."""
+        try:
+            self.command(node, target, clock.now() + 1.0)
+        except InvalidRequest as e:
+            expect(e.node == node.name, self.kind, rule, f"the InvalidRequest names node '{e.node}', not "
+                                                         f"'{node.name}': {e}")
+        else:
+            violated(self.kind, rule, accepted)
+
     def test_disabled_refuses_commands_and_enable_holds_the_pose(self, driver_under_test, driver_fields):
         node = self.make(driver_under_test, driver_fields)
         with lifecycle(node):
@@ -287,14 +291,8 @@ class _CommandableConformance(DriverConformance):
             self.command(node, target, clock.now() + 2.0)
             loop.run(cycles=10)  # under way
             node.disable()
-            try:
-                self.command(node, target, clock.now() + 1.0)
-            except InvalidRequest as e:
-                expect(e.node == node.name, self.kind, DISABLED,
-                       f"the InvalidRequest names node '{e.node}', not '{node.name}': {e}")
-            else:
-                violated(self.kind, DISABLED, "a command to the disabled device was accepted (it must raise "
-                                              "InvalidRequest: it would be replayed on enable)")
+            self._expect_refused(node, target, DISABLED, "a command to the disabled device was accepted (it must "
+                                                         "raise InvalidRequest: it would be replayed on enable)")
             n0, s0 = len(loop.writes), len(loop.samples)
             loop.run(cycles=5)
             expect(len(loop.writes) == n0, self.kind, DISABLED,
