@@ -21,8 +21,9 @@ def test_drivers_stations_and_requirements_are_registered():
     assert drivers["unitree.g1"].kind == "humanoid" and drivers["unitree.g1_23dof"].preset == {"dof": 23}
     assert drivers["unitree.bridge"].kind == "sensor" and drivers["unitree.dex3"].kind == "hand"
     stations = sorted(s.name for s in reg.specs("rio_stations") if s.plugin == "rio-unitree")
-    assert {"g1", "g1-bridge", "g1-bridge-hands"} <= set(stations) <= {"g1", "g1-bridge", "g1-bridge-hands",
-                                                                         "g1-bridge-floating"}
+    assert {"g1", "g1-bridge", "g1-bridge-hands", "g1-bridge-inspire"} <= set(stations) <= {
+        "g1", "g1-bridge", "g1-bridge-hands", "g1-bridge-floating", "g1-bridge-inspire"}
+    assert drivers["unitree.inspire"].kind == "hand"
     from rio_unitree.plugin import rio_requirements
 
     assert {r.module for r in rio_requirements()} == {"unitree_sdk2py", "cyclonedds", "mujoco"}
@@ -30,9 +31,10 @@ def test_drivers_stations_and_requirements_are_registered():
 
 def test_stations_validate_without_importing_the_sdk():
     code = ("import sys; from rio.station.load import load_station\n"
-            "for name in ('g1', 'g1-bridge', 'g1-bridge-hands'):\n"
+            "for name in ('g1', 'g1-bridge', 'g1-bridge-hands', 'g1-bridge-inspire'):\n"
             "    st = load_station(name); assert st.components['humanoid'].driver == 'unitree.g1'\n"
             "assert load_station('g1-bridge-hands').components['hand2'].config.side == 'right'\n"
+            "assert load_station('g1-bridge-inspire').components['bridge_sensor'].config.hands == 'inspire'\n"
             "heavy = [m for m in ('cyclonedds', 'unitree_sdk2py', 'mujoco') if m in sys.modules]\n"
             "assert not heavy, heavy\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

@@ -26,6 +26,8 @@ LOWSTATE, LOWCMD, ARM_SDK = "rt/lowstate", "rt/lowcmd", "rt/arm_sdk"
 # Unitree's RPC to its motion switcher service (the SDK's `GetClientChannelName("motion_switcher", ...)`)
 MOTION_SWITCHER_REQUEST = "rt/api/motion_switcher/request"
 MOTION_SWITCHER_RESPONSE = "rt/api/motion_switcher/response"
+# Unitree's Inspire hand service on the G1 (its DFX_inspire_service, namespace "inspire"): both hands
+INSPIRE_CMD, INSPIRE_STATE = "rt/inspire/cmd", "rt/inspire/state"
 _PRECONDITION_NOT_MET = -4
 
 _CONFIG = """<?xml version="1.0" encoding="UTF-8" ?>
@@ -43,11 +45,13 @@ def interfaces() -> list[str]:
 
 def _types() -> dict[str, Any]:
     from unitree_sdk2py.idl.unitree_api.msg.dds_ import Request_, Response_
+    from unitree_sdk2py.idl.unitree_go.msg.dds_ import MotorCmds_, MotorStates_
     from unitree_sdk2py.idl.unitree_hg.msg.dds_ import HandCmd_, HandState_, LowCmd_, LowState_
 
     out = {LOWSTATE: LowState_, LOWCMD: LowCmd_, ARM_SDK: LowCmd_}
     for side in ("left", "right"):
         out[f"rt/dex3/{side}/cmd"], out[f"rt/dex3/{side}/state"] = HandCmd_, HandState_
+    out[INSPIRE_CMD], out[INSPIRE_STATE] = MotorCmds_, MotorStates_  # both Inspire hands, 12 motors
     out[MOTION_SWITCHER_REQUEST], out[MOTION_SWITCHER_RESPONSE] = Request_, Response_
     return out
 

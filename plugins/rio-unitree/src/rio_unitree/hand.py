@@ -1,15 +1,20 @@
-"""`unitree.dex3`: one Unitree Dex3-1 hand (config `side`) in joint space over its own DDS topics.
+"""Unitree's DDS hands in joint space: `DdsHand`, what every one shares (the topics, the damping safety),
+and `unitree.dex3`, one Dex3-1 hand (config `side`) on its own topics (`unitree.inspire`: `inspire.py`).
 
-Each cycle reads the newest `rt/dex3/<side>/state` and sends one `rt/dex3/<side>/cmd`: every motor
+`DdsHand` opens one participant, a reader of the hand's state topic and a writer of its command topic,
+waits for the first state at open, and sends one command per cycle: the driver's `position(goal,
+measured)` while enabled, its `damping()` while disabled or faulted and a moment before closing.
+
+The Dex3-1: each cycle reads the newest `rt/dex3/<side>/state` and sends one `rt/dex3/<side>/cmd`: every motor
 with its id and status "enabled" in its mode byte (`rio_unitree.dex3`), `q` = the goal clipped to its
 limits (and, with `torque_limit`, to where kp * error stays within its effort), `dq = 0`, `tau = 0`,
 and its kp, kd. The hand kind owns the targets (interpolation, limits, max step, the watchdog).
 
-The body's damping safety (`rio.interfaces.damping`, as `unitree.g1`): no hand state for `state_timeout_s`
-is a named fault (`handstate_timeout`), no state at open a named error; a stream of commands that stops
-(the kind's watchdog) damps the hand (kp = 0, each joint's `damping_kd`) with `on_stale = "damp"`; a
-disabled or faulted node sends damping every cycle, and closing it sends damping a moment before it
-lets go.
+The body's damping safety (`rio.interfaces.damping`, as `unitree.g1`), for every hand: no hand state for
+`state_timeout_s` is a named fault (`handstate_timeout`), no state at open a named error; a stream of
+commands that stops (the kind's watchdog) damps the hand with `on_stale = "damp"` (a Dex3-1: kp = 0, each
+joint's `damping_kd`); a disabled or faulted node sends damping every cycle, and closing it sends damping
+a moment before it lets go.
 
 `robot_description()` is rio-sim's Dex3-1 of that side (cut out of its G1-with-hands model, palm site in
 RIO's palm frame, finger keypoints as sites) when rio-sim is installed, so `rio teleop`'s hand trackers
@@ -34,46 +39,47 @@ from .hand_wire import HandCmd, HandState
 
 log = logging.getLogger("rio_unitree")
 
-class Dex3(DampingSafety, HandNode):
+class DdsHand(DampingSafety, HandNode):
+    """A hand behind a Unitree DDS state/command topic pair. The driver sets `state_topic`, `cmd_topic`,
+    `device_label` and `device_hint` in `setup()`, and defines `decode_state` (bytes -> its state, None
+    when it is not this hand's), `joint_state` (its q and dq of this node's joints, rad), `position` and
+    `damping` (messages with `encode()`)."""
+
     device_noun = "hand"
+    state_topic: str
+    cmd_topic: str
+    #: What open()'s timeout asks about ("is the left Dex3-1 on and connected ...?").
+    device_hint = "the hand"
 
     class Config(DampingConfig, HandNode.Config):
-        side: Literal["left", "right"] = Field("right", description="which Dex3-1")
         interface: str = Field("eth0", description="network interface on the robot's network (192.168.123.x; "
                                                    "'lo' for the bridge on this machine)")
         domain_id: int = Field(0, ge=0, le=232, description="DDS domain (the robot's is 0)")
         rate_hz: float = Field(100.0, gt=0, description="loop rate (Hz)")
-        max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad): 5 rad/s "
-                                                            "at 100 Hz")
-        kp: list[float] | None = Field(None, description="stiffness per joint (N·m/rad), motor order (default 1.5, "
-                                                         "xr_teleoperate's)")
-        kd: list[float] | None = Field(None, description="damping per joint while holding a goal (default 0.2)")
-        damping_kd: list[float] | None = Field(None, description="kd per joint of the damping command (default 0.1)")
-        torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
-                                                     "effort limit")
         connect_timeout_s: float = Field(5.0, gt=0, description="how long open() waits for the first hand state")
 
-    # -- setup --------------------------------------------------------------------------------------
-    def default_joint_names(self) -> list[str]:
-        return dex3.joint_names(self.config.side)
+    # -- driver hooks ---------------------------------------------------------------------------------
+    def decode_state(self, data: bytes) -> Any:
+        raise NotImplementedError
 
+    def joint_state(self, state: Any) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def position(self, goal: np.ndarray, measured: np.ndarray) -> Any:
+        raise NotImplementedError
+
+    def damping(self) -> Any:
+        raise NotImplementedError
+
+    def open_topics(self, dds: Participant) -> None:
+        """More topics the driver needs, opened with the others (none by default)."""
+
+    # -- setup --------------------------------------------------------------------------------------
     def setup(self) -> None:
         super().setup()
-        c = self.config
-        self.joints = dex3.lookup(c.side, self.joint_list)
-        self.ids = np.array([j.index for j in self.joints], dtype=np.intp)
-        self.gains: dict[str, np.ndarray] = {}
-        for name, default in (("kp", dex3.KP), ("kd", dex3.KD), ("damping_kd", dex3.DAMPING_KD)):
-            value = getattr(c, name)
-            if value is not None and len(value) != self.dof:
-                raise ValueError(f"{name} has {len(value)} values; node '{self.name}' drives {self.dof} joints")
-            self.gains[name] = np.asarray(value if value is not None else [default] * self.dof, np.float64)
-        self.effort = np.array([j.effort for j in self.joints], np.float64)
         self.example_data = {**self.example_data, **FAULT_KEYS}
-        self.device_label = f"the {c.side} Dex3-1 on {c.interface} (DDS domain {c.domain_id})"
-        self.state_topic, self.cmd_topic = dex3.state_topic(c.side), dex3.cmd_topic(c.side)
         self.dds: Participant | None = None
-        self.state: HandState | None = None
+        self.state: Any = None
         self.t_state = -np.inf
 
     # -- hardware -----------------------------------------------------------------------------------
@@ -83,12 +89,13 @@ class Dex3(DampingSafety, HandNode):
         try:
             self._state_in = self.dds.reader(self.state_topic)
             self._out = self.dds.writer(self.cmd_topic)
+            self.open_topics(self.dds)
             deadline = time.monotonic() + c.connect_timeout_s
             while not self._poll():
                 if time.monotonic() > deadline:
                     raise TimeoutError(
                         f"no {self.state_topic} on interface '{c.interface}' (DDS domain {c.domain_id}) within "
-                        f"{c.connect_timeout_s} s: is the {c.side} Dex3-1 on and connected (the G1 powers it), and "
+                        f"{c.connect_timeout_s} s: is {self.device_hint} on and connected (the G1 powers it), and "
                         "this interface on the robot's network (192.168.123.x)?")
                 time.sleep(0.005)
             if not self._out.wait_matched(1.0):
@@ -111,6 +118,82 @@ class Dex3(DampingSafety, HandNode):
             self.dds.close()
             self.dds = None
 
+    def set_enabled(self, enabled: bool) -> None:
+        if enabled:
+            self.check_device_fault()
+        elif self.dds is not None:
+            self._send(self.damping())
+
+    def state_lost(self, age: float) -> Fault:
+        c = self.config
+        return state_lost("handstate_timeout", self.state_topic, age, f"interface '{c.interface}' (DDS domain "
+                          f"{c.domain_id})", "check the hand's cable and the robot")
+
+    # -- cycle --------------------------------------------------------------------------------------
+    def read_joints(self) -> dict[str, Any]:
+        self._poll()
+        self.watch_safety()
+        assert self.state is not None
+        q, dq = self.joint_state(self.state)
+        return {"joint_pos": q, "joint_vel": dq, **self.fault_status()}
+
+    def send_damping(self) -> None:
+        if self.dds is not None:
+            self._send(self.damping())
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        assert self.state is not None
+        self._send(self.position(joint_pos, self.joint_state(self.state)[0]))
+
+    # -- helpers ------------------------------------------------------------------------------------
+    def _poll(self) -> bool:
+        data = self._state_in.latest()
+        if data is None:
+            return False
+        state = self.decode_state(data)
+        if state is None:
+            return False
+        self.state, self.t_state = state, clock.now()
+        return True
+
+    def _send(self, cmd: Any) -> None:
+        assert self.dds is not None
+        self._out.write(cmd.encode())
+
+
+class Dex3(DdsHand):
+    class Config(DdsHand.Config):
+        side: Literal["left", "right"] = Field("right", description="which Dex3-1")
+        max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad): 5 rad/s "
+                                                            "at 100 Hz")
+        kp: list[float] | None = Field(None, description="stiffness per joint (N·m/rad), motor order (default 1.5, "
+                                                         "xr_teleoperate's)")
+        kd: list[float] | None = Field(None, description="damping per joint while holding a goal (default 0.2)")
+        damping_kd: list[float] | None = Field(None, description="kd per joint of the damping command (default 0.1)")
+        torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
+                                                     "effort limit")
+
+    # -- setup --------------------------------------------------------------------------------------
+    def default_joint_names(self) -> list[str]:
+        return dex3.joint_names(self.config.side)
+
+    def setup(self) -> None:
+        super().setup()
+        c = self.config
+        self.joints = dex3.lookup(c.side, self.joint_list)
+        self.ids = np.array([j.index for j in self.joints], dtype=np.intp)
+        self.gains: dict[str, np.ndarray] = {}
+        for name, default in (("kp", dex3.KP), ("kd", dex3.KD), ("damping_kd", dex3.DAMPING_KD)):
+            value = getattr(c, name)
+            if value is not None and len(value) != self.dof:
+                raise ValueError(f"{name} has {len(value)} values; node '{self.name}' drives {self.dof} joints")
+            self.gains[name] = np.asarray(value if value is not None else [default] * self.dof, np.float64)
+        self.effort = np.array([j.effort for j in self.joints], np.float64)
+        self.device_label = f"the {c.side} Dex3-1 on {c.interface} (DDS domain {c.domain_id})"
+        self.device_hint = f"the {c.side} Dex3-1"
+        self.state_topic, self.cmd_topic = dex3.state_topic(c.side), dex3.cmd_topic(c.side)
+
+    # -- hardware -----------------------------------------------------------------------------------
     def hardware_limits(self) -> tuple[list[float], list[float]]:
         return [j.lower for j in self.joints], [j.upper for j in self.joints]
 
@@ -126,17 +209,6 @@ class Dex3(DampingSafety, HandNode):
         side = self.config.side
         return {"format": "mjcf", "xml": sim_g1.hand_xml(side), "joints": list(self.joint_list),
                 "keypoints": sim_g1.keypoints(side), "palm": f"{side}_palm", "side": side}
-
-    def set_enabled(self, enabled: bool) -> None:
-        if enabled:
-            self.check_device_fault()
-        elif self.dds is not None:
-            self._send(self.damping())
-
-    def state_lost(self, age: float) -> Fault:
-        c = self.config
-        return state_lost("handstate_timeout", self.state_topic, age, f"interface '{c.interface}' (DDS domain "
-                          f"{c.domain_id})", "check the hand's cable and the robot")
 
     # -- the commands -----------------------------------------------------------------------------------
     def _cmd(self) -> HandCmd:
@@ -165,37 +237,13 @@ class Dex3(DampingSafety, HandNode):
             cmd.q[self.ids] = self.state.q[self.ids]
         return cmd
 
-    # -- cycle --------------------------------------------------------------------------------------
-    def read_joints(self) -> dict[str, Any]:
-        self._poll()
-        self.watch_safety()
-        s = self.state
-        assert s is not None
-        return {"joint_pos": s.q[self.ids].astype(np.float64), "joint_vel": s.dq[self.ids].astype(np.float64),
-                **self.fault_status()}
-
-    def send_damping(self) -> None:
-        if self.dds is not None:
-            self._send(self.damping())
-
-    def write_joints(self, joint_pos: np.ndarray) -> None:
-        s = self.state
-        assert s is not None
-        self._send(self.position(joint_pos, s.q[self.ids].astype(np.float64)))
-
-    # -- helpers ------------------------------------------------------------------------------------
-    def _poll(self) -> bool:
-        data = self._state_in.latest()
-        if data is None:
-            return False
+    def decode_state(self, data: bytes) -> HandState | None:
         state = HandState.decode(data)
         if len(state.q) < dex3.NUM_MOTORS:
             log.warning("node '%s': %s with %d motors (a Dex3-1 has %d): ignored", self.name, self.state_topic,
                         len(state.q), dex3.NUM_MOTORS)
-            return False
-        self.state, self.t_state = state, clock.now()
-        return True
+            return None
+        return state
 
-    def _send(self, cmd: HandCmd) -> None:
-        assert self.dds is not None
-        self._out.write(cmd.encode())
+    def joint_state(self, state: HandState) -> tuple[np.ndarray, np.ndarray]:
+        return state.q[self.ids].astype(np.float64), state.dq[self.ids].astype(np.float64)

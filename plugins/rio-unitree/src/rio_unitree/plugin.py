@@ -23,6 +23,9 @@ def rio_drivers() -> list[Spec]:
              preset={"dof": 23}),
         Spec("unitree.dex3", "hand", f"{_P}.hand:Dex3",
              "Unitree Dex3-1 hand (config side) over DDS: rt/dex3/<side>/cmd and state, 7 joints"),
+        Spec("unitree.inspire", "hand", f"{_P}.inspire:Inspire",
+             "Inspire RH56 hand of a G1 (config side) through Unitree's Inspire service: rt/inspire/cmd and state, "
+             "6 joints"),
         Spec("unitree.bridge", "sensor", f"{_P}.bridge.node:BridgeNode",
              "a simulated G1 (MuJoCo) behind the robot's DDS topics, for the G1 drivers without a robot"),
     ]
@@ -31,6 +34,7 @@ def rio_drivers() -> list[Spec]:
 _STATIONS = {
     "g1-bridge": "Unitree G1 (whole body, rt/lowcmd) against the MuJoCo DDS bridge on loopback (no robot)",
     "g1-bridge-hands": "Unitree G1 and its two Dex3-1 hands against the MuJoCo DDS bridge on loopback (needs rio-sim)",
+    "g1-bridge-inspire": "Unitree G1 and its two Inspire hands (emulated) against the MuJoCo DDS bridge on loopback",
     "g1-bridge-floating": "Unitree G1, free base held by a gantry until lowered, against the MuJoCo DDS bridge "
                           "(locomotion policies; no robot)",
     "g1": "Unitree G1: arms and waist over rt/arm_sdk while Unitree's locomotion stands it (edit the interface)",

@@ -34,7 +34,7 @@ def free_domain_id(interface: str = "lo", lo: int = 100, hi: int = 200, listen_s
 
 class Tap:
     """Records every sample on `topic` (decoded; `bad_crc` counts those whose CRC is wrong; the hands'
-    topics `rt/dex3/...` too). `with`."""
+    topics `rt/dex3/...` and `rt/inspire/...` too). `with`."""
 
     def __init__(self, domain_id: int, topic: str, interface: str = "lo"):
         self.topic = topic
@@ -46,6 +46,11 @@ class Tap:
     def poll(self) -> list[Any]:
         new = []
         for data in self.reader.take():
+            if self.topic.startswith("rt/inspire/"):
+                from .inspire_wire import MotorCmds, MotorStates
+
+                new.append((MotorStates if self.topic.endswith("/state") else MotorCmds).decode(data))
+                continue
             if self.topic.startswith("rt/dex3/"):
                 from .hand_wire import HandCmd, HandState
 

@@ -9,7 +9,7 @@ where a station records. `release_gantry()` (a remote call) lowers the gantry of
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -24,6 +24,8 @@ class BridgeNode(Node):
                                                     "(rio-sim's G1 with Dex3-1 hands: also rt/dex3/*), or unset: "
                                                     "rio-sim's G1 when installed, else the fallback")
         mounted: bool = Field(True, description="pelvis welded to the world (false: free on a floor)")
+        hands: Literal["inspire"] | None = Field(None, description='"inspire": also the G1\'s two Inspire hands, '
+                                                                  "emulated (rt/inspire/*; no physics)")
         gantry: bool = Field(False, description="free G1 only: a gantry holds the pelvis up from the start until "
                                                 "released, then lowers it onto its feet (`rio_unitree.bridge.gantry`)")
         release_after_s: float | None = Field(
@@ -46,7 +48,8 @@ class BridgeNode(Node):
         c = self.config
         self.bridge = Bridge(domain_id=c.domain_id, interface=c.interface, model=c.model, mounted=c.mounted,
                              state_rate_hz=c.state_rate_hz, start_pose=c.start_pose, gantry=c.gantry,
-                             release_after_s=c.release_after_s, lower_s=c.lower_s).start()
+                             release_after_s=c.release_after_s, lower_s=c.lower_s,
+                             hands=c.hands).start()
 
     def read_state(self) -> dict[str, Any]:
         b = self.bridge

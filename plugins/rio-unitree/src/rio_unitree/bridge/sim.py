@@ -20,6 +20,8 @@ With a model that has the Dex3-1 hands (`model = "hands"`: rio-sim's G1 with han
 hands: takes `rt/dex3/<side>/cmd` (each motor driven by the same law when its mode byte's status is
 non-zero and its id is its index; a motor whose id is wrong is off and counted in `counts.bad_hand_id`;
 no command yet: the hand is limp) and publishes `rt/dex3/<side>/state` at `hand_state_rate_hz`.
+With `hands = "inspire"` it plays the G1's two Inspire hands as Unitree's Inspire service shows them
+(`rt/inspire/cmd`, `rt/inspire/state` at `hand_state_rate_hz`): emulated servos, no physics (`inspire.py`).
 
 And it answers Unitree's motion switcher RPC (`rt/api/motion_switcher/request`): CheckMode says
 `{"name": "ai", ...}` while the stand-in (its locomotion) holds the robot; ReleaseMode releases it (the
@@ -45,11 +47,22 @@ from typing import Any
 import numpy as np
 
 from .. import dex3
-from ..dds import ARM_SDK, LOWCMD, LOWSTATE, MOTION_SWITCHER_REQUEST, MOTION_SWITCHER_RESPONSE, Participant
+from ..dds import (
+    ARM_SDK,
+    INSPIRE_CMD,
+    INSPIRE_STATE,
+    LOWCMD,
+    LOWSTATE,
+    MOTION_SWITCHER_REQUEST,
+    MOTION_SWITCHER_RESPONSE,
+    Participant,
+)
 from ..g1 import HOME, JOINTS, NUM_SLOTS, UPPER_BODY_SLOTS, WEIGHT_SLOT
 from ..hand_wire import HandCmd, HandState
+from ..inspire_wire import MotorCmds
 from ..wire import LowCmd, LowState, cmd_crc_ok
 from .gantry import Gantry
+from .inspire import InspirePair
 from .model import G1Model, load
 
 log = logging.getLogger("rio_unitree.bridge")
@@ -76,14 +89,17 @@ class Bridge:
     `stop()`). `model`: an MJCF path, "fallback", or None (rio-sim's G1 when installed, else the
     fallback); `mounted`: pelvis welded to the world; `gantry` (free base only): held up until released
     (`release_after_s` after the legs are first commanded stiff, or `release_gantry()`), then lowered
-    over `lower_s`."""
+    over `lower_s`. `hands = "inspire"`: also the G1's two Inspire hands (`inspire.py`)."""
 
     def __init__(self, domain_id: int = 0, interface: str = "lo", model: str | Path | None = None,
                  mounted: bool = True, state_rate_hz: float = 500.0, mode_machine: int = 5,
                  stand_in: bool = True, start_pose: dict[str, float] | None = None,
                  hand_state_rate_hz: float = 100.0, gantry: bool = False, release_after_s: float | None = None,
-                 lower_s: float = 2.0):
+                 lower_s: float = 2.0, hands: str | None = None):
         self.domain_id, self.interface = domain_id, interface
+        if hands not in (None, "inspire"):
+            raise ValueError(f'hands: "inspire" (emulated Inspire hands) or unset, not {hands!r} (the Dex3-1 '
+                             'hands come with model = "hands")')
         if gantry and mounted:
             raise ValueError("gantry: it holds a free-floating G1 (mounted = false); a mounted one is welded already")
         if release_after_s is not None and not gantry:
@@ -91,6 +107,9 @@ class Bridge:
         self.sim: G1Model = load(model, mounted)
         if gantry and not self.sim.free:
             raise ValueError(f"gantry: {self.sim.source} has no free joint on its pelvis to hold")
+        if hands == "inspire" and self.sim.hands:
+            raise ValueError(f"hands = 'inspire': {self.sim.source} has Dex3-1 hands already; a G1 wears one kind")
+        self.inspire = InspirePair() if hands == "inspire" else None
         self.hand_state_period = 1.0 / hand_state_rate_hz
         self.hand_cmd: dict[str, HandCmd | None] = {side: None for side in self.sim.hands}
         self.released = False  # the motion switcher released the stand-in (its "locomotion")
@@ -134,6 +153,8 @@ class Bridge:
             self._state_out = self.dds.writer(LOWSTATE)
             self._hand_io = {side: (self.dds.reader(dex3.cmd_topic(side), depth=8),
                                     self.dds.writer(dex3.state_topic(side))) for side in self.sim.hands}
+            if self.inspire is not None:
+                self._inspire_io = (self.dds.reader(INSPIRE_CMD, depth=8), self.dds.writer(INSPIRE_STATE))
             self._rpc_in = self.dds.reader(MOTION_SWITCHER_REQUEST, depth=8)
             self._rpc_out = self.dds.writer(MOTION_SWITCHER_RESPONSE)
         except BaseException:
@@ -142,8 +163,9 @@ class Bridge:
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="g1-bridge", daemon=True)
         self._thread.start()
+        hands = "Inspire (emulated)" if self.inspire is not None else sorted(self.sim.hands) or "none"
         log.info("G1 bridge on %s, DDS domain %d: %s, %d joints, hands %s, %.0f Hz physics", self.interface,
-                 self.domain_id, self.sim.source, len(self.sim.slots), sorted(self.sim.hands) or "none", 1.0 / self.dt)
+                 self.domain_id, self.sim.source, len(self.sim.slots), hands, 1.0 / self.dt)
         return self
 
     def stop(self) -> None:
@@ -201,6 +223,13 @@ class Bridge:
         with self.lock:
             return self.sim.data.qpos[self.sim.hands[side].qpos].copy()
 
+    def inspire_pos(self) -> np.ndarray:
+        """Ground truth of the emulated Inspire hands: 12 positions in the service's units (1 open)."""
+        if self.inspire is None:
+            raise ValueError("this bridge plays no Inspire hands (hands = \"inspire\")")
+        with self.lock:
+            return self.inspire.q.copy()
+
     def set_base_orientation(self, quat_wxyz: Any) -> None:
         """Turn the whole robot (tilt its mount, or set a free pelvis' orientation): what a fall looks
         like to the IMU, on a model that cannot fall."""
@@ -241,15 +270,20 @@ class Bridge:
                     publish = sim_t >= next_state
                     if publish:
                         state = self._lowstate()
-                    hands = self._hand_states() if self.sim.hands and sim_t >= next_hand else {}
+                    hands_due = sim_t >= next_hand
+                    hands = self._hand_states() if self.sim.hands and hands_due else {}
+                    inspire = self.inspire.state() if self.inspire is not None and hands_due else None
                 if publish:
                     next_state = sim_t + self.state_period - 1e-9
                     self._state_out.write(state.encode())
                     self.counts.lowstate += 1
-                if hands:
+                if hands or inspire is not None:
                     next_hand = sim_t + self.hand_state_period - 1e-9
                     for side, hand_state in hands.items():
                         self._hand_io[side][1].write(hand_state.encode())
+                        self.counts.hand_state += 1
+                    if inspire is not None:
+                        self._inspire_io[1].write(inspire.encode())
                         self.counts.hand_state += 1
                 time.sleep(max(0.0, t0 + (steps + 1) * self.dt - time.monotonic()))
         except Exception:  # a bridge that dies says so; the driver's lowstate timeout does the rest
@@ -282,6 +316,20 @@ class Bridge:
                     self.counts.malformed += 1
                     continue
                 self.counts.hand_cmd += 1
+        if self.inspire is not None:
+            self._take_inspire()
+
+    def _take_inspire(self) -> None:
+        assert self.inspire is not None
+        for data in self._inspire_io[0].take():
+            try:
+                ok = self.inspire.command(MotorCmds.decode(data))
+            except Exception:
+                ok = False
+            if not ok:
+                self.counts.malformed += 1
+                continue
+            self.counts.hand_cmd += 1
 
     def _answer_rpc(self) -> None:
         """Unitree's motion switcher, as far as releasing the locomotion goes (module docstring)."""
@@ -349,6 +397,8 @@ class Bridge:
         m.actuator_biasprm[sim.act, 2] = -kd
         for side, hand in sim.hands.items():
             self._drive_hand(hand, self.hand_cmd[side])
+        if self.inspire is not None:
+            self.inspire.step(self.dt)
         if self.gantry is not None:
             if self.lowcmd is not None and np.all((kp > 0)[self._legs]):
                 self.gantry.legs_stiff()
