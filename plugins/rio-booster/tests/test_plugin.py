@@ -18,7 +18,8 @@ def test_driver_stations_and_requirements_are_registered():
     assert not [p for p in reg.problems if "booster" in p.plugin], reg.problems
     drivers = {s.name: s for s in reg.specs("rio_drivers") if s.plugin == "rio-booster"}
     assert drivers["booster.t1"].kind == "humanoid"
-    assert sorted(s.name for s in reg.specs("rio_stations") if s.plugin == "rio-booster") == ["t1", "t1-emulator"]
+    stations = sorted(s.name for s in reg.specs("rio_stations") if s.plugin == "rio-booster")
+    assert stations == ["t1", "t1-emulator", "t1-sim"]
     from rio_booster.plugin import rio_requirements
 
     assert {r.module for r in rio_requirements()} == {"booster_robotics_sdk_python"}
@@ -26,7 +27,7 @@ def test_driver_stations_and_requirements_are_registered():
 
 def test_stations_validate_without_importing_the_sdk():
     code = ("import sys; from rio.station.load import load_station\n"
-            "for name in ('t1', 't1-emulator'):\n"
+            "for name in ('t1', 't1-emulator', 't1-sim'):\n"
             "    st = load_station(name); assert st.components['humanoid'].driver == 'booster.t1'\n"
             "assert 'booster_robotics_sdk_python' not in sys.modules\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

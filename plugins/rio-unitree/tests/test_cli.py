@@ -119,3 +119,14 @@ def test_stand_ramps_a_released_robot_to_home(make_bridge, domain_id):
     cmd = bridge.lowcmd  # and soft at the end
     assert cmd is not None and (cmd.kp[:29] == 0).all() and (cmd.kd[:29] > 0).all()
     assert report.sent > 100
+
+
+def test_the_bridge_plays_inspire_hands_on_request_and_refuses_a_second_kind(domain_id):
+    pytest.importorskip("rio_sim")  # model "hands": rio-sim's G1 with Dex3-1 hands
+    res = runner.invoke(app, ["bridge", "--domain-id", str(domain_id), "--model", "hands", "--inspire",
+                              "--seconds", "1"])
+    assert res.exit_code == 1 and "Dex3-1 hands already" in res.output, res.output
+    res = runner.invoke(app, ["bridge", "--domain-id", str(domain_id), "--model", "fallback", "--inspire",
+                              "--seconds", "0.5"])
+    assert res.exit_code == 0, res.output
+    assert "Inspire hands" in res.output, res.output

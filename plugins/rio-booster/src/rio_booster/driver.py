@@ -86,7 +86,9 @@ class T1(DampingSafety, HumanoidNode):
     class Config(BodyDampingConfig, HumanoidNode.Config):
         interface: str = Field("", description="network interface on the robot's network, by name or address "
                                                "(Booster's examples pass the address, e.g. '127.0.0.1'); '' for "
-                                               "the SDK's default")
+                                               "the SDK's default. With sdk = 'rio_booster.emulator' it names "
+                                               "the emulator's backend: '' ideal joints, 'sim' rio-sim physics "
+                                               "(README)")
         domain_id: int = Field(0, ge=0, le=232, description="DDS domain (the robot's is 0)")
         sdk: str = Field(SDK, description=f"module offering the SDK's API: '{SDK}' (the robot), or "
                                           f"'{EMULATOR}' (an emulated T1 in this process, no DDS)")
@@ -178,8 +180,16 @@ class T1(DampingSafety, HumanoidNode):
         return t1.home_pose(self.joint_list)
 
     def robot_description(self) -> dict[str, Any] | None:
-        """None: no T1 model ships with RIO yet (README, "Simulation")."""
-        return None
+        """rio-sim's T1 (Booster's model as MuJoCo Menagerie publishes it: the real kinematics, same joint names
+        and order) with its hands' tool sites as IK frames, when rio-sim is installed (imported here, not
+        with the driver); None otherwise. The T1's arms have no wrist: the hands' IK asks for position first
+        (rio-sim's `t1.IK`)."""
+        try:
+            from rio_sim import t1 as sim_t1
+        except ImportError:
+            return None
+        return {"format": "mjcf", "xml": sim_t1.asset_text(), "joints": list(self.joint_list),
+                "frames": dict(sim_t1.FRAMES), "frame_type": "site", "home": self.default_home(), **sim_t1.IK}
 
     def set_enabled(self, enabled: bool) -> None:
         if enabled:

@@ -20,6 +20,12 @@ are counted and ignored). As on the robot, custom is entered only from prepare o
 are obeyed only in custom. The IMU reports a trunk orientation the test sets (`tilt()`), a fall as the
 IMU sees one. Low state is published at `rate_hz` from the emulator's thread, to each subscriber's
 handler, as the SDK's DDS thread does.
+
+Backends (`backend`): "ideal" (the above); "sim" (or "sim:floating", "sim@WORLD"): rio-sim's T1 in
+MuJoCo, mounted on its stand at rio-sim's T1 table (`emulator_sim`): the same motor law on MuJoCo's
+torque motors at the physics rate, gravity and contacts real, the IMU the trunk's; the emulator serves
+that physics as the station's sim world (`sim.camera` renders it). The driver chooses the backend with
+the one free field it hands the SDK: with this module, `interface` names the backend ('' = "ideal").
 """
 
 from __future__ import annotations
@@ -89,6 +95,7 @@ else:  # pragma: no cover
 
 
 DAMPING, PREPARE, WALKING, CUSTOM = 0, 1, 2, 3
+IDEAL = "ideal"
 _robots: dict[int, EmulatedT1] = {}
 _registry_lock = threading.Lock()
 
@@ -149,8 +156,9 @@ class EmulatedT1:
     """A T1 behind the fake SDK on `domain_id` (one per domain in this process). `with EmulatedT1(...) as robot`."""
 
     def __init__(self, domain_id: int = 0, rate_hz: float = 500.0, mode: int = PREPARE,
-                 start_q: Any = None, loco: bool = True):
+                 start_q: Any = None, loco: bool = True, backend: str = IDEAL):
         self.domain_id = domain_id
+        self.backend = backend or IDEAL
         self.rate_hz = rate_hz
         self.mode = mode
         self.modes: list[int] = [mode]
@@ -160,6 +168,7 @@ class EmulatedT1:
         self.dq = np.zeros(NUM_JOINTS)
         self.tau = np.zeros(NUM_JOINTS)
         self.rpy = np.zeros(3)
+        self.gyro = np.zeros(3)
         self.inertia = np.array([_inertia(j.name) for j in JOINTS])
         self.effort = np.array([j.effort for j in JOINTS])
         self.lower, self.upper = np.array([j.lower for j in JOINTS]), np.array([j.upper for j in JOINTS])
@@ -174,11 +183,23 @@ class EmulatedT1:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self.physics: Any = None  # the sim backend's (rio_booster.emulator_sim.SimT1Physics)
+        if self.backend != IDEAL:
+            if not self.backend.startswith("sim"):
+                raise ValueError(f"unknown emulated T1 backend '{backend}': 'ideal' or 'sim[:floating][@WORLD]'")
+            from . import emulator_sim
+
+            self.physics = emulator_sim.make(self.backend, self.q)
+            self._read_physics()
 
     # -- test controls ---------------------------------------------------------------------------------
     def tilt(self, degrees: float) -> None:
         """Turn the trunk forward (pitch) by `degrees`: what a fall looks like to the IMU."""
         self.rpy = np.array([0.0, math.radians(degrees), 0.0])
+        if self.physics is not None:
+            with self._lock:
+                self.physics.tilt(self.rpy)
+                self._read_physics()
 
     def joint_pos(self) -> np.ndarray:
         with self._lock:
@@ -228,6 +249,13 @@ class EmulatedT1:
             if self.domain_id in _robots:
                 raise RuntimeError(f"an emulated T1 already runs on domain {self.domain_id}")
             _robots[self.domain_id] = self
+        if self.physics is not None:
+            try:
+                self.physics.open_bus()
+            except BaseException:
+                with _registry_lock:
+                    del _robots[self.domain_id]
+                raise
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name=f"emulated-t1-{self.domain_id}", daemon=True)
         self._thread.start()
@@ -238,6 +266,8 @@ class EmulatedT1:
         if self._thread is not None:
             self._thread.join(timeout=5.0)
             self._thread = None
+        if self.physics is not None:
+            self.physics.close_bus()
         with _registry_lock:
             if _robots.get(self.domain_id) is self:
                 del _robots[self.domain_id]
@@ -264,19 +294,31 @@ class EmulatedT1:
                 next_t = time.monotonic()
             self._stop.wait(max(delay, 0.0))
 
+    def motor_law(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+        """What the motors do in the present mode: tau = kp (q* - q) + kd (dq* - dq) + tau_ff, as
+        (kp, kd, q*, dq*, tau_ff, plus the joints' gravity torque). Call under the lock."""
+        zeros = np.zeros(NUM_JOINTS)
+        f = self._last
+        if self.mode == CUSTOM and f is not None:
+            return f.kp, f.kd, f.q, f.dq, f.tau, False
+        if self.mode in (PREPARE, WALKING):  # Booster's controller stands it in the preparation pose
+            return np.full(NUM_JOINTS, 100.0), np.full(NUM_JOINTS, 5.0), self.prepare_q, zeros, zeros, True
+        return zeros, self.damping_kd, zeros, zeros, zeros, False  # damping (and custom with no command yet)
+
     def step(self, seconds: float) -> None:
-        """Advance the joints `seconds` under the present mode's motor law (substeps of at most 0.5 ms)."""
-        n = max(1, math.ceil(seconds / 0.0005))
-        dt = seconds / n
+        """Advance the joints `seconds` under the present mode's motor law (ideal: substeps of at most 0.5 ms;
+        sim: the physics' own steps)."""
         with self._lock:
-            mode, f = self.mode, self._last
+            kp, kd, q_goal, dq_goal, tau_ff, hold = self.motor_law()
+            if self.physics is not None:
+                self.physics.step(seconds, kp, kd, q_goal, dq_goal, tau_ff, hold_gravity=hold)
+                self._read_physics()
+                self.physics.publish_bus()
+                return
+            n = max(1, math.ceil(seconds / 0.0005))
+            dt = seconds / n
             for _ in range(n):
-                if mode == CUSTOM and f is not None:
-                    tau = f.kp * (f.q - self.q) + f.kd * (f.dq - self.dq) + f.tau
-                elif mode in (PREPARE, WALKING):  # Booster's controller stands it in the preparation pose
-                    tau = 100.0 * (self.prepare_q - self.q) - 5.0 * self.dq
-                else:  # damping (and custom with no command yet)
-                    tau = -self.damping_kd * self.dq
+                tau = kp * (q_goal - self.q) + kd * (dq_goal - self.dq) + tau_ff  # no gravity here to hold
                 tau = np.clip(tau, -self.effort, self.effort)
                 ddq = (tau - self.friction * self.dq) / self.inertia
                 self.dq = self.dq + dt * ddq
@@ -286,6 +328,10 @@ class EmulatedT1:
                 self.dq[hit] = 0.0
                 self.tau = tau
 
+    def _read_physics(self) -> None:
+        self.q, self.dq, self.tau = self.physics.joints()
+        self.rpy, self.gyro = self.physics.imu()
+
     def _publish(self) -> None:
         with self._lock:
             motors = [_Motor(float(q), float(dq), 0.0, float(t)) for q, dq, t in zip(self.q, self.dq, self.tau,
@@ -293,7 +339,7 @@ class EmulatedT1:
             r, p, _ = self.rpy
             g = 9.81
             acc = [-g * math.sin(p), g * math.sin(r) * math.cos(p), g * math.cos(r) * math.cos(p)]
-            msg = _LowState(_Imu(list(map(float, self.rpy)), [0.0, 0.0, 0.0], acc), motors, list(motors))
+            msg = _LowState(_Imu(list(map(float, self.rpy)), list(map(float, self.gyro)), acc), motors, list(motors))
             handlers = list(self._handlers)
             self.counts.states += 1
         for h in handlers:
@@ -331,7 +377,7 @@ def _bind() -> EmulatedT1:
     with _registry_lock:
         r = _robots.get(domain)
     if r is None:
-        r = EmulatedT1(domain_id=domain).start()
+        r = EmulatedT1(domain_id=domain, backend=ChannelFactory.Instance().network_interface or IDEAL).start()
         r.owned_by_channels = True
     return r
 

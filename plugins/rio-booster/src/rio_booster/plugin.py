@@ -15,13 +15,16 @@ def rio_drivers() -> list[Spec]:
     return [
         Spec("booster.t1", "humanoid", f"{_P}.driver:T1",
              "Booster T1 (23 DoF) on Booster's SDK: low state in, SERIAL joint commands in custom mode, mode "
-             "changes through B1LocoClient; sdk = 'rio_booster.emulator' for the emulated T1"),
+             "changes through B1LocoClient; sdk = 'rio_booster.emulator' for the emulated T1 "
+             "(interface = 'sim': on rio-sim physics)"),
     ]
 
 
 _STATIONS = {
     "t1": "Booster T1: the whole body in custom mode over Booster's SDK (edit the interface; hang the robot)",
     "t1-emulator": "Booster T1 driver against the in-process emulated T1 (SDK-object fake, no robot, no DDS)",
+    "t1-sim": "Booster T1 driver against the emulated T1 on rio-sim physics: stand, table, head camera, "
+              "scripted hand tracking (pip install 'rio-booster[sim]')",
 }
 
 

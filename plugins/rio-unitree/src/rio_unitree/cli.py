@@ -39,6 +39,9 @@ def bridge(
             "when installed, else the plugin's own)",
         ),
     ] = None,
+    inspire: Annotated[
+        bool, typer.Option("--inspire", help="also play the G1's two Inspire hands (rt/inspire/*, emulated servos)")
+    ] = False,
     free: Annotated[
         bool,
         typer.Option(
@@ -84,12 +87,13 @@ def bridge(
     free = free or gantry
     try:
         b = Bridge(domain_id=domain_id, interface=interface, model=model, mounted=not free, state_rate_hz=state_rate_hz,
-                   gantry=gantry, release_after_s=release_after, lower_s=lower_s)
+                   gantry=gantry, release_after_s=release_after, lower_s=lower_s,
+                   hands="inspire" if inspire else None)
     except (ValueError, OSError) as e:
         typer.echo(f"error: {e}", err=True)
         raise typer.Exit(1) from None
     with b:
-        hands = f", hands {' and '.join(sorted(b.sim.hands))}" if b.sim.hands else ""
+        hands = f", hands {' and '.join(sorted(b.sim.hands))}" if b.sim.hands else ", Inspire hands" if inspire else ""
         typer.echo(
             f"G1 bridge on {interface}, DDS domain {domain_id}: model {b.sim.source}{hands}, "
             f"{'on its gantry' if gantry else 'free' if free else 'mounted'}, {1 / b.dt:.0f} Hz; Ctrl-C to stop",
