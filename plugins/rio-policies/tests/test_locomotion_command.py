@@ -7,8 +7,6 @@ middleware (unit tests) and the station's `shm` (deploy)."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from rio.policy import ObsLayout
@@ -91,16 +89,12 @@ def test_a_missing_device_is_named(tmp_path):
 
 
 def test_deploy_on_sim_g1_floating_passes_the_teleop_twist_to_the_model(tmp_path):
-    """`rio deploy` on sim-g1-floating plus a teleop device (a constant twist, vx > 0): the command term the
+    """`rio deploy sim-g1-floating --teleop rio.fake_teleop` (a constant twist, vx > 0): the command term the
     model was given (read back off the echo model's actions) is the device's scaled twist, every step."""
     pytest.importorskip("rio_sim")
     pytest.importorskip("mujoco")
-    import rio_sim
     from rio.policy.deploy import run_deploy
 
-    text = (Path(rio_sim.__file__).parent / "stations" / "sim-g1-floating.toml").read_text()
-    station = tmp_path / "sim-g1-floating-teleop.toml"
-    station.write_text(text + '\n[components.teleop]\ndriver = "rio.fake_teleop"\ntwist = [0.4, 0.1, 0, 0, 0, 0.5]\n')
     gain = 1e-4
     spec, _ = standing_policy(tmp_path, gain, command_from="teleop", twist_gain=[2.0, 1.0, 1.0], ramp_s=0.0)
     chunks: list = []
@@ -111,7 +105,8 @@ def test_deploy_on_sim_g1_floating_passes_the_teleop_twist_to_the_model(tmp_path
         if len(chunks) >= 40:
             raise KeyboardInterrupt
 
-    summary = run_deploy(str(station), str(spec), duration=120, on_tick=on_tick, log=None)
+    summary = run_deploy("sim-g1-floating", spec, duration=120, on_tick=on_tick, log=None,  # rio deploy --teleop
+                         device="rio.fake_teleop", device_config={"twist": [0.4, 0.1, 0, 0, 0, 0.5]})
     assert len(chunks) >= 40, summary.format()
     default = np.array([G1_STANDING.get(j, G1_DEFAULT_POSE.get(j, 0.0)) for j in G1_JOINTS[:12]])
     seen = np.array([(c.actions[0][:12] - default)[COMMAND] / (0.25 * gain) for c in chunks])

@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from .args import fraction, non_negative, not_empty, one_of, positive
+from .args import fraction, key_values, non_negative, not_empty, one_of, positive
 from .run_cmd import (
     DurationOption,
     JsonOption,
@@ -16,6 +16,8 @@ from .run_cmd import (
     RateOption,
     RecordOption,
     StationArgument,
+    TeleopOption,
+    TeleopSetOption,
 )
 
 
@@ -44,10 +46,13 @@ def deploy(
     lowpass: Annotated[float | None, typer.Option(
         "--lowpass", callback=positive, help="Low-pass cutoff on commands (Hz).")] = None,
     middleware: MiddlewareOption = None,
+    device: TeleopOption = None,
+    teleop_set: TeleopSetOption = None,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
 ) -> None:
-    """Deploy a policy with asynchronous chunked inference; prints a summary when it ends."""
+    """Deploy a policy with asynchronous chunked inference; prints a summary when it ends. A teleop device
+    (--teleop) runs beside it for a policy that reads one (a locomotion policy's velocity command)."""
     from ..policy.async_inference import AsyncConfig
     from ..policy.deploy import run_deploy
     from .run_cmd import finish
@@ -56,5 +61,6 @@ def deploy(
                          lowpass_hz=lowpass)
     summary = run_deploy(station, policy, instruction=instruction, record=record, duration=duration,
                          middleware=middleware, rate_hz=rate, config=config, profile=profile,
+                         device=device, device_config=key_values(teleop_set, "--teleop-set"),
                          log=lambda m: typer.echo(m, err=True))
     finish(summary, json_out)

@@ -32,6 +32,12 @@ RecordOption = Annotated[str | None, typer.Option(
     "--record", callback=output_dir, help="Record the run as an episode of the dataset DIR (created if absent).")]
 MiddlewareOption = Annotated[str | None, typer.Option(
     "--middleware", "-m", callback=not_empty, help="Override the station's middleware.")]
+TeleopOption = Annotated[str | None, typer.Option(
+    "--teleop", "-t", callback=not_empty,
+    help="Teleop device: keyboard, scripted, or any registered teleop driver (default: the station's own).")]
+TeleopSetOption = Annotated[list[str] | None, typer.Option(
+    "--teleop-set", help="KEY=VALUE for the teleop device's config, over the station's (JSON values; "
+                         "repeatable), e.g. --teleop-set speed=0.05 --teleop-set hand=left")]
 
 
 def exit_code(summary: Any) -> int:

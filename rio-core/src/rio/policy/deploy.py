@@ -56,14 +56,20 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
                record: str | None = None, duration: float | None = None, middleware: str | None = None,
                rate_hz: float | None = None, config: AsyncConfig | None = None,
                on_tick: Callable[[Tick], None] | None = None, log: Callable[[str], None] | None = print,
-               ready_timeout: float = 600.0, profile: str | None = None, registry: Any = None) -> RunSummary:
+               ready_timeout: float = 600.0, profile: str | None = None, registry: Any = None,
+               device: str | None = None, device_config: dict | None = None) -> RunSummary:
     """Run `policy` (a `--policy` SPEC; default: the station's policy component) on `station`
     (registered name, .toml path or `Station`) until `duration` seconds pass or a stop signal.
-    Each tick's `info` holds the schedule's `sample` (None while holding) and the `chunk` that landed."""
+    Each tick's `info` holds the schedule's `sample` (None while holding) and the `chunk` that landed.
+    `device` (+ `device_config`): the station's `teleop` component, replaced or added, for a policy that
+    reads a device (`onnx.locomotion`'s `command_from`)."""
     from ..control.workflow import run_workflow
     from ..station.load import load_station
+    from ..teleop.loop import prepare_station
     from .resolve import resolve_policy
 
+    if device is not None or device_config:
+        station = prepare_station(station, device, device_config)
     st = load_station(station, registry=registry)
     name, node_cls, policy_kwargs = resolve_policy(policy, st, registry)
 

@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from ..cli.args import key_values, not_empty, one_of, positive
+from ..cli.args import key_values, one_of, positive
 from ..cli.run_cmd import (
     DurationOption,
     JsonOption,
@@ -16,6 +16,8 @@ from ..cli.run_cmd import (
     RateOption,
     RecordOption,
     StationArgument,
+    TeleopOption,
+    TeleopSetOption,
 )
 
 
@@ -34,12 +36,8 @@ def _mode(value: str | None) -> str | None:
 
 def teleop(
     station: StationArgument,
-    device: Annotated[str | None, typer.Option("--teleop", "-t", callback=not_empty,
-                                               help="Teleop device: keyboard, scripted, or any registered teleop "
-                                                    "driver (default: the station's own).")] = None,
-    teleop_set: Annotated[list[str] | None, typer.Option(
-        "--teleop-set", help="KEY=VALUE for the teleop device's config, over the station's (JSON values; "
-                             "repeatable), e.g. --teleop-set speed=0.05 --teleop-set hand=left")] = None,
+    device: TeleopOption = None,
+    teleop_set: TeleopSetOption = None,
     instruction: Annotated[str | None, typer.Option("--instruction", "-i",
                                                     help="Task text stored with every step.")] = None,
     viz: Annotated[bool, typer.Option("--viz", help="Stream cameras, joints and tool poses to rerun "
