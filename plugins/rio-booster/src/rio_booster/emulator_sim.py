@@ -20,10 +20,10 @@ trunk (a fall, as the IMU sees one, on a robot that cannot fall).
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
+from rio.control.rotations import euler_to_quat, quat_to_euler
 
 from .t1 import JOINTS, NUM_JOINTS
 
@@ -48,21 +48,6 @@ def _rio_sim() -> Any:
         raise ImportError(f"the emulated T1's 'sim' backend needs rio-sim and MuJoCo ({e}): pip install rio-sim "
                           "(or pip install 'rio-booster[sim]')") from e
     return rio_sim
-
-
-def _quat_from_rpy(r: float, p: float, y: float) -> np.ndarray:
-    cr, sr, cp, sp, cy, sy = (math.cos(r / 2), math.sin(r / 2), math.cos(p / 2), math.sin(p / 2),
-                              math.cos(y / 2), math.sin(y / 2))
-    return np.array([cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
-                     cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy])
-
-
-def _rpy_from_quat(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q
-    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.array([roll, pitch, yaw])
 
 
 def build_model(mounted: bool) -> Any:
@@ -144,14 +129,14 @@ class SimT1Physics:
     def imu(self) -> tuple[np.ndarray, np.ndarray]:
         """The trunk's roll, pitch, yaw and its angular velocity in its own frame."""
         d = self.data
-        rpy = _rpy_from_quat(d.xquat[self.trunk])
+        rpy = quat_to_euler(d.xquat[self.trunk])
         if self._free is None:
             return rpy, np.zeros(3)
         return rpy, d.qvel[self._free[1] + 3:self._free[1] + 6].copy()  # a free joint's is in the body frame
 
     def tilt(self, rpy: np.ndarray) -> None:
         """Turn the trunk to `rpy` (on the stand: the mount; free: the base, at rest)."""
-        q = _quat_from_rpy(*rpy)
+        q = euler_to_quat(*rpy)
         m, d = self.model, self.data
         if self._free is None:
             out = np.empty(4)

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .joint_table import pick
+
 NUM_MOTORS = 7
 SIDES = ("left", "right")
 _ORDER = {"left": ("thumb_0", "thumb_1", "thumb_2", "middle_0", "middle_1", "index_0", "index_1"),
@@ -65,11 +67,7 @@ def joint_names(side: str) -> list[str]:
 
 
 def lookup(side: str, names: list[str]) -> list[HandJoint]:
-    table = {j.name: j for j in joints(side)}
-    unknown = [n for n in names if n not in table]
-    if unknown:
-        raise ValueError(f"unknown Dex3-1 {side} joints {unknown}; its joints are {list(table)}")
-    return [table[n] for n in names]
+    return pick(joints(side), names, f"Dex3-1 {side}")
 
 
 def cmd_topic(side: str) -> str:

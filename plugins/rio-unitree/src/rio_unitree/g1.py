@@ -18,6 +18,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .joint_table import pick
+
 NUM_SLOTS = 35
 #: motor_cmd[29].q on rt/arm_sdk: how much of the arm/waist command Unitree's controller takes (0..1).
 WEIGHT_SLOT = 29
@@ -94,10 +96,7 @@ def joint_names(dof: int = 29, upper_body_only: bool = False) -> list[str]:
 
 
 def lookup(names: list[str]) -> list[Joint]:
-    unknown = [n for n in names if n not in BY_NAME]
-    if unknown:
-        raise ValueError(f"unknown G1 joints {unknown}; the G1's are {[j.name for j in JOINTS]}")
-    return [BY_NAME[n] for n in names]
+    return pick(JOINTS, names, "G1")
 
 
 #: A relaxed stand for a hanging or standing robot: knees slightly bent, elbows bent (rad; 0 elsewhere).

@@ -38,6 +38,7 @@ from pydantic import Field
 from .dds import INSPIRE_CMD, INSPIRE_STATE, Participant
 from .hand import DdsHand
 from .inspire_wire import MotorCmds, MotorStates
+from .joint_table import pick
 
 log = logging.getLogger("rio_unitree")
 
@@ -73,11 +74,7 @@ def joint_names(side: str) -> list[str]:
 
 
 def lookup(side: str, names: list[str]) -> list[InspireJoint]:
-    table = {j.name: j for j in joints(side)}
-    unknown = [n for n in names if n not in table]
-    if unknown:
-        raise ValueError(f"unknown Inspire {side} hand joints {unknown}; its joints are {list(table)}")
-    return [table[n] for n in names]
+    return pick(joints(side), names, f"Inspire {side} hand")
 
 
 def to_wire(rad: Any, lower: Any, upper: Any) -> np.ndarray:

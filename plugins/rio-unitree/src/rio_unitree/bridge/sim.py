@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rio.control.rotations import quat_to_euler
 
 from .. import dex3
 from ..dds import (
@@ -455,7 +456,7 @@ class Bridge:
         st.quaternion[:] = quat
         st.gyroscope[:] = vel[:3]
         st.accelerometer[:] = rot.T @ np.array([0.0, 0.0, 9.81])
-        st.rpy[:] = _rpy(quat)
+        st.rpy[:] = quat_to_euler(quat)
         st.imu_temperature = 40
         return st
 
@@ -468,12 +469,6 @@ def _stand_in_gains(joint: str) -> tuple[float, float]:
     return 300.0, 3.0
 
 
-def _rpy(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q
-    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.array([roll, pitch, yaw])
 
 
 __all__ = ["Bridge", "Counts", "NUM_SLOTS"]
