@@ -82,6 +82,8 @@ class MiddlewareConformance:
 
     #: Registered middleware name (as in `rio plugins list`) or a Middleware instance.
     middleware: ClassVar[str | Middleware | None] = None
+    #: How long a case waits for an effect (new samples, a request applied) before it fails (s).
+    wait_s: ClassVar[float] = 3.0
 
     # -- fixtures -----------------------------------------------------------------------------------
     @pytest.fixture(scope="class")
@@ -117,7 +119,8 @@ class MiddlewareConformance:
     def test_latest_state_advances_and_last_k_is_ordered(self, running):
         _, _, c = running
         s1 = c.get_state()
-        assert wait_until(lambda: c.get_state()["tick"] > s1["tick"] + 3), "timed out waiting for new samples"
+        assert wait_until(lambda: c.get_state()["tick"] > s1["tick"] + 3, timeout=self.wait_s), (
+            "timed out waiting for new samples")
         s2 = c.get_state()
         assert s2["timestamp"] > s1["timestamp"]
         np.testing.assert_array_equal(s2["q"], np.full(6, float(s2["tick"])))
@@ -155,7 +158,8 @@ class MiddlewareConformance:
             t.join()
         assert not errors, errors
         c = running[2]
-        assert wait_until(lambda: len(c.handled()) - before >= 2 * n), "timed out waiting for all requests handled"
+        assert wait_until(lambda: len(c.handled()) - before >= 2 * n, timeout=self.wait_s), (
+            "timed out waiting for all requests handled")
         got = [tuple(x) for x in c.handled()[before:]]
         assert len(got) == 2 * n
         for cid in (1, 2):
@@ -165,7 +169,8 @@ class MiddlewareConformance:
         _, _, c = running
         target = np.arange(6, dtype=np.float64) * 0.1
         c.send_request(q=target, client=0, seq=0)
-        assert wait_until(lambda: np.allclose(c.get_state()["last"], target)), "timed out waiting for request applied"
+        assert wait_until(lambda: np.allclose(c.get_state()["last"], target), timeout=self.wait_s), (
+            "timed out waiting for request applied")
 
     def test_api_call_returns_value(self, running):
         _, _, c = running
@@ -228,10 +233,11 @@ class MiddlewareConformance:
         assert ei.value.node == "echo" and ei.value.field == field
         assert f"'{field}'" in str(ei.value)
         tick = c.get_state()["tick"]
-        assert wait_until(lambda: c.get_state()["tick"] > tick), "timed out waiting for node still publishing"
+        assert wait_until(lambda: c.get_state()["tick"] > tick, timeout=self.wait_s), (
+            "timed out waiting for node still publishing")
         good = np.full(6, 0.25)
         c.send_request(q=good, client=9, seq=1)
-        assert wait_until(lambda: np.allclose(c.get_state()["last"], good)), (
+        assert wait_until(lambda: np.allclose(c.get_state()["last"], good), timeout=self.wait_s), (
             "timed out waiting for valid request after rejects")
 
     def test_unknown_api_method_is_clear(self, running):
@@ -246,7 +252,7 @@ class MiddlewareConformance:
             with connect(ImageNode, mw, name="cam", rate_hz=60) as cam:
                 f1 = cam.get_state()
                 assert f1["rgb"].shape == (480, 640, 3) and f1["rgb"].dtype == np.uint8
-                assert wait_until(lambda: cam.get_state()["frame"] >= f1["frame"] + 5), (
+                assert wait_until(lambda: cam.get_state()["frame"] >= f1["frame"] + 5, timeout=self.wait_s), (
                     "timed out waiting for new frames")
                 s = cam.get_state()
                 assert s["rgb"][0, 0, 0] == s["frame"] % 4
