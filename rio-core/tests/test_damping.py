@@ -212,3 +212,13 @@ def test_the_kit_fails_a_driver_that_does_not_do_what_is_expected_of_a_silent_st
     fields = {"joint_limits": [(-1.0, 1.0)] * 4}
     with pytest.raises(AssertionError, match=rule.split(":")[0]):
         kit().test_a_silent_stream_is_held_by_the_watchdog(resolve_driver(driver), fields)
+
+
+def test_motor_gains_take_the_config_per_joint_or_the_drivers_table_and_name_a_wrong_length():
+    from rio.interfaces import MotorGainsConfig, motor_gains
+
+    table = {"kp": [100.0, 50.0], "kd": [2.0, 1.0], "damping_kd": [1.0, 0.5]}
+    got = motor_gains(MotorGainsConfig(kd=[3.0, 4.0]), table, "g1", 2)
+    assert got == {"kp": [100.0, 50.0], "kd": [3.0, 4.0], "damping_kd": [1.0, 0.5]}
+    with pytest.raises(ValueError, match="kp has 3 values; node 'g1' drives 2 joints"):
+        motor_gains(MotorGainsConfig(kp=[1.0, 2.0, 3.0]), table, "g1", 2)

@@ -35,7 +35,7 @@ import numpy as np
 from pydantic import Field
 from rio import clock
 from rio.control.rotations import euler_to_quat
-from rio.interfaces import FAULT_KEYS, BodyDampingConfig, DampingSafety, HumanoidNode
+from rio.interfaces import FAULT_KEYS, BodyDampingConfig, DampingSafety, HumanoidNode, MotorGainsConfig, motor_gains
 from rio.interfaces.damping import state_lost, tilt_from_rpy
 
 from . import t1
@@ -83,7 +83,7 @@ def start_channels(sdk: Any, domain_id: int, interface: str) -> None:
 class T1(DampingSafety, HumanoidNode):
     body = "trunk"
 
-    class Config(BodyDampingConfig, HumanoidNode.Config):
+    class Config(BodyDampingConfig, MotorGainsConfig, HumanoidNode.Config):
         interface: str = Field("", description="network interface on the robot's network, by name or address "
                                                "(Booster's examples pass the address, e.g. '127.0.0.1'); '' for "
                                                "the SDK's default. With sdk = 'rio_booster.emulator' it names "
@@ -100,13 +100,8 @@ class T1(DampingSafety, HumanoidNode):
         motor_mode: int = Field(0, description="MotorCmd.mode of every motor (the SDK's examples send 0)")
         max_step_rad: float = Field(0.004, gt=0, description="largest joint goal change per cycle (rad): 2 rad/s "
                                                              "at 500 Hz")
-        kp: list[float] | None = Field(None, description="stiffness per joint (N·m/rad), in joint order "
-                                                         "(default: rio_booster.t1's table)")
-        kd: list[float] | None = Field(None, description="damping per joint while holding a goal (N·m·s/rad)")
-        damping_kd: list[float] | None = Field(None, description="kd per joint of the damping command (kp = 0)")
         torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
                                                      "effort limit")
-        connect_timeout_s: float = Field(5.0, gt=0, description="how long open() waits for the first low state")
 
     # -- setup --------------------------------------------------------------------------------------
     def default_joint_names(self) -> list[str]:
@@ -117,12 +112,8 @@ class T1(DampingSafety, HumanoidNode):
         c = self.config
         self.joints = t1.lookup(self.joint_list)
         self.idx = np.array([j.index for j in self.joints], dtype=np.intp)
-        self.gains: dict[str, list[float]] = {}
-        for field, attr in (("kp", "kp"), ("kd", "kd"), ("damping_kd", "damping")):
-            value = getattr(c, field)
-            if value is not None and len(value) != self.dof:
-                raise ValueError(f"{field} has {len(value)} values; node '{self.name}' drives {self.dof} joints")
-            self.gains[field] = list(value) if value is not None else [getattr(j, attr) for j in self.joints]
+        self.gains = motor_gains(c, {"kp": [j.kp for j in self.joints], "kd": [j.kd for j in self.joints],
+                                     "damping_kd": [j.damping for j in self.joints]}, self.name, self.dof)
         self.example_data = {**self.example_data, **FAULT_KEYS, "robot_mode": -1}
         where = "the emulator" if c.sdk == EMULATOR else f"interface '{c.interface or 'default'}'"
         self.device_label = f"the T1 on {where} (DDS domain {c.domain_id})"

@@ -32,7 +32,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 from rio import clock
-from rio.interfaces import FAULT_KEYS, BodyDampingConfig, DampingSafety, HumanoidNode
+from rio.interfaces import FAULT_KEYS, BodyDampingConfig, DampingSafety, HumanoidNode, MotorGainsConfig, motor_gains
 from rio.interfaces.damping import state_lost, tilt_from_quat
 
 from . import g1
@@ -46,7 +46,7 @@ log = logging.getLogger("rio_unitree")
 class G1(DampingSafety, HumanoidNode):
     body = "pelvis"
 
-    class Config(BodyDampingConfig, HumanoidNode.Config):
+    class Config(BodyDampingConfig, MotorGainsConfig, HumanoidNode.Config):
         interface: str = Field("eth0", description="network interface on the robot's network (192.168.123.x; "
                                                    "'lo' for the bridge on this machine)")
         domain_id: int = Field(0, ge=0, le=232, description="DDS domain (the robot's is 0)")
@@ -57,15 +57,10 @@ class G1(DampingSafety, HumanoidNode):
                                    'robot; "lowcmd": whole body on rt/lowcmd (debug mode only: hang the robot)')
         max_step_rad: float = Field(0.004, gt=0, description="largest joint goal change per cycle (rad): 2 rad/s at "
                                                              "500 Hz")
-        kp: list[float] | None = Field(None, description="stiffness per joint (N·m/rad), in joint order (default: "
-                                                         "Unitree's example gains per joint group)")
-        kd: list[float] | None = Field(None, description="damping per joint while holding a goal (N·m·s/rad)")
-        damping_kd: list[float] | None = Field(None, description="kd per joint of the damping command (kp = 0)")
         torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
                                                      "effort limit")
         arm_sdk_ramp_s: float = Field(1.0, gt=0, description="arm_sdk: seconds to ramp the weight 0 -> 1 (enable) "
                                                              "and 1 -> 0 (disable)")
-        connect_timeout_s: float = Field(5.0, gt=0, description="how long open() waits for the first rt/lowstate")
         check_state_crc: bool = Field(True, description="drop rt/lowstate messages whose CRC is wrong (false for "
                                                         "a simulator that does not sign its state, e.g. "
                                                         "unitree_mujoco)")
@@ -88,12 +83,8 @@ class G1(DampingSafety, HumanoidNode):
             if legs:
                 raise ValueError(f"control = 'arm_sdk' drives the waist and arms only; {legs} belong to Unitree's "
                                  "locomotion (use control = 'lowcmd' for the whole body)")
-        self.gains = {}
-        for field, attr in (("kp", "kp"), ("kd", "kd"), ("damping_kd", "damping")):
-            value = getattr(c, field)
-            if value is not None and len(value) != self.dof:
-                raise ValueError(f"{field} has {len(value)} values; node '{self.name}' drives {self.dof} joints")
-            self.gains[field] = list(value) if value is not None else [getattr(j, attr) for j in self.joints]
+        self.gains = motor_gains(c, {"kp": [j.kp for j in self.joints], "kd": [j.kd for j in self.joints],
+                                     "damping_kd": [j.damping for j in self.joints]}, self.name, self.dof)
         self.example_data = {**self.example_data, **FAULT_KEYS}
         self.device_label = f"the G1 on {c.interface} (DDS domain {c.domain_id})"
         self.dds: Participant | None = None

@@ -30,7 +30,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 from rio import clock
-from rio.interfaces import FAULT_KEYS, DampingConfig, DampingSafety, Fault, HandNode
+from rio.interfaces import FAULT_KEYS, DampingConfig, DampingSafety, Fault, HandNode, MotorGainsConfig, motor_gains
 from rio.interfaces.damping import state_lost
 
 from . import dex3
@@ -56,7 +56,6 @@ class DdsHand(DampingSafety, HandNode):
                                                    "'lo' for the bridge on this machine)")
         domain_id: int = Field(0, ge=0, le=232, description="DDS domain (the robot's is 0)")
         rate_hz: float = Field(100.0, gt=0, description="loop rate (Hz)")
-        connect_timeout_s: float = Field(5.0, gt=0, description="how long open() waits for the first hand state")
 
     # -- driver hooks ---------------------------------------------------------------------------------
     def decode_state(self, data: bytes) -> Any:
@@ -162,14 +161,10 @@ class DdsHand(DampingSafety, HandNode):
 
 
 class Dex3(DdsHand):
-    class Config(DdsHand.Config):
+    class Config(DdsHand.Config, MotorGainsConfig):
         side: Literal["left", "right"] = Field("right", description="which Dex3-1")
         max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad): 5 rad/s "
                                                             "at 100 Hz")
-        kp: list[float] | None = Field(None, description="stiffness per joint (N·m/rad), motor order (default 1.5, "
-                                                         "xr_teleoperate's)")
-        kd: list[float] | None = Field(None, description="damping per joint while holding a goal (default 0.2)")
-        damping_kd: list[float] | None = Field(None, description="kd per joint of the damping command (default 0.1)")
         torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
                                                      "effort limit")
 
@@ -182,12 +177,9 @@ class Dex3(DdsHand):
         c = self.config
         self.joints = dex3.lookup(c.side, self.joint_list)
         self.ids = np.array([j.index for j in self.joints], dtype=np.intp)
-        self.gains: dict[str, np.ndarray] = {}
-        for name, default in (("kp", dex3.KP), ("kd", dex3.KD), ("damping_kd", dex3.DAMPING_KD)):
-            value = getattr(c, name)
-            if value is not None and len(value) != self.dof:
-                raise ValueError(f"{name} has {len(value)} values; node '{self.name}' drives {self.dof} joints")
-            self.gains[name] = np.asarray(value if value is not None else [default] * self.dof, np.float64)
+        gains = motor_gains(c, {"kp": [dex3.KP] * self.dof, "kd": [dex3.KD] * self.dof,
+                                "damping_kd": [dex3.DAMPING_KD] * self.dof}, self.name, self.dof)
+        self.gains = {k: np.asarray(v, np.float64) for k, v in gains.items()}
         self.effort = np.array([j.effort for j in self.joints], np.float64)
         self.device_label = f"the {c.side} Dex3-1 on {c.interface} (DDS domain {c.domain_id})"
         self.device_hint = f"the {c.side} Dex3-1"

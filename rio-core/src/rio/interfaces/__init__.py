@@ -34,7 +34,7 @@ published as NaN, never as a made-up number.
 
 from .arm import EEF, IDENTITY_POSE, JOINT, ArmNode
 from .camera import CameraNode
-from .damping import BodyDampingConfig, DampingConfig, DampingSafety
+from .damping import BodyDampingConfig, DampingConfig, DampingSafety, MotorGainsConfig, motor_gains
 from .faults import FAULT_KEYS, Fault, FaultHolding
 from .grabber import CameraError, Grabber, GrabbingCamera, SourceFinished, SourceLost
 from .gripper import GripperNode
@@ -46,4 +46,4 @@ from .teleop import TeleopNode
 __all__ = ["ArmNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "JointNode",
            "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolding", "FAULT_KEYS", "ModelTableArm",
            "Grabber", "GrabbingCamera", "CameraError", "SourceLost", "SourceFinished", "DampingSafety",
-           "DampingConfig", "BodyDampingConfig"]
+           "DampingConfig", "BodyDampingConfig", "MotorGainsConfig", "motor_gains"]

@@ -94,6 +94,29 @@ class DampingConfig(Config):
                                                            "device for this long (s)")
     on_stale: OnStale = Field("damp", description='when a stream of commands stops (watchdog_s): "damp" (fault, '
                                                   'kp = 0) or "hold" (keep the last goal stiff)')
+    connect_timeout_s: float = Field(5.0, gt=0, description="how long open() waits for the first state from the "
+                                                            "device (s)")
+
+
+class MotorGainsConfig(Config):
+    """Per-joint gains of a device whose motors close the position loop themselves (a humanoid's or hand's
+    low-level command carries q, kp, kd per motor): None takes the driver's table (its README)."""
+
+    kp: list[float] | None = Field(None, description="stiffness per joint (N·m/rad), in the node's joint order")
+    kd: list[float] | None = Field(None, description="damping per joint while holding a goal (N·m·s/rad)")
+    damping_kd: list[float] | None = Field(None, description="kd per joint of the damping command (kp = 0)")
+
+
+def motor_gains(config: Any, defaults: dict[str, list[float]], node: str, dof: int) -> dict[str, list[float]]:
+    """kp, kd and damping_kd per joint (`MotorGainsConfig`): the config's where given, one value per joint
+    (a clear error naming the field otherwise), else `defaults` (same keys)."""
+    gains = {}
+    for name in ("kp", "kd", "damping_kd"):
+        value = getattr(config, name)
+        if value is not None and len(value) != dof:
+            raise ValueError(f"{name} has {len(value)} values; node '{node}' drives {dof} joints")
+        gains[name] = [float(v) for v in (value if value is not None else defaults[name])]
+    return gains
 
 
 class BodyDampingConfig(DampingConfig):
