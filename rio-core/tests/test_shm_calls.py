@@ -170,3 +170,20 @@ def test_a_connection_that_is_not_a_call_channel_is_refused():
         a.sendall(b"GET / HTTP/1.1\r\n")
         with pytest.raises(ConnectionError, match="not a rio call channel"):
             shm_calls.accept_channel(b, timeout_s=1.0)
+
+
+def test_closing_a_channel_twice_leaves_numbers_reused_since_alone():
+    """A client's failing call and its close() from another thread may both drop its channel: the second
+    close must not close what the process opened since under the same fd numbers (a recorder's encoder
+    socket lost that way sees EOF and exits)."""
+    client, node = channel_pair(watch_memory=False)
+    client.close()
+    reused = [os.open(os.devnull, os.O_RDONLY) for _ in range(3)]  # the lowest free numbers: client's old ones
+    try:
+        client.close()
+        for fd in reused:
+            os.fstat(fd)  # still open
+    finally:
+        for fd in reused:
+            os.close(fd)
+        node.close()

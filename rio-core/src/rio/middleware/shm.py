@@ -257,9 +257,9 @@ class ShmClient(ClientTransport):
             return value
 
     def _drop_channel(self) -> None:
-        if self._channel is not None:
-            self._channel.close()
-            self._channel = None
+        channel, self._channel = self._channel, None  # taken once, though close() may race a failing call
+        if channel is not None:
+            channel.close()
 
     def close(self) -> None:
         _CLIENTS.discard(self)

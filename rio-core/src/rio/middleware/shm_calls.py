@@ -31,6 +31,7 @@ import os
 import platform
 import select
 import socket
+import threading
 from collections.abc import Callable
 
 from .. import clock, host
@@ -70,6 +71,7 @@ class CallChannel:
 
     def __init__(self, mem_fd: int, wake_in: int, wake_out: int, watch_memory: bool = WATCH_MEMORY):
         self._fd, self._in, self._out = mem_fd, wake_in, wake_out
+        self._closing = threading.Lock()
         self._watch_memory = watch_memory
         os.set_blocking(wake_in, True)  # a read returns what is pending, or sleeps for the next byte
         os.set_blocking(wake_out, False)  # a full pipe means wake-ups are pending: never wait on it
@@ -154,7 +156,14 @@ class CallChannel:
                 raise PeerGone("hung up")
 
     def close(self) -> None:
-        for fd in (self._in, self._out, self._fd):
+        """Once, whoever calls it (a client's call dropping a dead channel, its close() from another
+        thread): a second os.close() of these numbers would close whatever the process opened since under
+        the same numbers (another node's channel, a recorder's encoder socket)."""
+        with self._closing:
+            fds, self._in, self._out, self._fd = (self._in, self._out, self._fd), -1, -1, -1
+        for fd in fds:
+            if fd < 0:
+                continue
             try:
                 os.close(fd)
             except OSError:
