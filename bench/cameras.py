@@ -85,8 +85,9 @@ def _poll(read: Any, seconds: float, poll_hz: float = 200.0) -> dict[str, Any]:
 def run_direct(seconds: float) -> dict[str, Any]:
     from contextlib import ExitStack
 
-    from rio.testing import lifecycle
     from rio_realsense.driver import RealSenseCamera
+
+    from rio.testing import lifecycle
 
     with ExitStack() as stack:
         nodes = []
@@ -102,7 +103,7 @@ def run_direct(seconds: float) -> dict[str, Any]:
 def run_rio(seconds: float, middleware: str) -> dict[str, Any]:
     from contextlib import ExitStack
 
-    from rio.manager import ServerManager
+    from rio.runtime.manager import ServerManager
     from rio.station import make_station, parse_station
 
     station = parse_station({"name": "bench-cams", "rate_hz": 30, "middleware": {"name": middleware},

@@ -13,8 +13,10 @@ import argparse
 import time
 
 import numpy as np
+
 from rio import clock
-from rio.testing import FakeArm, FakeModelArm, lifecycle
+from rio.fakes.arms import FakeArm, FakeModelArm
+from rio.testing import lifecycle
 
 
 def per_cycle_us(fn, cycles: int) -> float:

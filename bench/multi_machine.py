@@ -1,6 +1,6 @@
 """What crossing a link costs a node: API round trips between two machines, emulated on one.
 
-Two network namespaces joined by a veth pair (`rio.netns`; Linux, root). On side A an EchoNode is
+Two network namespaces joined by a veth pair (`rio.machine.netns`; Linux, root). On side A an EchoNode is
 served the way `rio serve` serves a placed node (`Middleware.placed`: fixed ports on A's address); on
 side B a client calls `echo(payload)` (2048 bytes, as the middleware benchmark) and, alternating in
 the same process, a bare TCP echo server on A is pinged with the same payload: the floor any
@@ -49,8 +49,8 @@ def _placed(name: str, keys: str | None, host: str):
 
 def serve(name: str, keys: str | None, host: str) -> None:
     """Side A: the EchoNode at its placed address until stdin closes."""
-    from rio.manager import ServerManager
-    from rio.manager import serve as served
+    from rio.runtime.manager import ServerManager
+    from rio.runtime.manager import serve as served
     from rio.testing import EchoNode
 
     mw, options, _ = _placed(name, keys, host)
@@ -78,7 +78,7 @@ def raw_server(host: str) -> None:
 def client(name: str, keys: str | None, host: str, n: int, rounds: int) -> None:
     """Side B: alternate blocks of node calls and bare pings; print one JSON line of RTTs (s)."""
     from rio.benchmarks.middleware_latency import time_roundtrips
-    from rio.manager import connect
+    from rio.runtime.manager import connect
     from rio.testing import EchoNode
 
     mw, _, address = _placed(name, keys, host)
@@ -162,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
         client(a.client, a.keys, a.host, a.n, a.rounds)
         return 0
 
-    from rio import keys, netns
+    from rio.machine import keys, netns
 
     why = netns.available()
     if why:

@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+
 from rio import clock
 from rio.recording import Recorder, VideoOptions
 from rio.recording.synthetic import SyntheticCamera, synthetic_step
@@ -92,11 +93,11 @@ def offline_encode_s(frames: dict[str, list[np.ndarray]], seconds: float, video:
 
 def write_path(frames: int = 300, h: int = 480, w: int = 640) -> None:
     """The recorder's per-frame cost, copied out first vs read in place (see the module docstring)."""
-    from rio.buffers import RingBuffer
-    from rio.layout import Layout
     from rio.recording.episode_writer import fill_slot
     from rio.recording.frame_ring import FrameRing
     from rio.recording.video import depth_units
+    from rio.runtime.buffers import RingBuffer
+    from rio.runtime.layout import Layout
     from rio.schema import RingCamera
 
     example = {"rgb": np.zeros((h, w, 3), np.uint8), "intrinsics": np.eye(3), "depth": np.zeros((h, w), np.uint16),

@@ -20,13 +20,12 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+
+from rio.fakes.arms import SIX_DOF_MJCF
+from rio.fakes.hands import five_finger_hand_description
+from rio.fakes.humanoid import upper_body_description
+from rio.fakes.teleop import synthetic_hand_keypoints
 from rio.kinematics import HandRetargeter, MinkSolver, MultiFrameIK
-from rio.testing import (
-    SIX_DOF_MJCF,
-    five_finger_hand_description,
-    synthetic_hand_keypoints,
-    upper_body_description,
-)
 
 
 def _times(step: Callable[[int], Any], n: int) -> np.ndarray:

@@ -1,6 +1,6 @@
 """What the checked slots cost (`python bench/slot_check.py [--json]`).
 
-The ring buffer's writer checksums each slot and its readers check their copy (`rio.slot_check`), so
+The ring buffer's writer checksums each slot and its readers check their copy (`rio.runtime.slot_check`), so
 shared memory stays correct on CPUs that reorder memory (ARM). This prints, for a small state sample
 (7 joints) and a camera sample (640x480 RGB + depth), the cost of one ring-buffer put and one get
 (copy), against two references measured in the same run: copying the same bytes with numpy (what
@@ -17,9 +17,11 @@ import statistics
 import time
 
 import numpy as np
-from rio import host, slot_check
-from rio.buffers import RingBuffer
-from rio.layout import Layout
+
+from rio.machine import host
+from rio.runtime import slot_check
+from rio.runtime.buffers import RingBuffer
+from rio.runtime.layout import Layout
 
 CASES = {
     "state (7 joints)": {"q": np.zeros(7), "dq": np.zeros(7), "tau": np.zeros(7), "ee": np.zeros(7)},

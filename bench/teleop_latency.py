@@ -44,8 +44,9 @@ def _pct(xs: list[float], scale: float = 1e3) -> dict[str, float]:
 
 def _pty_round_trips(port: str, ids: tuple[int, ...], n: int) -> tuple[list[float], list[float]]:
     import dynamixel_sdk as sdk
-    from rio.clock import now
     from rio_teleop.gello.bus import DynamixelBus
+
+    from rio.clock import now
 
     ph = sdk.PortHandler(port)
     ph.openPort()
@@ -69,13 +70,14 @@ def _pty_round_trips(port: str, ids: tuple[int, ...], n: int) -> tuple[list[floa
 
 
 def bench_gello(args: argparse.Namespace, say: Callable[[str], None]) -> dict[str, Any]:
-    from rio.clock import now
-    from rio.station.load import parse_station
-    from rio.teleop import run_teleop
-    from rio.testing import FakeArm
     from rio_teleop.gello.calibration import save_calibration
     from rio_teleop.gello.layouts import get_layout
     from rio_teleop.gello.virtual import VirtualGello
+
+    from rio.clock import now
+    from rio.fakes.arms import FakeArm
+    from rio.station.load import parse_station
+    from rio.workflows.teleop import run_teleop
 
     lay = get_layout("xarm7")
     q0 = np.asarray(lay.known_pose, float)

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from rio.policy import AsyncConfig
-from rio.policy.deploy import run_deploy
 from rio.station import parse_station
+from rio.workflows.deploy import run_deploy
 
 RAMP = "rio.policy.testing:RampPolicyNode"
 
@@ -79,7 +80,7 @@ def test_replay_reproduces_a_recorded_rollout(tmp_path):
 
 
 def test_crashing_policy_is_reported_by_name_and_the_robot_holds():
-    from rio.testing import FakeArm  # noqa: F401  (process middleware imports it by name)
+    from rio.fakes.arms import FakeArm  # noqa: F401  (process middleware imports it by name)
 
     ticks = []
     summary = run_deploy(station("shm", camera=False), "rio.policy.testing:CrashPolicyNode,crash_after=2,"
@@ -120,7 +121,7 @@ def test_rio_deploy_command_and_benchmark_smoke(tmp_path, capsys):
 
 
 def test_station_policy_component_is_inert_until_deployed(tmp_path):
-    from rio.manager import ServerManager
+    from rio.runtime.manager import ServerManager
     from rio.station import make_station
 
     t = np.arange(40) / 50.0

@@ -48,11 +48,11 @@ def test_build_prints_no_warning(site: tuple[Path, str]) -> None:
 def test_hook_reference_has_every_hook(site: tuple[Path, str]) -> None:
     out, _ = site
     html = _text(out / "hooks" / "index.html")
-    hookspecs = (ROOT / "rio-core" / "src" / "rio" / "hookspecs.py").read_text(encoding="utf-8")
+    hookspecs = (ROOT / "rio-core" / "src" / "rio" / "plugins" / "hookspecs.py").read_text(encoding="utf-8")
     hooks = re.findall(r"^def (rio_\w+)\(", hookspecs, re.M)
     assert "rio_drivers" in hooks
     for hook in hooks:  # a section with the generated signature for each hook
-        assert f'id="rio.hookspecs.{hook}"' in html, f"hooks page lacks a section for {hook}"
+        assert f'id="rio.plugins.hookspecs.{hook}"' in html, f"hooks page lacks a section for {hook}"
     text = re.sub(r"<[^>]+>", "", html)
     assert "rio_drivers() -&gt; list[Spec]" in text or "rio_drivers() -> list[Spec]" in text
 
@@ -63,7 +63,7 @@ def test_api_reference_renders_docstrings(site: tuple[Path, str]) -> None:
     assert 'id="rio.Node"' in top  # class Node, with its docstrings
     assert "Fields every node accepts." in top  # Node.Config's docstring
     node = _text(out / "api" / "node" / "index.html")
-    assert "runnable over any middleware" in node  # rio.node's module docstring: the Node contract
+    assert "runnable over any middleware" in node  # rio.runtime.node's module docstring: the Node contract
     interfaces = _text(out / "api" / "interfaces" / "index.html")
     assert 'id="rio.interfaces.ArmNode"' in interfaces
 

@@ -14,7 +14,7 @@ pytest.importorskip("rio_sim")
 pytest.importorskip("mujoco")
 
 from rio.recording.dataset import Dataset  # noqa: E402
-from rio.recording.replay import replay_episode  # noqa: E402
+from rio.workflows.replay import replay_episode  # noqa: E402
 
 
 @pytest.fixture(scope="module")

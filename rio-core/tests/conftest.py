@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import pytest
+
 from rio.conformance.process import _is_resource_tracker, child_pids, shm_entries
 
 MIDDLEWARES = ["thread", "shm", "zmq", "zenoh", "portal"]
@@ -33,8 +34,8 @@ def run_rio(args, dist_path=None, **env):
 @pytest.fixture
 def registry(monkeypatch):
     """An isolated registry (core only) that the CLI will use; tests register inline plugins into it."""
-    from rio import plugins
     from rio.plugins import Registry
+    from rio.plugins import registry as plugins
 
     reg = Registry(load_entry_points=False)
     monkeypatch.setattr(plugins, "_REGISTRY", reg)

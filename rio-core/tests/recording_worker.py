@@ -6,6 +6,7 @@ import sys
 import time
 
 import numpy as np
+
 from rio import clock
 from rio.recording import Recorder
 from rio.recording.synthetic import SyntheticCamera, synthetic_step

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+
 from rio.benchmarks.middleware_latency import IMAGE_KEYS, RESULT_KEYS, main, summarize
 
 TINY = ["--n", "30", "--warmup", "5", "--image-seconds", "0.3"]

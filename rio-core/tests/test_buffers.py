@@ -4,9 +4,10 @@ import threading
 
 import numpy as np
 import pytest
-from rio.buffers import RequestQueue, RingBuffer
+
 from rio.errors import QueueFull, RioError
-from rio.layout import Layout
+from rio.runtime.buffers import RequestQueue, RingBuffer
+from rio.runtime.layout import Layout
 
 
 def ring(cap=8):

@@ -6,9 +6,9 @@ from __future__ import annotations
 import sys
 import types
 
-from rio.cameras import CameraDevice, list_cameras
-from rio.hookspecs import hookimpl
 from rio.plugins import Registry
+from rio.plugins.cameras import CameraDevice, list_cameras
+from rio.plugins.hookspecs import hookimpl
 
 FOUND = CameraDevice("vendor.cam", "1234", "Cam 1", firmware="5.1", modes=("640x480@30 rgb8",))
 

@@ -23,9 +23,11 @@ import time
 from pathlib import Path
 
 import pytest
-from rio import ServerManager, host, serve
-from rio.manager import sweep_dead_runs
-from rio.sweep import MANIFEST, marker_name
+
+from rio import ServerManager, serve
+from rio.machine import host
+from rio.runtime.manager import sweep_dead_runs
+from rio.runtime.sweep import MANIFEST, marker_name
 from rio.testing import Counter, wait_until
 
 pytestmark = pytest.mark.skipif(not host.has_shared_memory(), reason="needs POSIX shared memory")
@@ -34,7 +36,7 @@ pytestmark = pytest.mark.skipif(not host.has_shared_memory(), reason="needs POSI
 #: `flag` when close() begins.
 SLOW_NODE = '''
 import pathlib, time
-from rio.node import Node, NodeConfig
+from rio.runtime.node import Node, NodeConfig
 
 class SlowClose(Node):
     class Config(NodeConfig):
@@ -59,7 +61,8 @@ class SlowClose(Node):
 #: node pids as one JSON line once ready. `exit` instead of waiting: leave without `__exit__`.
 STATION = '''
 import json, os, sys, time
-from rio import ServerManager, host, serve
+from rio import ServerManager, serve
+from rio.machine import host
 from rio.testing import Counter, EchoNode
 from slow_node import SlowClose
 
@@ -160,7 +163,7 @@ def test_a_sigkilled_stations_leftovers_are_swept_and_a_live_ones_are_not(script
                 assert {n for n in swept.segments if dead_info["run_id"] in n} == segments
                 assert dead_info["run_dir"] in swept.dirs and swept.nbytes > 0
         else:
-            caplog.set_level("WARNING", logger="rio.manager")
+            caplog.set_level("WARNING", logger="rio.runtime.manager")
             with ServerManager("thread", [serve(Counter, name="t")]):
                 pass
             lines = [r.getMessage() for r in caplog.records if "swept" in r.getMessage()]
@@ -304,7 +307,7 @@ def test_a_manager_marks_its_run_before_its_segments_and_unmarks_it_last():
 def test_a_manager_start_sweeps_and_says_what_it_swept(monkeypatch, caplog):
     import shutil
 
-    from rio import sweep
+    from rio.runtime import sweep
 
     base = tempfile.mkdtemp(prefix="rcd", dir="/tmp")
     run_id = os.urandom(4).hex()
@@ -313,7 +316,7 @@ def test_a_manager_start_sweeps_and_says_what_it_swept(monkeypatch, caplog):
     Path(path, MANIFEST).write_text(json.dumps({"pid": _dead_pid()}))
     os.close(host.shm_create(name, 2_000_000))
     monkeypatch.setattr(sweep, "_bases", lambda: [base])
-    caplog.set_level("WARNING", logger="rio.manager")
+    caplog.set_level("WARNING", logger="rio.runtime.manager")
     try:
         with ServerManager("thread", [serve(Counter, name="t")]):
             pass

@@ -9,18 +9,19 @@ import sys
 import types
 
 import pytest
-import rio
 import typer
+
+import rio
 from rio.cli import main
-from rio.hookspecs import hookimpl
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.specs import Spec
 from rio.testing import write_plugin_dist
 
 from .conftest import run_rio
 
 GOOD = '''
-from rio.hookspecs import hookimpl
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.specs import Spec
 
 @hookimpl
 def rio_drivers():
@@ -67,7 +68,8 @@ def test_listing_imports_no_driver_and_no_runtime(dist_path):
     """What keeps `rio plugins list` fast: no driver module, no numpy, no middleware or station code."""
     code = ("import sys, io, contextlib, json\nfrom rio.cli import main\n"
             "with contextlib.redirect_stdout(io.StringIO()):\n    rc = main(['plugins', 'list'])\n"
-            "heavy = ['numpy', 'cli_good_driver', 'rio.manager', 'rio.station', 'rio.middleware.thread', 'rio.node']\n"
+            "heavy = ['numpy', 'cli_good_driver', 'rio.runtime.manager', 'rio.station', 'rio.middleware.thread',\n"
+            "         'rio.runtime.node']\n"
             "print(json.dumps({'rc': rc, 'imported': [m for m in heavy if m in sys.modules]}))")
     # only core and the test plugin: other installed plugins answer for their own import cost
     env = {**os.environ, "PYTHONPATH": str(dist_path), "RIO_LOAD_PLUGINS": "cli-good"}

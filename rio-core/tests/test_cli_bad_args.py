@@ -21,8 +21,9 @@ from pathlib import Path
 
 import pytest
 import typer
-from rio.cli.app import EXIT_INTERRUPTED, build_app
 from typer.testing import CliRunner
+
+from rio.cli.app import EXIT_INTERRUPTED, build_app
 
 #: Where a value stands for a fixture's path (filled in by `_fill`).
 STATION, DIR, FILE, MISSING = "{station}", "{dir}", "{file}", "{missing}"
@@ -171,7 +172,7 @@ def nothing_starts(monkeypatch, tmp_path):
     command that takes '' for '.' writes into an empty directory, not into the checkout."""
     monkeypatch.chdir(tmp_path)
     from rio.cli import plugins_cmd
-    from rio.manager import ServerManager
+    from rio.runtime.manager import ServerManager
 
     def started(*_a, **_k):
         raise _Started
@@ -235,7 +236,7 @@ def test_table_covers_every_command_group():
 
 
 def test_ctrl_c_in_a_command_is_one_line_and_130(monkeypatch):
-    from rio import plugins
+    from rio.plugins import registry as plugins
 
     def interrupted():
         raise KeyboardInterrupt
@@ -246,7 +247,7 @@ def test_ctrl_c_in_a_command_is_one_line_and_130(monkeypatch):
 
 
 def test_ctrl_c_during_station_start_up_is_one_line_and_130(monkeypatch, paths):
-    from rio.manager import ServerManager
+    from rio.runtime.manager import ServerManager
 
     def interrupted(*_a):
         raise KeyboardInterrupt

@@ -17,9 +17,10 @@ import sys
 from pathlib import Path
 
 import pytest
+from typer.testing import CliRunner
+
 from rio.cli.app import build_app
 from rio.errors import RioError
-from typer.testing import CliRunner
 
 APP = build_app()
 
@@ -114,7 +115,7 @@ def test_unplugged_serial_port_is_one_line(so100_station, tmp_path):
 
 
 def test_a_node_error_after_start_up_is_one_log_line(caplog, monkeypatch):
-    from rio.manager import _log_node_error
+    from rio.runtime.manager import _log_node_error
 
     def logged(e: BaseException, after_start: bool) -> list[logging.LogRecord]:
         caplog.clear()
@@ -124,7 +125,7 @@ def test_a_node_error_after_start_up_is_one_log_line(caplog, monkeypatch):
             _log_node_error("arm", raised, after_start)
         return caplog.records
 
-    with caplog.at_level(logging.ERROR, logger="rio.manager"):
+    with caplog.at_level(logging.ERROR, logger="rio.runtime.manager"):
         (rec,) = logged(RioError("servo 3 overheated"), after_start=True)
         assert rec.getMessage() == "node 'arm' stopped with an error: RioError: servo 3 overheated"
         assert rec.exc_info is None
@@ -227,7 +228,7 @@ def test_a_bug_keeps_its_traceback(monkeypatch):
     def broken(*_a, **_k):
         raise ZeroDivisionError("division by zero")
 
-    monkeypatch.setattr("rio.plugins.get_registry", broken)
+    monkeypatch.setattr("rio.plugins.registry.get_registry", broken)
     r = CliRunner().invoke(APP, ["stations", "list"])
     assert isinstance(r.exception, ZeroDivisionError)
 

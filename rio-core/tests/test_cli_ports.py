@@ -2,7 +2,7 @@
 devices, `rio.emulation.PtyDevice`) behind a /dev-like directory of `ttyACM*` and `serial/by-id` links
 and a sysfs-like tree with their USB descriptors. Plugging in opens a pty and makes the links, as udev
 does; unplugging closes it and removes them. The listing code reads that directory exactly as it reads
-/dev (`rio.ports.scan`); only where it looks is changed."""
+/dev (`rio.machine.ports.scan`); only where it looks is changed."""
 
 from __future__ import annotations
 
@@ -15,10 +15,11 @@ import time
 from pathlib import Path
 
 import pytest
-from rio import ports
+from typer.testing import CliRunner
+
 from rio.cli.app import build_app
 from rio.emulation import PtyDevice
-from typer.testing import CliRunner
+from rio.machine import ports
 
 APP = build_app(load_plugins=False)
 FEETECH = {"vid": "1a86", "pid": "55d3", "serial": "5A46083210", "product": "USB Single Serial",
@@ -140,8 +141,9 @@ def test_pyserial_ports_get_their_by_id_path(tmp_path):
 
 
 def test_machine_listing_is_pyserials_or_a_scan_of_dev(monkeypatch):
-    from rio.testing import block_import
     from serial.tools.list_ports import comports
+
+    from rio.testing import block_import
 
     assert [p.device for p in ports.list_ports()] == sorted(p.device for p in comports())
     block_import(monkeypatch, "serial")
@@ -228,7 +230,7 @@ def test_find_port_without_enter_says_to_use_timeout(usb):
 
 def _rio_with_ports_in(usb: Usb, *args: str) -> subprocess.Popen:
     """`rio ARGS` in its own process, listing `usb`'s directories instead of /dev and /sys."""
-    code = ("import functools, sys; from rio import ports; "
+    code = ("import functools, sys; from rio.machine import ports; "
             f"ports.list_ports = functools.partial(ports.list_ports, {str(usb.dev)!r}, {str(usb.sys)!r}); "
             f"from rio.cli import main; sys.exit(main({list(args)!r}))")
     return subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from rio.control.commander import JointCommander, PoseCommander
 from rio.control.rotations import quat_angle, rotvec_to_quat
 

@@ -12,6 +12,7 @@ import sys
 from importlib.metadata import entry_points
 
 import pytest
+
 import rio.conformance.middleware  # noqa: F401 - loaded before the in-process pytester runs, which keep it
 
 from .conftest import kit_outcomes
@@ -108,7 +109,8 @@ def test_pytest11_entry_point_is_registered():
 def test_plugin_import_is_cheap():
     """pytest imports the plugin in every run of every project with rio-core installed."""
     code = ("import sys, rio.conformance.pytest_plugin; "
-            "print(sorted(m for m in ('numpy', 'zmq', 'zenoh', 'pydantic', 'rio.manager') if m in sys.modules))")
+            "print(sorted(m for m in ('numpy', 'zmq', 'zenoh', 'pydantic', 'rio.runtime.manager')\n"
+            "             if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
 

@@ -8,16 +8,18 @@ import types
 
 import numpy as np
 import pytest
+
 from rio import ServerManager, connect, remote, serve
 from rio.control import pose_error
 from rio.errors import ConfigError, InvalidRequest
-from rio.hookspecs import hookimpl
+from rio.fakes.arms import FakeArm, FakeGripper, FakeModelArm
 from rio.interfaces import ArmNode
-from rio.node import Node
 from rio.plugins import Registry
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.specs import Spec
+from rio.runtime.node import Node
 from rio.station import parse_station
-from rio.testing import FakeArm, FakeGripper, FakeModelArm, lifecycle, wait_until
+from rio.testing import lifecycle, wait_until
 
 
 def run_for(node, seconds: float, period: float = 0.005):
@@ -50,7 +52,7 @@ def registry_with(hook: str, *specs: Spec) -> Registry:
 
 
 def test_station_fields_over_a_preset_and_a_contradicting_one_is_an_error():
-    reg = registry_with("rio_drivers", Spec("acme.arm7", "arm", "rio.testing:FakeArm", "7-joint variant",
+    reg = registry_with("rio_drivers", Spec("acme.arm7", "arm", "rio.fakes.arms:FakeArm", "7-joint variant",
                                             preset={"dof": 7}))
     st = parse_station({"name": "p", "components": {"arm": {"driver": "acme.arm7"}}}, registry=reg)
     assert st.components["arm"].config.dof == 7

@@ -1,4 +1,4 @@
-"""The one control loop (rio.control.loop) through the command line, as users run it: a user's own
+"""The one control loop (rio.loop.control_loop) through the command line, as users run it: a user's own
 controller (`rio run --controller`, the docs/controllers.md example verbatim), the summary's tracking
 (an arm that ignores its commands is reported and the command exits 3), and SIGINT / SIGTERM / SIGHUP
 ending teleop, deploy, replay and run through their normal end: summary printed, exit status
@@ -219,8 +219,8 @@ def test_the_loop_sets_the_gil_switch_interval_only_while_it_runs():
     import sys
 
     from rio.benchmarks.loop_jitter import Hold, _station
-    from rio.control.loop import ControlLoop
-    from rio.manager import ServerManager
+    from rio.loop.control_loop import ControlLoop
+    from rio.runtime.manager import ServerManager
     from rio.station import make_station
 
     before = sys.getswitchinterval()

@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 from pydantic import Field
+
 from rio import clock
 from rio.conformance.driver_base import WATCHDOG, WATCHDOG_DAMPS
 from rio.conformance.drivers import HumanoidConformance

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from rio import clock
 from rio.cli import main as rio_main
 from rio.errors import ConfigError

@@ -14,6 +14,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+
 from rio import clock
 from rio.cli import main as rio_main
 from rio.recording import DamagedEpisode, Dataset, Recorder

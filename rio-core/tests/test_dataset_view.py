@@ -13,6 +13,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+
 from rio.cli import main as rio_main
 from rio.recording import Dataset
 from rio.recording import paths as L
@@ -152,7 +153,7 @@ def test_frames_are_streamed_one_at_a_time(ds, rr, tmp_path, monkeypatch):
     """However long the episode, a stream's frames are decoded as they are logged, not all first."""
     from rio.recording.dataset import Episode
     from rio.recording.view import view_episode
-    from rio.teleop.viz import RerunViz
+    from rio.viz import RerunViz
 
     decoded, ahead = Counter(), []
     frames = Episode.frames

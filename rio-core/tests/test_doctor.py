@@ -9,19 +9,20 @@ import types
 from importlib.metadata import PackageNotFoundError, distribution
 
 import pytest
-from rio import known_plugins
+
 from rio.cli import main
 from rio.errors import ConfigError
-from rio.hookspecs import hookimpl
 from rio.plugins import Registry
-from rio.requirements import Requirement, evaluate
+from rio.plugins import known as known_plugins
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement, evaluate
 from rio.testing import write_plugin_dist
 
 from .conftest import run_rio
 
 NEEDS = '''
-from rio.hookspecs import hookimpl
-from rio.requirements import Requirement
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement
 
 @hookimpl
 def rio_requirements():
@@ -88,7 +89,7 @@ def test_raising_or_malformed_hook_is_a_problem_naming_the_plugin(registry, caps
     data = json.loads(capsys.readouterr().out)
     problems = data["problems"]
     assert any(p.startswith("plugin 'doc-boom'") and "RuntimeError: requirements exploded" in p for p in problems)
-    assert any(p.startswith("plugin 'doc-odd'") and "not a rio.requirements.Requirement" in p for p in problems)
+    assert any(p.startswith("plugin 'doc-odd'") and "not a rio.plugins.requirements.Requirement" in p for p in problems)
     assert any(p.startswith("plugin 'doc-odd'") and "'not a module!'" in p for p in problems)
     assert any(p.startswith("plugin 'doc-dict'") and "returned dict" in p for p in problems)
     assert "doc-boom" not in data["requirements"] and "doc-dict" not in data["requirements"]

@@ -17,7 +17,7 @@ from rio.conformance.drivers import (
     TeleopConformance,
 )
 
-#: The joint ranges of rio.testing.SIX_DOF_MJCF, as a station would narrow the fake model arm to them.
+#: The joint ranges of rio.fakes.arms.SIX_DOF_MJCF, as a station would narrow the fake model arm to them.
 MODEL_ARM_LIMITS = [(-3.0, 3.0), (-2.0, 2.0), (-2.5, 2.5), (-3.0, 3.0), (-2.0, 2.0), (-3.0, 3.0)]
 
 

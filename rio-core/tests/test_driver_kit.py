@@ -9,9 +9,11 @@ while the unbroken fakes pass the same run.
 from __future__ import annotations
 
 import pytest
+
 import rio.conformance.drivers  # noqa: F401 - loaded before the in-process pytester runs, which keep it
+from rio.fakes.arms import FakeModelArm
 from rio.plugins import get_registry
-from rio.testing import FakeModelArm, lifecycle
+from rio.testing import lifecycle
 
 from .conftest import kit_outcomes
 
@@ -21,7 +23,7 @@ BROKEN_DRIVERS = '''
 import numpy as np
 from rio import clock
 from rio.errors import InvalidRequest
-from rio.testing import FakeArm, FakeGripper, FakeModelArm
+from rio.fakes.arms import FakeArm, FakeGripper, FakeModelArm
 
 
 class WrongShapeGripper(FakeGripper):
@@ -117,12 +119,12 @@ def _failed(results: dict[str, str]) -> set[str]:
 def kit_loaded() -> None:
     """An in-process pytester run forgets the modules first imported during it (pytester snapshots
     sys.modules when its fixture starts), but the `rio` package keeps its attributes for them: a later
-    `from . import builtin_plugin` would get the forgotten module (whose `Spec` is not `rio.specs.Spec`
+    `from . import builtin_plugin` would get the forgotten module (whose `Spec` is not `rio.plugins.specs.Spec`
     any more), and an extension module cannot be loaded twice. Loading them before, in a fixture of a
     wider scope than pytester's, keeps them."""
     get_registry().specs("rio_drivers")  # rio.plugins, the core's and the installed plugins' modules
     import rio.middleware.thread  # noqa: F401 - served cases
-    import rio.runtime  # noqa: F401 - the close-after-error case
+    import rio.runtime.runner  # noqa: F401 - the close-after-error case
 
     with lifecycle(FakeModelArm()) as arm:  # forward kinematics: rio.kinematics and what it imports
         arm.read_state()

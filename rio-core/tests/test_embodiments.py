@@ -7,13 +7,14 @@ import types
 
 import numpy as np
 import pytest
+
 from rio import ServerManager, clock
 from rio.embodiments.infer import infer_embodiment
 from rio.errors import ConfigError, RioError
-from rio.hookspecs import hookimpl
 from rio.plugins import Registry
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.specs import Spec
 from rio.schema import BimanualObs, HumanoidObs, Observation, SingleArmObs, Step
-from rio.specs import Spec
 from rio.station import make_station, parse_station
 from rio.testing import wait_until
 

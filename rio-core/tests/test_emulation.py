@@ -8,6 +8,7 @@ import socket
 import threading
 
 import pytest
+
 from rio.emulation import (
     ILLEGAL_DATA_ADDRESS,
     FingerModel,

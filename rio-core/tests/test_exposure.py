@@ -8,8 +8,9 @@ import logging
 
 import numpy as np
 import pytest
+
 from rio.errors import ConfigError
-from rio.middleware.base import NodeLayouts, is_loopback
+from rio.runtime.transport import NodeLayouts, is_loopback
 from rio.station import make_station, parse_station
 from rio.testing import EchoNode
 

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from rio import clock
 from rio.errors import InvalidRequest
+from rio.fakes.arms import FakeArm
 from rio.interfaces import FAULT_KEYS, Fault, FaultHolding
-from rio.testing import FakeArm, lifecycle
+from rio.testing import lifecycle
 
 COLLISION = Fault(31, "collision", "the arm hit something", "clear the obstacle", tag="C31")
 

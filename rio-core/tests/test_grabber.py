@@ -8,6 +8,7 @@ import logging
 import threading
 
 import pytest
+
 from rio.interfaces.grabber import CameraError, Grabber, SourceFinished, SourceLost
 from rio.testing import wait_until
 

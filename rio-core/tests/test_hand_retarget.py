@@ -14,17 +14,18 @@ import pytest
 pytest.importorskip("mink")
 
 import mujoco  # noqa: E402
+
 from rio.conformance.drivers import HandConformance  # noqa: E402
 from rio.control import euler_to_quat, quat_to_matrix  # noqa: E402
-from rio.interfaces.teleop import HAND_JOINTS  # noqa: E402
-from rio.kinematics import HandRetargeter, palm_pose  # noqa: E402
-from rio.testing import (  # noqa: E402
+from rio.fakes.hands import (
     FakeModelHand,
     five_finger_hand_description,
     five_finger_hand_joints,
     five_finger_hand_limits,
-    lifecycle,
 )
+from rio.interfaces.teleop import HAND_JOINTS  # noqa: E402
+from rio.kinematics import HandRetargeter, palm_pose  # noqa: E402
+from rio.testing import lifecycle
 
 J = {name: i for i, name in enumerate(HAND_JOINTS)}
 LOWER, UPPER = (np.array(v) for v in five_finger_hand_limits())

@@ -4,7 +4,9 @@ run here on the fake arm and gripper so they are known to work before they meet 
 from __future__ import annotations
 
 import numpy as np
-from rio.testing import FakeArm, FakeGripper, cycle_gripper, lifecycle, nudge_last_joint
+
+from rio.fakes.arms import FakeArm, FakeGripper
+from rio.testing import cycle_gripper, lifecycle, nudge_last_joint
 
 
 def test_nudge_turns_the_last_joint_and_back():

@@ -1,4 +1,4 @@
-"""rio.host: the operating-system calls that differ between Linux, macOS and Windows.
+"""rio.machine.host: the operating-system calls that differ between Linux, macOS and Windows.
 
 This machine is Linux. The macOS paths (temporary files for anonymous memory, polled process
 liveness, 31-character shm names, the marker registry) are exercised by switching `host.FALLBACK`
@@ -17,8 +17,9 @@ import time
 from pathlib import Path
 
 import pytest
-from rio import host
+
 from rio.errors import ConfigError
+from rio.machine import host
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -66,7 +67,7 @@ def test_fallback_anonymous_memory_leaves_no_file_and_liveness_is_polled():
 
 _HELPER = """
 import os, subprocess, sys
-helper = subprocess.Popen([sys.executable, "-c", "import os, time; from rio import host; "
+helper = subprocess.Popen([sys.executable, "-c", "import os, time; from rio.machine import host; "
                            f"host.exit_with_parent({os.getpid()}); print('armed', flush=True); time.sleep(120)"],
                           stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
 assert helper.stdout.readline().strip() == "armed"
@@ -115,7 +116,7 @@ def test_file_lock_is_exclusive_across_descriptors(tmp_path):
 
 def test_shared_memory_suites_pass_on_the_portable_paths():
     """The whole middleware conformance kit (every middleware watches its node processes through
-    rio.host), the shm middleware and call-channel tests, crash-safe recording and the sim world bus,
+    rio.machine.host), the shm middleware and call-channel tests, crash-safe recording and the sim world bus,
     re-run with RIO_HOST_FALLBACK=1: what macOS runs, on this Linux machine."""
     suites = ["rio-core/tests/test_conformance.py", "rio-core/tests/test_mw_shm.py",
               "rio-core/tests/test_shm_calls.py", "rio-core/tests/test_recording_crash.py",

@@ -8,9 +8,10 @@ import subprocess
 import sys
 
 import pytest
-from rio import keys
+
 from rio.errors import ConfigError
-from rio.middleware.base import NetworkConfig
+from rio.machine import keys
+from rio.runtime.transport import NetworkConfig
 
 
 @pytest.fixture(scope="module")

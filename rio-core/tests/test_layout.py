@@ -2,8 +2,9 @@
 
 import numpy as np
 import pytest
+
 from rio.errors import InvalidRequest
-from rio.layout import Layout
+from rio.runtime.layout import Layout
 
 
 def make():

@@ -7,8 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+
+from rio.fakes.arms import SIX_DOF_MJCF, FakeArm
 from rio.interfaces import ModelTableArm
-from rio.testing import SIX_DOF_MJCF, FakeArm, lifecycle
+from rio.testing import lifecycle
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
 """rio.kinematics.multi_frame: a humanoid's two wrists solved together on the test upper body
-(`rio.testing.UPPER_BODY_MJCF`: fixed pelvis, 3-joint legs, a waist both arms hang from, 7-joint arms)."""
+(`rio.fakes.humanoid.UPPER_BODY_MJCF`: fixed pelvis, 3-joint legs, a waist both arms hang from, 7-joint arms)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,9 @@ pytest.importorskip("mink")
 
 from rio.conformance.drivers import HumanoidConformance  # noqa: E402
 from rio.control import pose_error, pose_mul, rotvec_to_quat  # noqa: E402
+from rio.fakes.humanoid import FakeModelHumanoid, upper_body_description, upper_body_limits  # noqa: E402
 from rio.kinematics import MultiFrameIK  # noqa: E402
-from rio.testing import FakeModelHumanoid, lifecycle, upper_body_description, upper_body_limits  # noqa: E402
+from rio.testing import lifecycle
 
 DESC = upper_body_description()
 NAMES = DESC["joints"]

@@ -1,5 +1,5 @@
 """A station on two machines, emulated on one: two network namespaces joined by a veth pair
-(`rio.netns`). The robot side runs `rio serve STATION --machine robot`, the other side the control
+(`rio.machine.netns`). The robot side runs `rio serve STATION --machine robot`, the other side the control
 loop (`rio teleop STATION`), over zmq and zenoh with the station's keys, each side with its own home
 directory holding its own keys, as two computers would. Then the cable is pulled: the loop side must
 stop with an error naming a node, the robot side must hold and say so, and once the link is back a
@@ -17,7 +17,8 @@ import time
 from pathlib import Path
 
 import pytest
-from rio import keys, netns
+
+from rio.machine import keys, netns
 
 STATION = """
 name = "two-{mw}"

@@ -18,12 +18,13 @@ from typing import Any
 import msgpack
 import numpy as np
 import pytest
+
 import rio
-from rio import wire
 from rio.errors import ConfigError
-from rio.manager import ServerManager, connect, serve
-from rio.middleware.base import NodeLayouts
 from rio.middleware.portal import PortalMiddleware
+from rio.runtime import wire
+from rio.runtime.manager import ServerManager, connect, serve
+from rio.runtime.transport import NodeLayouts
 from rio.testing import EchoNode, ImageNode, wait_until
 
 MW = "portal"
@@ -189,7 +190,7 @@ def test_portal_package_is_not_imported():
     force the spawn start method on the whole program)."""
     code = textwrap.dedent("""
         import multiprocessing as mp, sys
-        from rio.middleware.base import NodeLayouts
+        from rio.runtime.transport import NodeLayouts
         from rio.middleware.portal import PortalMiddleware
         from rio.testing import EchoNode
 

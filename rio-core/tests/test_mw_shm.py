@@ -10,6 +10,7 @@ import time
 
 import numpy as np
 import pytest
+
 import rio
 from rio import ServerManager, connect, serve
 from rio.middleware.shm import ShmMiddleware
@@ -120,8 +121,8 @@ def test_a_deep_temp_directory_does_not_break_the_node_sockets(monkeypatch, tmp_
     ("AF_UNIX path too long"); run directories then go to /tmp, and `rio top` looks for them there too."""
     import tempfile
 
-    from rio import host
-    from rio.profiling.top import running_stations
+    from rio.machine import host
+    from rio.runtime.top import running_stations
     from rio.testing import Counter
 
     deep = tmp_path / ("d" * 60) / ("e" * 60)

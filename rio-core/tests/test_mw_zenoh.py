@@ -17,8 +17,8 @@ pytest.importorskip("zenoh")
 import rio  # noqa: E402
 from rio import ServerManager, connect, serve  # noqa: E402
 from rio.errors import ConfigError  # noqa: E402
-from rio.middleware.base import NodeLayouts  # noqa: E402
 from rio.middleware.zenoh import _SESSIONS, ZenohMiddleware, _config, _free_port  # noqa: E402
+from rio.runtime.transport import NodeLayouts  # noqa: E402
 from rio.testing import EchoNode, ImageNode, wait_until  # noqa: E402
 
 
@@ -228,7 +228,8 @@ def test_a_flood_of_calls_on_made_up_clients_does_not_starve_a_real_client():
     0.5 s, and 10,000 of them left the real client timing out for the rest of the run. Now such calls wait
     aside (bounded) while real clients are answered, and the excess is dropped."""
     import zenoh
-    from rio import wire
+
+    from rio.runtime import wire
 
     with ServerManager("zenoh", [serve(EchoNode, name="flooded")], station="flood") as mgr:
         addr = mgr.address("flooded")
@@ -314,8 +315,9 @@ def test_full_request_queue_raises_queue_full(slow):
 def test_request_to_a_node_without_requests_is_refused():
     """A request put on a node that takes none is answered, as refused (no sender waits in vain)."""
     import zenoh
-    from rio import wire
+
     from rio.middleware.zenoh import _REQ_ID
+    from rio.runtime import wire
     from rio.testing import Counter
 
     with ServerManager("zenoh", [serve(Counter, name="counter")], station="noreq") as mgr:
@@ -353,8 +355,9 @@ def test_a_message_over_the_node_limit_is_refused_before_it_reaches_the_node(lim
     above the message (the second case) the same message does reach the node, which answers that the
     record is invalid: the check that the first case's silence is the limit at work."""
     import zenoh
-    from rio import wire
+
     from rio.middleware.zenoh import _REQ_ID
+    from rio.runtime import wire
 
     mw = ZenohMiddleware(ZenohMiddleware.Config(max_message_bytes=limit), station="big")
     with ServerManager([serve(EchoNode, mw, name="big")], station="big") as mgr:
@@ -400,7 +403,7 @@ def test_calls_whose_callers_gave_up_are_not_run():
     skipped."""
     import threading
 
-    from rio.runtime import Dispatcher
+    from rio.runtime.runner import Dispatcher
 
     node = _Counter()
     mw = ZenohMiddleware(ZenohMiddleware.Config(call_timeout=1.0), station="stale")

@@ -16,9 +16,11 @@ import pytest
 zenoh = pytest.importorskip("zenoh")
 
 import rio  # noqa: E402
-from rio import ServerManager, connect, keys, serve, wire  # noqa: E402
+from rio import ServerManager, connect, serve  # noqa: E402
 from rio.errors import ConfigError  # noqa: E402
+from rio.machine import keys  # noqa: E402
 from rio.middleware.zenoh import _REQ_ID, _SESSIONS, ZenohMiddleware, _config, _free_port  # noqa: E402
+from rio.runtime import wire  # noqa: E402
 from rio.testing import EchoNode, wait_until  # noqa: E402
 
 STATION = "sec"

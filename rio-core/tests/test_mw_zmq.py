@@ -10,12 +10,13 @@ import time
 
 import numpy as np
 import pytest
-import rio
 from pydantic import ValidationError
+
+import rio
 from rio import ServerManager, connect, serve
 from rio.errors import ConfigError
 from rio.middleware.zmq import ZmqMiddleware
-from rio.node import remote
+from rio.runtime.node import remote
 from rio.testing import EchoNode, ImageNode, wait_until
 
 
@@ -198,8 +199,8 @@ def test_restarted_server_is_a_new_server():
     timeout must not silently feed an old client (its sequence numbers restart, its layout may
     differ): the client reports the node gone and must connect again. In-process servers keep this
     fast."""
-    from rio.middleware.base import NodeLayouts
-    from rio.runtime import Dispatcher
+    from rio.runtime.runner import Dispatcher
+    from rio.runtime.transport import NodeLayouts
 
     ports = {"state_port": _free_port(), "rpc_port": _free_port()}
     mw = ZmqMiddleware(**ports)
@@ -242,8 +243,8 @@ class _ReqOnly(rio.Node):
 
 def test_node_without_state_in_process_server():
     """No example_data: no ring buffer on either side, but requests, calls and liveness work."""
-    from rio.middleware.base import NodeLayouts
-    from rio.runtime import Dispatcher
+    from rio.runtime.runner import Dispatcher
+    from rio.runtime.transport import NodeLayouts
 
     node = _ReqOnly()
     mw = ZmqMiddleware()
@@ -296,13 +297,13 @@ def test_a_peer_claiming_a_huge_message_is_disconnected_before_the_node_allocate
 
 def test_the_message_limit_fits_the_nodes_requests():
     from rio.middleware.zmq import ZmqServer
-    from rio.node import Node
+    from rio.runtime.node import Node
 
     class Big(Node):
         def setup(self):
             self.example_request = {"img": np.zeros((2000, 1000, 3), np.uint8)}  # 6 MB: over the default 4 MiB
 
-    from rio.middleware.base import NodeLayouts
+    from rio.runtime.transport import NodeLayouts
 
     node = Big()
     layouts = NodeLayouts.of(node)

@@ -11,16 +11,18 @@ import time
 
 import numpy as np
 import pytest
-import rio
-import rio.keys
 import zmq
 import zmq.utils.monitor
-from rio import ServerManager, connect, serve, wire
+
+import rio
+import rio.machine.keys
+from rio import ServerManager, connect, serve
 from rio.errors import ConfigError
-from rio.middleware.base import NodeLayouts
 from rio.middleware.zmq import ZmqMiddleware
-from rio.node import remote
-from rio.runtime import Dispatcher
+from rio.runtime import wire
+from rio.runtime.node import remote
+from rio.runtime.runner import Dispatcher
+from rio.runtime.transport import NodeLayouts
 from rio.testing import EchoNode, wait_until
 
 
@@ -29,7 +31,7 @@ from rio.testing import EchoNode, wait_until
 def keys(tmp_path_factory):
     """A station's keys: `robot` serves the nodes, `laptop` is the operator's machine."""
     root = tmp_path_factory.mktemp("keys")
-    rio.keys.generate(root / "st", ["robot", "laptop"])
+    rio.machine.keys.generate(root / "st", ["robot", "laptop"])
     return root / "st"
 
 
@@ -199,13 +201,13 @@ def test_a_client_whose_key_the_node_does_not_know_is_refused(keys, keyed_server
     robot's public key (public keys are not secret) tries to connect. The node's ZAP handler refuses its
     key, and the client says "authentication" at once instead of hanging. A client whose copy of the
     robot's key is wrong (another station's robot) fails the same way."""
-    rio.keys.generate(tmp_path / "thief", ["intruder"])
+    rio.machine.keys.generate(tmp_path / "thief", ["intruder"])
     intruder = tmp_path / "thief" / "intruder"
     shutil.copy(keys / "robot" / "peers" / "robot.key", intruder / "peers" / "robot.key")
     with pytest.raises(ConfigError, match="hostile-keyed.*authentication.*refused"):
         connect(EchoNode, ZmqMiddleware(keys=str(intruder)), name="hostile-keyed",
                 address=keyed_server.address("hostile-keyed"))
-    rio.keys.generate(tmp_path / "other", ["robot", "laptop"])
+    rio.machine.keys.generate(tmp_path / "other", ["robot", "laptop"])
     with pytest.raises(ConfigError, match="hostile-keyed.*authentication"):
         connect(EchoNode, ZmqMiddleware(keys=str(tmp_path / "other" / "laptop")), name="hostile-keyed",
                 address=keyed_server.address("hostile-keyed"))

@@ -6,16 +6,17 @@ import sys
 import types
 
 import pytest
-from rio import plugins
+
 from rio.errors import ConfigError
-from rio.hookspecs import hookimpl
 from rio.plugins import Registry
-from rio.specs import Spec
+from rio.plugins import registry as plugins
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.specs import Spec
 from rio.testing import write_plugin_dist
 
 GOOD = '''
-from rio.hookspecs import hookimpl
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.specs import Spec
 
 @hookimpl
 def rio_drivers():
@@ -27,8 +28,8 @@ def rio_stations():
 '''
 BROKEN_IMPORT = "import tp_vendor_sdk_that_is_not_installed\n"
 BAD_SPECS = '''
-from rio.hookspecs import hookimpl
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.specs import Spec
 
 @hookimpl
 def rio_drivers():

@@ -12,10 +12,12 @@ import sys
 from pathlib import Path
 
 import pytest
+
 import rio
-from rio import plugins
 from rio.cli import main
-from rio.plugin_install import (
+from rio.plugins import Registry
+from rio.plugins import registry as plugins
+from rio.plugins.install import (
     activate_new_paths,
     install_command,
     normalize,
@@ -24,7 +26,6 @@ from rio.plugin_install import (
     uninstall_command,
     uv_project_of,
 )
-from rio.plugins import Registry
 
 PY = "/env/bin/python"
 UV = "/usr/bin/uv"
@@ -68,7 +69,7 @@ def test_activate_new_paths_reads_a_new_pth_file(tmp_path, monkeypatch):
     site_dir, src = tmp_path / "site", tmp_path / "src"
     site_dir.mkdir()
     src.mkdir()
-    monkeypatch.setattr("rio.plugin_install._site_dirs", lambda: [str(site_dir)])
+    monkeypatch.setattr("rio.plugins.install._site_dirs", lambda: [str(site_dir)])
     monkeypatch.setattr(sys, "path", list(sys.path))
     before = pth_files()
     (site_dir / "_acme.pth").write_text(f"# comment\n{src}\nimport sys; sys._rio_pth_test = 1\n")
@@ -159,8 +160,8 @@ build-backend = "hatchling.build"
 packages = ["src/rio_tinytest"]
 """
 PLUGIN_MODULE = """\
-from rio.hookspecs import hookimpl
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.specs import Spec
 
 
 @hookimpl

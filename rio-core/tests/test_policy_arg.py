@@ -4,6 +4,7 @@ inside them kept), else strings; a pair without `=` is one error quoting it."""
 from __future__ import annotations
 
 import pytest
+
 from rio.errors import ConfigError
 from rio.policy.resolve import parse_policy_arg
 

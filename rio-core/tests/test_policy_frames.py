@@ -12,14 +12,15 @@ from typing import Any
 
 import numpy as np
 import pytest
+
 from rio import clock
-from rio.buffers import RingBuffer
 from rio.errors import ConfigError
-from rio.layout import Layout
-from rio.manager import ServerManager, connect, serve
 from rio.policy import AsyncInference, ObsLayout, PolicyMetadata
 from rio.policy.testing import FrameEchoPolicyNode, frame_signature
-from rio.ring_ref import SharedRing
+from rio.runtime.buffers import RingBuffer
+from rio.runtime.layout import Layout
+from rio.runtime.manager import ServerManager, connect, serve
+from rio.runtime.ring_ref import SharedRing
 from rio.station import make_station, parse_station
 
 
@@ -146,7 +147,7 @@ def test_a_frame_overwritten_during_the_forward_pass_is_a_counted_miss():
 
 @pytest.mark.parametrize("stores_in_order", [True, False], ids=["x86", "reordering-cpu"])
 def test_ring_find_view_is_the_sample_in_place_until_its_slot_comes_round(monkeypatch, stores_in_order):
-    from rio import slot_check
+    from rio.runtime import slot_check
 
     monkeypatch.setattr(slot_check, "STORES_IN_ORDER", stores_in_order)
     ring = RingBuffer(Layout({"rgb": np.zeros((4, 4, 3), np.uint8)}, owner="cam"), capacity=4)

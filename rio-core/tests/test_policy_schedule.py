@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from rio.policy import ActionChunk, AsyncConfig, AsyncInference, ChunkSchedule, PolicyMetadata, ScheduleConfig
 
 DT = 0.02  # 50 Hz actions

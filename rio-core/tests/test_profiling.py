@@ -12,6 +12,7 @@ import threading
 import time
 
 import pytest
+
 import rio.profiling as prof
 from rio import ServerManager, clock, connect, serve
 from rio.profiling import ProcessSampler, Profile, Trace, load_trace, merge_parts, write_timeline

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from rio import wire
+
 from rio.errors import ConfigError, InvalidRequest
-from rio.layout import Layout
+from rio.runtime import wire
+from rio.runtime.layout import Layout
 
 BUDGET = settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
@@ -96,7 +97,7 @@ toml_text = st.one_of(st.text(max_size=300), st.builds(
 @given(toml_text)
 def test_any_station_text_is_a_station_or_a_config_error(text):
     from rio.station import parse_station
-    from rio.station.toml import parse_toml
+    from rio.toml import parse_toml
 
     try:
         parse_station(parse_toml(text, "prop.toml"), source="prop.toml")

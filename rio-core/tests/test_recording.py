@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+
 from rio import clock
 from rio.recording import Dataset, Recorder, RecordingError
 from rio.recording.synthetic import SyntheticCamera, record_synthetic, synthetic_step

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
+
 from rio.recording import Dataset, repair_dataset
 from rio.recording.durable import sha256_file
 

@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from rio.buffers import RingBuffer
-from rio.layout import Layout
+
 from rio.recording import Dataset, Recorder, RecordingError
 from rio.recording.recorder import env_depth
 from rio.recording.synthetic import SyntheticCamera, synthetic_step
 from rio.recording.video import StreamWriter, VideoOptions, read_frames, video_problem
+from rio.runtime.buffers import RingBuffer
+from rio.runtime.layout import Layout
 from rio.schema import Camera, RingCamera, depth_meters
 
 av = pytest.importorskip("av")
@@ -213,7 +214,7 @@ def test_the_live_viewer_logs_frames_read_in_place(tmp_path):
     first: the one copy is rerun's), depth as the camera's integers with their scale; a frame gone from
     the ring is skipped, not an error and not another frame."""
     rr = pytest.importorskip("rerun")
-    from rio.teleop.viz import RerunViz
+    from rio.viz import RerunViz
 
     ring, scene, rng = camera_ring(0.00025), SyntheticCamera(H, W), np.random.default_rng(4)
     ts = publish(ring, 0, scene, rng, 0.00025)

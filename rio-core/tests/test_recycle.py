@@ -4,9 +4,10 @@ reader keeps never changes under it."""
 from __future__ import annotations
 
 import numpy as np
-from rio.buffers import RingBuffer
-from rio.layout import Layout
-from rio.recycle import MIN_POOLED_BYTES, BufferPool
+
+from rio.runtime.buffers import RingBuffer
+from rio.runtime.layout import Layout
+from rio.runtime.recycle import MIN_POOLED_BYTES, BufferPool
 
 
 def test_a_buffer_is_reused_only_once_nothing_holds_it():

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from rio import clock
 from rio.errors import RioError
-from rio.recording import Recorder, replay_episode
+from rio.recording import Recorder
 from rio.schema import SingleArmObs, Step
+from rio.workflows.replay import replay_episode
 
 STATION = """
 name = "replay-test"
@@ -54,7 +56,7 @@ def test_replay_refuses_other_action_layout(tmp_path):
 
 def test_replay_refuses_a_damaged_episode_before_the_robot_moves(tmp_path, monkeypatch):
     """An all-zero steps.bin (fails its recorded sha256) must never be sent to a robot as zero actions."""
-    import rio.control.workflow as workflow
+    import rio.workflows.run as workflow
     from rio.recording import DamagedEpisode, DamagedEpisodeWarning
 
     (tmp_path / "st.toml").write_text(STATION)

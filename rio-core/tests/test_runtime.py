@@ -6,9 +6,11 @@ import time
 
 import numpy as np
 import pytest
+
 import rio
 from rio import Node, ServerManager, client_side, connect, remote, serve
-from rio.testing import Counter, FakeArm, wait_until
+from rio.fakes.arms import FakeArm
+from rio.testing import Counter, wait_until
 
 
 class ReqOnly(Node):

@@ -1,4 +1,4 @@
-"""rio.kinematics.MultiFrameIK's self-collision avoidance on the test upper body (`rio.testing.UPPER_BODY_MJCF`:
+"""rio.kinematics.MultiFrameIK's self-collision avoidance on the test upper body (`rio.fakes.humanoid.UPPER_BODY_MJCF`:
 capsule links, a torso capsule both arms hang from). Distances are measured here on a model of our own with
 MuJoCo's `mj_geomDistance`, not through the IK's bookkeeping."""
 
@@ -11,9 +11,9 @@ pytest.importorskip("mink")
 mujoco = pytest.importorskip("mujoco")
 
 from rio.control import pose_error  # noqa: E402
+from rio.fakes.humanoid import UPPER_BODY_MJCF, upper_body_description  # noqa: E402
 from rio.kinematics import MultiFrameIK  # noqa: E402
 from rio.kinematics.self_collision import SLIP, collision_geoms  # noqa: E402
-from rio.testing import UPPER_BODY_MJCF, upper_body_description  # noqa: E402
 
 DESC = upper_body_description()
 NAMES = DESC["joints"]

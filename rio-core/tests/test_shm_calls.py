@@ -16,9 +16,11 @@ import time
 
 import numpy as np
 import pytest
-from rio import host, wire
+
+from rio.machine import host
 from rio.middleware import shm_calls
 from rio.middleware.shm_calls import CallChannel, PeerGone
+from rio.runtime import wire
 
 WAYS = [pytest.param(True, id="watch-memory"), pytest.param(False, id="poll-pipe")]
 

@@ -13,11 +13,12 @@ import os
 
 import numpy as np
 import pytest
-from rio import slot_check
-from rio.buffers import RequestQueue, RingBuffer
+
 from rio.conformance.ordering import stress
 from rio.errors import RioError
-from rio.layout import Layout
+from rio.runtime import slot_check
+from rio.runtime.buffers import RequestQueue, RingBuffer
+from rio.runtime.layout import Layout
 
 LAYOUT = Layout({"x": 0.0, "v": np.zeros(4)}, owner="n")
 

@@ -7,15 +7,16 @@ import textwrap
 import types
 
 import pytest
+
 from rio.errors import ConfigError
-from rio.hookspecs import hookimpl
 from rio.plugins import Registry
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.specs import Spec
 from rio.station import load_station, make_station, parse_station
 
 SERIAL_ARM = """
 from pydantic import Field
-from rio.testing import FakeArm
+from rio.fakes.arms import FakeArm
 
 
 class SerialArm(FakeArm):

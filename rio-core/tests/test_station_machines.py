@@ -4,6 +4,7 @@ machine builds from it (`make_station(machine=...)`), without starting anything.
 from __future__ import annotations
 
 import pytest
+
 from rio.errors import ConfigError
 from rio.station.build import make_station
 from rio.station.load import parse_station

@@ -8,7 +8,8 @@ import time
 
 import numpy as np
 import pytest
-from rio.manager import ServerManager, connect, serve
+
+from rio.runtime.manager import ServerManager, connect, serve
 from rio.teleop.keyboard import KeyboardTeleop
 from rio.teleop.scripted import ScriptedTeleop
 from rio.testing import wait_until

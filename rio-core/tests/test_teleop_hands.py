@@ -9,9 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from rio.control.rotations import quat_angle, quat_conj, quat_mul, quat_to_rotvec
-from rio.teleop import run_teleop
-from rio.testing import fake_eef_station, five_finger_hand_joints
+from rio.fakes.hands import five_finger_hand_joints
+from rio.testing import fake_eef_station
+from rio.workflows.teleop import run_teleop
 
 pytest.importorskip("mink")
 
@@ -89,8 +91,8 @@ driver = "rio.fake_arm"
 
 
 def test_a_humanoid_follows_with_its_wrists_and_curls_its_fingers(tmp_path):
+    from rio.fakes.humanoid import upper_body_description, upper_body_joints
     from rio.kinematics import MultiFrameIK
-    from rio.testing import upper_body_description, upper_body_joints
 
     body = """
 [components.humanoid]
@@ -136,8 +138,8 @@ driver = "rio.fake_model_hand"
 def test_a_twist_device_drives_a_humanoids_wrists(tmp_path):
     """The twist teleop (keyboard, SpaceMouse, scripted) on a humanoid: its wrists stand for two arms,
     solved together by IK; one device moves both, the legs stay."""
+    from rio.fakes.humanoid import upper_body_description, upper_body_joints
     from rio.kinematics import MultiFrameIK
-    from rio.testing import upper_body_description, upper_body_joints
 
     path = tmp_path / "twist-humanoid.toml"
     path.write_text(HEAD + '[components.humanoid]\ndriver = "rio.fake_model_humanoid"\n'

@@ -8,11 +8,12 @@ from typing import Any
 
 import numpy as np
 import pytest
+
+from rio.cli.teleop_cmd import _record_episodes
 from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, episode_verdict
-from rio.teleop import run_teleop
-from rio.teleop.command import _record_episodes
 from rio.teleop.feedback import DeviceFeedback
 from rio.testing import fake_eef_station
+from rio.workflows.teleop import run_teleop
 
 STATION = fake_eef_station("verdict-test", 'driver = "rio.fake_teleop"\nbuttons = 4', gripper=False)
 
@@ -65,8 +66,9 @@ def test_record_keeps_and_discards_as_the_device_says(station, tmp_path):
 
 
 def test_teleop_set_reaches_the_device(station):
-    from rio.cli.app import build_app
     from typer.testing import CliRunner
+
+    from rio.cli.app import build_app
 
     r = CliRunner().invoke(build_app(), ["teleop", str(station), "--teleop-set", "pressed=[1, 2]",
                                          "--teleop-set", "gripper=0.5", "--json"])

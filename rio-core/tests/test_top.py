@@ -10,7 +10,8 @@ import sys
 import uuid
 
 import pytest
-from rio.manager import ServerManager
+
+from rio.runtime.manager import ServerManager
 from rio.station import make_station, parse_station
 
 

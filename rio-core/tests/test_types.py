@@ -11,6 +11,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+
 import rio
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -43,7 +44,7 @@ def test_client_is_typed_as_its_node_class(tmp_path):
     usage = tmp_path / "typed_usage.py"
     usage.write_text(textwrap.dedent("""\
         from rio import connect
-        from rio.testing import FakeArm
+        from rio.fakes.arms import FakeArm
 
         arm = connect(FakeArm, "thread", name="arm")
         q: int = arm.num_joints()

@@ -4,7 +4,8 @@ import pickle
 
 import numpy as np
 import pytest
-from rio import wire
+
+from rio.runtime import wire
 
 
 def test_round_trip_arrays_scalars_and_containers():

@@ -9,6 +9,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 from lerobot_robot_rio import RioRobot, RioRobotConfig, RioTeleoperator, RioTeleoperatorConfig  # noqa: E402
+
 from rio.testing import wait_until  # noqa: E402
 
 EEF = ["x", "y", "z", "qw", "qx", "qy", "qz"]

@@ -13,8 +13,9 @@ import numpy as np  # noqa: E402
 from lerobot.robots.utils import make_robot_from_config  # noqa: E402
 from lerobot.utils.errors import DeviceNotConnectedError  # noqa: E402
 from lerobot_robot_rio import RioRobot, RioRobotConfig  # noqa: E402
+from rio_sim.session import SESSION_ENV  # noqa: E402
+
 from rio.testing import wait_until  # noqa: E402
-from rio_sim.bus import SESSION_ENV  # noqa: E402
 
 JOINTS = ["shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"]
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import itertools
 
 import pytest
+
 from rio.testing import no_new_threads, started
 
 _domains = itertools.cycle(range(100, 150))

@@ -12,8 +12,9 @@ from __future__ import annotations
 import contextlib
 import itertools
 
-from rio.conformance.drivers import HumanoidConformance
 from rio_booster.t1 import JOINTS, home_pose
+
+from rio.conformance.drivers import HumanoidConformance
 
 _START = home_pose()
 _domains = itertools.cycle(range(150, 233))

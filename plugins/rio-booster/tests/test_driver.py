@@ -14,14 +14,15 @@ import time
 
 import numpy as np
 import pytest
+from rio_booster.emulator import CUSTOM, DAMPING, PREPARE
+from rio_booster.t1 import joint_names
+
 from rio import clock
 from rio.conformance.driving import Loop, build_node, resolve_driver
 from rio.control.rotations import quat_to_euler
 from rio.errors import InvalidRequest
 from rio.interfaces.damping import FALL, STALE_COMMANDS, STATE_LOST, tilt_from_rpy
 from rio.testing import lifecycle
-from rio_booster.emulator import CUSTOM, DAMPING, PREPARE
-from rio_booster.t1 import joint_names
 
 ELBOW = joint_names().index("Left_Elbow_Pitch")
 

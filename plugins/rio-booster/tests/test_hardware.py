@@ -23,8 +23,9 @@ def test_the_robots_low_state_is_sane():
     if not INTERFACE:
         pytest.skip("set RIO_T1_INTERFACE (this computer's interface on the T1's network, name or address)")
     sdk = pytest.importorskip("booster_robotics_sdk_python")
-    from rio.interfaces.damping import tilt_from_rpy as tilt_deg
     from rio_booster.t1 import JOINTS
+
+    from rio.interfaces.damping import tilt_from_rpy as tilt_deg
 
     sdk.ChannelFactory.Instance().Init(int(os.environ.get("RIO_T1_DOMAIN_ID", "0")), INTERFACE)
     got, lock = [], threading.Lock()

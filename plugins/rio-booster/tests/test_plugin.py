@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import numpy as np
+
 from rio.plugins import Registry
 from rio.station.load import load_station
 from rio.testing import wait_until
@@ -37,9 +38,10 @@ def test_stations_validate_without_importing_the_sdk():
 
 
 def test_the_emulator_station_moves_the_emulated_robot():
+    from rio_booster import emulator
+
     from rio import ServerManager
     from rio.station import make_station
-    from rio_booster import emulator
 
     servers, clients, _ = make_station("t1-emulator", middleware="thread")
     with ServerManager(servers), clients["humanoid"]() as t1:

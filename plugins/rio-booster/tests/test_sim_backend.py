@@ -11,12 +11,13 @@ import importlib.util
 
 import numpy as np
 import pytest
+from rio_booster.emulator import CUSTOM, EmulatedT1
+from rio_booster.t1 import home_pose, joint_names
+
 from rio import clock
 from rio.conformance.driving import Loop, build_node, resolve_driver
 from rio.interfaces.damping import FALL
 from rio.testing import block_import, lifecycle
-from rio_booster.emulator import CUSTOM, EmulatedT1
-from rio_booster.t1 import home_pose, joint_names
 
 HAVE_SIM = importlib.util.find_spec("mujoco") is not None and importlib.util.find_spec("rio_sim") is not None
 WHY = "the sim backend needs MuJoCo and rio-sim (pip install 'rio-booster[sim]')"
@@ -136,7 +137,7 @@ def teleop_run(tmp_path_factory):
     """`rio teleop t1-sim` (its code, thread middleware) with the station's scripted hand tracker, recorded."""
     if not HAVE_SIM:
         pytest.skip(WHY)
-    from rio.teleop import run_teleop
+    from rio.workflows.teleop import run_teleop
 
     root = tmp_path_factory.mktemp("t1sim") / "data"
     ticks: list = []
@@ -175,8 +176,9 @@ def test_teleop_moves_both_hands_by_the_trackers_motion_through_the_driver(teleo
 
 @needs_sim
 def test_a_recorded_t1_sim_episode_replays_to_the_same_joint_trajectory(teleop_run):
-    from rio.recording.dataset import Dataset
     from rio_sim.testing import check_humanoid_replay
+
+    from rio.recording.dataset import Dataset
 
     _, _, root, _ = teleop_run
     ep = Dataset(root).episode(0)

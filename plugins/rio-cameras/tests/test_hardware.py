@@ -13,6 +13,7 @@ import os
 
 import numpy as np
 import pytest
+
 from rio import clock
 from rio.testing import lifecycle, wait_until
 

@@ -12,8 +12,9 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import cv2
 import numpy as np
 import pytest
-from rio.testing import lifecycle, wait_until
 from rio_cameras.stream.driver import StreamCamera
+
+from rio.testing import lifecycle, wait_until
 
 
 class MjpegServer:

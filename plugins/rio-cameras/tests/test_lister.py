@@ -8,9 +8,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from rio.cameras import list_cameras
 from rio_cameras.opencv import capture
 from rio_cameras.uvc.lister import from_probe, list_uvc_cameras
+
+from rio.plugins.cameras import list_cameras
 
 
 def node(sys_root: Path, name: str, product: str, index: str, usb_interface: Path | None = None) -> None:

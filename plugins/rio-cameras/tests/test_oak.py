@@ -14,10 +14,11 @@ import types
 
 import numpy as np
 import pytest
-from rio.conformance.drivers import CameraConformance
-from rio.testing import lifecycle, wait_until
 from rio_cameras.oak.driver import OakCamera
 from rio_cameras.oak.lister import list_oak_cameras
+
+from rio.conformance.drivers import CameraConformance
+from rio.testing import lifecycle, wait_until
 
 
 class Board:

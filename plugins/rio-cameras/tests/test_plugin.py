@@ -7,9 +7,10 @@ import os
 import subprocess
 import sys
 
-from rio.plugins import Registry
-from rio.requirements import evaluate
 from rio_cameras.doctor import video_device_problem
+
+from rio.plugins import Registry
+from rio.plugins.requirements import evaluate
 
 DRIVERS = {"cameras.uvc": "UvcCamera", "cameras.stream": "StreamCamera", "cameras.oak": "OakCamera",
            "cameras.zed": "ZedCamera", "cameras.record3d": "Record3dCamera"}

@@ -13,11 +13,12 @@ import types
 
 import numpy as np
 import pytest
-from rio.conformance.drivers import CameraConformance
-from rio.testing import lifecycle, wait_until
 from rio_cameras.errors import CameraError
 from rio_cameras.record3d.driver import Record3dCamera
 from rio_cameras.record3d.lister import list_record3d_devices
+
+from rio.conformance.drivers import CameraConformance
+from rio.testing import lifecycle, wait_until
 
 RGB_W, RGB_H = 72, 96  # portrait, as the app streams
 DEPTH_W, DEPTH_H = 24, 32

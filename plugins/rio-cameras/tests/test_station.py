@@ -4,6 +4,7 @@ env's observation through the runtime (thread middleware), moving, with intrinsi
 from __future__ import annotations
 
 import numpy as np
+
 from rio import ServerManager
 from rio.station import make_station
 from rio.station.load import load_station

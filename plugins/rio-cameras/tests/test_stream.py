@@ -15,11 +15,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from rio.conformance.drivers import CameraConformance
-from rio.testing import lifecycle, wait_until
 from rio_cameras.errors import CameraError
 from rio_cameras.stream.driver import StreamCamera
 from rio_cameras.stream.url import classify, redact
+
+from rio.conformance.drivers import CameraConformance
+from rio.testing import lifecycle, wait_until
 
 RED, BLUE = (255, 0, 0), (0, 0, 255)  # RGB
 

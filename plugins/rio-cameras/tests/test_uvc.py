@@ -15,11 +15,12 @@ import cv2
 import numpy as np
 import pytest
 from pydantic import ValidationError
-from rio.conformance.drivers import CameraConformance
-from rio.testing import lifecycle, wait_until
 from rio_cameras.errors import CameraError
 from rio_cameras.opencv import capture
 from rio_cameras.uvc.driver import UvcCamera
+
+from rio.conformance.drivers import CameraConformance
+from rio.testing import lifecycle, wait_until
 
 _PROPS = {cv2.CAP_PROP_FRAME_WIDTH: "width", cv2.CAP_PROP_FRAME_HEIGHT: "height", cv2.CAP_PROP_FPS: "fps",
           cv2.CAP_PROP_FOURCC: "fourcc"}

@@ -14,11 +14,12 @@ import types
 
 import numpy as np
 import pytest
-from rio.conformance.drivers import CameraConformance
-from rio.testing import lifecycle, wait_until
 from rio_cameras.errors import CameraError
 from rio_cameras.zed.driver import ZedCamera
 from rio_cameras.zed.lister import list_zed_cameras
+
+from rio.conformance.drivers import CameraConformance
+from rio.testing import lifecycle, wait_until
 
 W, H = 96, 54  # the fake sensor mode (frames are resized to the configured size)
 

@@ -1,4 +1,5 @@
 import pytest
+
 from rio.recording.synthetic import record_synthetic
 
 

@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
+
 from rio.cli import main as rio_main
 from rio.recording import Dataset
 from rio.recording.format import get_format

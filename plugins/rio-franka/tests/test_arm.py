@@ -7,14 +7,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from rio import clock
-from rio.conformance.driving import Loop
-from rio.errors import InvalidRequest
-from rio.testing import lifecycle
 from rio_franka import fake
 from rio_franka.arm.driver import FrankaArm
 from rio_franka.faults import FrankaSetupError, fault_of_message
 from rio_franka.models import HAND_TCP
+
+from rio import clock
+from rio.conformance.driving import Loop
+from rio.errors import InvalidRequest
+from rio.testing import lifecycle
 
 
 def arm_on(ip, **fields):

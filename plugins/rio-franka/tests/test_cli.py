@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import json
 
-from rio.cli import main
-from rio.testing import lifecycle
 from rio_franka import fake
 from rio_franka.arm.driver import FrankaArm
+
+from rio.cli import main
+from rio.testing import lifecycle
 
 
 def test_status_and_recover_name_and_clear_a_reflex(fake_ip, capsys):

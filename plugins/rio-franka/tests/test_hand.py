@@ -3,11 +3,12 @@
 
 from __future__ import annotations
 
+from rio_franka import fake
+from rio_franka.hand import FrankaHand
+
 from rio import clock
 from rio.conformance.driving import Loop
 from rio.testing import lifecycle
-from rio_franka import fake
-from rio_franka.hand import FrankaHand
 
 
 def test_closing_on_an_object_grasps_it_and_opening_releases(fake_ip):

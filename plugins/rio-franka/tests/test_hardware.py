@@ -14,6 +14,7 @@ import os
 
 import numpy as np
 import pytest
+
 from rio.testing import cycle_gripper, lifecycle, nudge_last_joint
 
 pytestmark = pytest.mark.hardware

@@ -7,10 +7,11 @@ import math
 
 import numpy as np
 import pytest
-from rio.control import euler_to_quat, pose_error, pose_mul
-from rio.kinematics import solver_from_description
 from rio_franka.description import description
 from rio_franka.models import ARMS, DH, FLANGE, HAND_TCP, READY
+
+from rio.control import euler_to_quat, pose_error, pose_mul
+from rio.kinematics import solver_from_description
 
 
 def dh_fk(q) -> np.ndarray:

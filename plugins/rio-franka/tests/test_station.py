@@ -5,8 +5,9 @@ through the scripted pick-and-place; the world's ground truth says the cube was 
 from __future__ import annotations
 
 import pytest
-from rio.teleop import run_teleop
+
 from rio.testing import run_scripted_square
+from rio.workflows.teleop import run_teleop
 
 
 def test_virtual_station_traces_the_scripted_square():

@@ -9,14 +9,15 @@ import math
 
 import numpy as np
 import pytest
-from rio import clock
-from rio.conformance.driving import Loop
-from rio.errors import InvalidRequest
-from rio.testing import lifecycle
 from rio_kinova import session
 from rio_kinova.arm.driver import KinovaArm
 from rio_kinova.faults import KinovaError
 from rio_kinova.gripper.robotiq import KinovaRobotiq
+
+from rio import clock
+from rio.conformance.driving import Loop
+from rio.errors import InvalidRequest
+from rio.testing import lifecycle
 
 IP = "127.0.0.3"
 

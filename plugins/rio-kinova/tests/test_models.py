@@ -9,11 +9,12 @@ import math
 import mujoco
 import numpy as np
 import pytest
-from rio.control import euler_to_quat, quat_to_matrix
 from rio_kinova import dh
 from rio_kinova.description import description
 from rio_kinova.mjcf import render
 from rio_kinova.models import ARMS
+
+from rio.control import euler_to_quat, quat_to_matrix
 
 
 @pytest.mark.parametrize("name", list(ARMS))

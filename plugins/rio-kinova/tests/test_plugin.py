@@ -9,11 +9,12 @@ import sys
 
 import pytest
 from pydantic import ValidationError
+from rio_kinova.arm.driver import KinovaArm
+from rio_kinova.models import ARMS
+
 from rio.plugins import Registry
 from rio.station.load import load_station
 from rio.testing import lifecycle
-from rio_kinova.arm.driver import KinovaArm
-from rio_kinova.models import ARMS
 
 STATIONS = ["gen3-robotiq", "gen3-sim", "gen3-virtual"]
 

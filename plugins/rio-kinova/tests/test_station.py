@@ -11,10 +11,11 @@ import math
 
 import numpy as np
 import pytest
-from rio.teleop import run_teleop
-from rio.testing import run_scripted_square
 from rio_kinova import dh
 from rio_kinova.models import get_arm
+
+from rio.testing import run_scripted_square
+from rio.workflows.teleop import run_teleop
 
 SIM = "gen3-sim"
 
@@ -33,8 +34,9 @@ def test_the_sim_gen3_is_the_drivers_arm_with_the_stations_tool():
     Kinova's limits, and the station homes the arm to rio-sim's home."""
     needs_sim()
     import mujoco
-    from rio.station.load import load_station
     from rio_sim.robots import get_robot
+
+    from rio.station.load import load_station
 
     robot, arm = get_robot("gen3"), get_arm("gen3")
     cfg = load_station(SIM).components["arm"].config

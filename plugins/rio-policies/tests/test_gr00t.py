@@ -10,9 +10,10 @@ import msgpack
 import numpy as np
 import pytest
 import zmq
+from rio_policies.gr00t import Gr00tPolicy
+
 from rio.policy import ObsLayout
 from rio.schema import Camera, SingleArmObs
-from rio_policies.gr00t import Gr00tPolicy
 
 
 def npy(a: np.ndarray) -> dict:

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+
 from rio.policy import ObsLayout
 from rio.schema import HumanoidObs
 
@@ -131,9 +132,10 @@ def test_deploy_on_the_free_floating_g1_stands_for_10_s(tmp_path):
     pytest.importorskip("rio_sim")
     pytest.importorskip("mujoco")
     import mujoco
-    from rio.policy.deploy import run_deploy
     from rio_sim.bus import WorldBus
     from rio_sim.scenes import TABLE_HEIGHT, build_model
+
+    from rio.workflows.deploy import run_deploy
 
     gain = 1e-4
     spec, _ = standing_policy(tmp_path, gain, command=[0.1, -0.05, 0.2])

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from rio.policy import ObsLayout
 from rio.schema import HumanoidObs
 
@@ -31,8 +32,8 @@ def obs() -> HumanoidObs:
 @pytest.fixture
 def device():
     """device(twist) -> the layout of `obs()` with a running fake teleop device 'teleop' among its inputs."""
-    from rio.manager import ServerManager, connect, serve
-    from rio.testing import FakeTeleop
+    from rio.fakes.teleop import FakeTeleop
+    from rio.runtime.manager import ServerManager, connect, serve
 
     open_ = []
 
@@ -93,7 +94,7 @@ def test_deploy_on_sim_g1_floating_passes_the_teleop_twist_to_the_model(tmp_path
     model was given (read back off the echo model's actions) is the device's scaled twist, every step."""
     pytest.importorskip("rio_sim")
     pytest.importorskip("mujoco")
-    from rio.policy.deploy import run_deploy
+    from rio.workflows.deploy import run_deploy
 
     gain = 1e-4
     spec, _ = standing_policy(tmp_path, gain, command_from="teleop", twist_gain=[2.0, 1.0, 1.0], ramp_s=0.0)

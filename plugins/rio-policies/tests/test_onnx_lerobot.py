@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from rio.policy import ObsLayout
 from rio.schema import Camera, HumanoidObs, SingleArmObs
 

@@ -9,13 +9,14 @@ import threading
 import msgpack
 import numpy as np
 import pytest
-from rio.policy import ObsLayout
-from rio.policy.deploy import run_deploy
-from rio.schema import Camera, SingleArmObs
-from rio.station import parse_station
 from rio_policies import openpi_wire
 from rio_policies.openpi import OpenPIPolicy
 from websockets.sync.server import serve
+
+from rio.policy import ObsLayout
+from rio.schema import Camera, SingleArmObs
+from rio.station import parse_station
+from rio.workflows.deploy import run_deploy
 
 
 def np_frame(a: np.ndarray) -> dict:

@@ -5,6 +5,7 @@ not connected: no serial matches on this machine, so `open()` fails naming the s
 from __future__ import annotations
 
 import pytest
+
 from rio.conformance.drivers import CameraConformance
 
 pytest.importorskip("pyrealsense2")

@@ -4,7 +4,8 @@ its driver, serial, model, firmware and modes from its sensors' stream profiles.
 from __future__ import annotations
 
 import pytest
-from rio.cameras import CameraDevice, list_cameras
+
+from rio.plugins.cameras import CameraDevice, list_cameras
 
 rs = pytest.importorskip("pyrealsense2")
 

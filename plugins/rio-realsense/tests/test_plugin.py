@@ -10,10 +10,11 @@ import sys
 import numpy as np
 import pytest
 from pydantic import ValidationError
-from rio.plugins import Registry
-from rio.station.load import load_station
 from rio_realsense.doctor import libusb_problem, udev_problem
 from rio_realsense.driver import RealSenseCamera
+
+from rio.plugins import Registry
+from rio.station.load import load_station
 
 
 def test_drivers_station_lister_and_requirements_are_registered():

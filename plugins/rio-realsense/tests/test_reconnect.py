@@ -9,6 +9,7 @@ import logging
 import uuid
 
 import pytest
+
 from rio import ServerManager, connect, serve
 from rio.testing import lifecycle, wait_until
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from rio.testing import fake_eef_station
 
 pytest.importorskip("pyrealsense2", reason="pyrealsense2 needs the system's libusb-1.0")
@@ -24,7 +25,7 @@ def test_three_cameras_record_and_export_to_lerobot_with_their_frames(tmp_path, 
     pytest.importorskip("rio_datasets")
     from rio.recording import Dataset, Recorder
     from rio.recording.format import get_format
-    from rio.teleop import run_teleop
+    from rio.workflows.teleop import run_teleop
 
     text = STATION + "".join(
         f'[components.{cam}_camera]\ndriver = "realsense.d400"\nsource = "software"\nserial = "{serial}-{cam}"\n'

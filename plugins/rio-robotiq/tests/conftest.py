@@ -11,8 +11,9 @@ from collections.abc import Callable
 from typing import Any
 
 import pytest
-from rio import clock
 from rio_robotiq.emulator import DhRegisters, ModbusRtuDevice, RobotiqRegisters, UrcapServer
+
+from rio import clock
 
 
 @pytest.fixture

@@ -7,8 +7,9 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 
-from rio.conformance.drivers import GripperConformance
 from rio_robotiq.emulator import DhRegisters, ModbusRtuDevice, RobotiqRegisters, UrcapServer
+
+from rio.conformance.drivers import GripperConformance
 
 
 class OnRobotiqLine:

@@ -10,10 +10,11 @@ from contextlib import contextmanager
 from typing import Any
 
 import pytest
-from rio.testing import lifecycle
 from rio_robotiq.dh.driver import DhGripper
 from rio_robotiq.dh.registers import FORCE, POSITION, SPEED
 from rio_robotiq.errors import ActivationError, CommunicationError, GripperFault
+
+from rio.testing import lifecycle
 
 PERMILLE = 0.095 / 1000  # one position step of an AG-95 (m)
 TOL = 2 * PERMILLE

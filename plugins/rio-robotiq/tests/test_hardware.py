@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 
 import pytest
+
 from rio import clock
 from rio.testing import lifecycle
 

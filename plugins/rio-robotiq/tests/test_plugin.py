@@ -9,10 +9,11 @@ import sys
 
 import pytest
 from pydantic import ValidationError
-from rio.plugins import Registry
-from rio.station.load import load_station
 from rio_robotiq.dh.driver import DhGripper
 from rio_robotiq.robotiq.driver import RobotiqGripper, RobotiqUrcapGripper
+
+from rio.plugins import Registry
+from rio.station.load import load_station
 
 DRIVERS = {"robotiq.2f85": {"model": "2f85"}, "robotiq.2f140": {"model": "2f140"},
            "robotiq.hande": {"model": "hande"}, "robotiq.urcap": {}, "dh.ag95": {"model": "ag95"},
@@ -76,7 +77,7 @@ def test_listing_imports_no_serial_library():
 
 
 def test_the_packaged_station_validates_and_teleoperates():
-    from rio.teleop import run_teleop
+    from rio.workflows.teleop import run_teleop
 
     st = load_station("robotiq-virtual")
     assert st.components["gripper"].driver == "robotiq.2f85" and st.components["gripper"].config.port == "virtual"

@@ -11,11 +11,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import pytest
-from rio.testing import lifecycle, wait_until
 from rio_robotiq.emulator import ModbusRtuDevice, RobotiqRegisters, UrcapServer
 from rio_robotiq.errors import ActivationError, CommunicationError, RobotiqFault
 from rio_robotiq.models import robotiq_counts
 from rio_robotiq.robotiq.driver import RobotiqGripper, RobotiqUrcapGripper
+
+from rio.testing import lifecycle, wait_until
 
 COUNT = 0.085 / 255  # one position count of a 2F-85 (m)
 

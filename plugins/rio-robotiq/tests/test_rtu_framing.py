@@ -8,8 +8,9 @@ import time
 
 import pytest
 import serial
-from rio.emulation import crc16, frame_length, with_crc
 from rio_robotiq.emulator import DhRegisters, ModbusRtuDevice, RobotiqRegisters
+
+from rio.emulation import crc16, frame_length, with_crc
 
 
 def h(text: str) -> bytes:

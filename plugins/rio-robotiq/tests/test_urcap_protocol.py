@@ -7,9 +7,10 @@ from __future__ import annotations
 import socket
 
 import pytest
-from rio.emulation import TcpDevice
 from rio_robotiq.errors import CommunicationError
 from rio_robotiq.robotiq.urcap_link import RobotiqUrcapLink
+
+from rio.emulation import TcpDevice
 
 
 def ask(sock: socket.socket, line: str) -> bytes:

@@ -10,6 +10,7 @@ import subprocess
 import sys
 
 import numpy as np
+
 from rio.cli import main
 from rio.plugins import Registry
 

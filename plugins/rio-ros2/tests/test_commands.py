@@ -7,6 +7,7 @@ import time
 
 import numpy as np
 import pytest
+
 from rio import clock
 from rio.testing import wait_until
 

@@ -9,10 +9,11 @@ from types import SimpleNamespace as NS
 
 import numpy as np
 import pytest
-from rio import clock
 from rio_ros2 import to_ros
 from rio_ros2.commands import Drops, Rejected, trajectory_target, twist_vector
 from rio_ros2.messages import message_types
+
+from rio import clock
 
 T = message_types("jazzy")
 

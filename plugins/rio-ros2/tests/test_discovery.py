@@ -5,9 +5,10 @@ with the right types and type hashes, and sees them go when the bridge goes."""
 from __future__ import annotations
 
 import pytest
-from rio.testing import wait_until
 from rio_ros2.messages import message_types
 from rio_ros2.rmw import RosNode
+
+from rio.testing import wait_until
 
 PUBLISHED = {
     "/arm/joint_states": "sensor_msgs/msg/JointState",

@@ -5,8 +5,9 @@ replaced by a failure) the same definitions, so both sides compute the same key 
 from __future__ import annotations
 
 import pytest
-from rio.cli import main
 from rio_ros2.messages import NO_TYPE_HASH, dds_name, message_types, msg_text, write_definitions
+
+from rio.cli import main
 
 BRIDGED = ["sensor_msgs/msg/JointState", "sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage",
            "sensor_msgs/msg/CameraInfo", "geometry_msgs/msg/PoseStamped", "tf2_msgs/msg/TFMessage",

@@ -10,9 +10,10 @@ import sys
 
 import numpy as np
 import pytest
-from rio import host
-from rio.errors import RioError
 from rio_sim.bus import WorldBus, block_name
+
+from rio.errors import RioError
+from rio.machine import host
 
 # creates a world block and dies without closing it (SIGKILL), as a crashed world process would
 _KILLED_WORLD = """

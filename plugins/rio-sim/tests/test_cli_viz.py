@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import pytest
+
 from rio.cli import main
-from rio.teleop import run_teleop
 from rio.testing import block_import
+from rio.workflows.teleop import run_teleop
 
 
 def test_rio_teleop_command_runs_and_prints_a_summary(capsys):

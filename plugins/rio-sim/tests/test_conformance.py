@@ -6,9 +6,10 @@ from __future__ import annotations
 import uuid
 from contextlib import contextmanager
 
+from rio_sim.world import SimWorld
+
 from rio import ServerManager, serve
 from rio.conformance.drivers import ArmConformance, CameraConformance, GripperConformance, SensorConformance
-from rio_sim.world import SimWorld
 
 
 class InSimWorld:

@@ -11,13 +11,14 @@ import time
 
 import numpy as np
 import pytest
+from rio_sim.robots import get_robot
+
 from rio.control import pose_error
 from rio.errors import RioError
 from rio.kinematics import solver_from_description
-from rio.manager import ServerManager
+from rio.runtime.manager import ServerManager
 from rio.station import make_station
 from rio.testing import wait_until
-from rio_sim.robots import get_robot
 
 STATION = """
 name = "{name}"
@@ -178,7 +179,7 @@ _MUJOCO_FIRST = """
 import os
 os.environ.pop("MUJOCO_GL", None)
 import mujoco  # imported before rio_sim: MuJoCo settles on GLFW, which has no display here
-from rio.manager import ServerManager
+from rio.runtime.manager import ServerManager
 from rio.station import make_station
 servers, clients, _ = make_station("sim-so100", middleware="thread")
 with ServerManager(servers), clients["front_camera"]() as a, clients["wrist_camera"]() as b:

@@ -11,19 +11,20 @@ from contextlib import contextmanager
 
 import numpy as np
 import pytest
-from rio import ServerManager, serve
-from rio.conformance.drivers import HandConformance, HumanoidConformance
-from rio.kinematics import HandRetargeter, MultiFrameIK
-from rio.recording.dataset import Dataset
-from rio.station import make_station
-from rio.station.load import load_station
-from rio.teleop import run_teleop
 from rio_sim import g1
 from rio_sim.indices import joint_indices
 from rio_sim.robots import ASSETS
 from rio_sim.scenes import TABLE_HEIGHT, build_model
 from rio_sim.testing import check_humanoid_replay
 from rio_sim.world import SimWorld
+
+from rio import ServerManager, serve
+from rio.conformance.drivers import HandConformance, HumanoidConformance
+from rio.kinematics import HandRetargeter, MultiFrameIK
+from rio.recording.dataset import Dataset
+from rio.station import make_station
+from rio.station.load import load_station
+from rio.workflows.teleop import run_teleop
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -122,9 +123,10 @@ gains = { arms = [100.0, 4.0], left_knee_joint = [150.0, 4.0] }
 
 def test_free_floating_it_tips_over_its_imu_says_so_and_its_group_and_joint_gains_reach_the_world(tmp_path):
     """No locomotion policy: the G1 leans forward onto the table (~0.13 rad in 2 s)."""
+    from rio_sim.bus import WorldBus
+
     from rio.control.rotations import quat_angle
     from rio.testing import wait_until
-    from rio_sim.bus import WorldBus
 
     path = tmp_path / "free.toml"
     path.write_text(FREE)

@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from rio.control import euler_to_quat, pose_error, pose_mul
-from rio.kinematics import MinkSolver
 from rio_sim.robots import ROBOTS, get_robot
 from rio_sim.scenes import PICK_OFFSET, SCENES, build_model, get_scene
+
+from rio.control import euler_to_quat, pose_error, pose_mul
+from rio.kinematics import MinkSolver
 
 H = np.pi / 2
 # xArm7 joint origins (xyz, rpy) as published in xarm_ros2's URDF; tool 0.16 m along the flange's z

@@ -12,19 +12,20 @@ from contextlib import contextmanager
 import numpy as np
 import pytest
 from pydantic import ValidationError
-from rio import ServerManager
-from rio.conformance.drivers import HumanoidConformance
-from rio.kinematics import MultiFrameIK
-from rio.recording.dataset import Dataset
-from rio.station import make_station
-from rio.station.load import load_station
-from rio.teleop import run_teleop
 from rio_sim import t1
 from rio_sim.humanoid import SimG1, SimT1
 from rio_sim.indices import joint_indices
 from rio_sim.robots import ASSETS
 from rio_sim.scenes import TABLE_HEIGHT, build_model
 from rio_sim.testing import check_humanoid_replay, running_world
+
+from rio import ServerManager
+from rio.conformance.drivers import HumanoidConformance
+from rio.kinematics import MultiFrameIK
+from rio.recording.dataset import Dataset
+from rio.station import make_station
+from rio.station.load import load_station
+from rio.workflows.teleop import run_teleop
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -122,8 +123,9 @@ gains = { knees = [120.0, 3.0], Left_Knee_Pitch = [180.0, 5.0] }
 
 
 def test_group_and_joint_gains_reach_the_world(tmp_path):
-    from rio.testing import wait_until
     from rio_sim.bus import WorldBus
+
+    from rio.testing import wait_until
 
     path = tmp_path / "gains.toml"
     path.write_text(GAINS)

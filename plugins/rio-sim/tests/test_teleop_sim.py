@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from rio.teleop import run_teleop
 from rio_sim.robots import get_robot
 from rio_sim.scenes import CUBE, PICK_OFFSET, PLACE_OFFSET, get_scene
+
+from rio.workflows.teleop import run_teleop
 
 # The same script for every station (faster than the default, to keep the suite short).
 SCRIPT = {"script": "pick_place", "speed": 0.15, "grasp_s": 0.6}

@@ -7,12 +7,13 @@ import sys
 
 import numpy as np
 import pytest
-from rio import clock
-from rio.errors import RioError
-from rio.testing import wait_until
 from rio_sim.robots import get_robot
 from rio_sim.testing import running_world
 from rio_sim.world_arm import WorldArm, parse_sim_target
+
+from rio import clock
+from rio.errors import RioError
+from rio.testing import wait_until
 
 # another process (same RIO_SIM_SESSION, inherited) moves joint 1 and reports what it reads back
 _OTHER_PROCESS = """

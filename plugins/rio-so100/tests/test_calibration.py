@@ -8,7 +8,6 @@ import time
 
 import numpy as np
 import pytest
-from rio.testing import lifecycle
 from rio_so100.calibrate import Calibrator
 from rio_so100.calibration import (
     MID,
@@ -24,6 +23,8 @@ from rio_so100.feetech.bus import FeetechBus
 from rio_so100.follower.driver import So100Follower
 from rio_so100.models import ARM_IDS, ARM_JOINTS, GRIPPER, GRIPPER_ID
 from rio_so100.virtual.hand import CalibrationHand
+
+from rio.testing import lifecycle
 
 JOINTS = {**dict(zip(ARM_JOINTS, ARM_IDS, strict=True)), GRIPPER: GRIPPER_ID}
 

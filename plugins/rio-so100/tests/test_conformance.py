@@ -7,9 +7,10 @@ import os
 import tempfile
 from contextlib import contextmanager
 
-from rio.conformance.drivers import ArmConformance, GripperConformance, TeleopConformance
 from rio_so100.calibration import default_calibration, save_calibration
 from rio_so100.virtual import VirtualBus
+
+from rio.conformance.drivers import ArmConformance, GripperConformance, TeleopConformance
 
 
 class OnVirtualBus:

@@ -8,13 +8,14 @@ import time
 
 import numpy as np
 import pytest
-from rio import ServerManager, connect, serve
-from rio.errors import NodeDiedError, RioError
-from rio.testing import wait_until
 from rio_so100.calibration import RAD_PER_STEP, default_calibration
 from rio_so100.feetech import control_table as T
 from rio_so100.follower.driver import So100Follower
 from rio_so100.gripper.driver import So100Gripper
+
+from rio import ServerManager, connect, serve
+from rio.errors import NodeDiedError, RioError
+from rio.testing import wait_until
 
 MW = "thread"
 

@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 import pytest
+
 from rio.testing import lifecycle
 
 pytestmark = pytest.mark.hardware
@@ -73,8 +74,9 @@ def test_node_reads_calibrated_joints_within_limits():
 def test_follower_small_wrist_roll_motion():
     if ROLE != "follower" or os.environ.get("RIO_SO100_ALLOW_MOTION") != "1" or not _have_calibration():
         pytest.skip("needs RIO_SO100_ALLOW_MOTION=1 and a calibrated follower")
-    from rio import clock
     from rio_so100.follower.driver import So100Follower
+
+    from rio import clock
 
     with lifecycle(So100Follower(port=PORT, calibration=CALIBRATION, model=MODEL)) as node:
         q0 = node.read_state()["joint_pos"].copy()

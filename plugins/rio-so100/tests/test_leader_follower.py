@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from rio_so100.calibration import RAD_PER_STEP, default_calibration
+
 from rio.errors import RioError
 from rio.station.load import parse_station
-from rio.teleop import run_teleop as run
-from rio_so100.calibration import RAD_PER_STEP, default_calibration
+from rio.workflows.teleop import run_teleop as run
 
 LEADER_Q = np.array([0.3, -0.25, 0.4, 0.15, -0.35])
 LATER_Q = np.array([0.1, 0.2, 0.1, -0.2, 0.3])

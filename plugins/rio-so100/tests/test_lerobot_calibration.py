@@ -21,9 +21,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rio import ServerManager, connect, serve
-from rio.cli import main
-from rio.testing import wait_until
 from rio_so100.calibrate import Calibrator
 from rio_so100.calibration import RAD_PER_STEP, ArmCalibration, default_calibration, load_calibration
 from rio_so100.errors import CalibrationError
@@ -40,6 +37,10 @@ from rio_so100.lerobot_calibration import (
 )
 from rio_so100.models import ARM_IDS, ARM_JOINTS, GRIPPER, GRIPPER_ID
 from rio_so100.virtual.hand import CalibrationHand
+
+from rio import ServerManager, connect, serve
+from rio.cli import main
+from rio.testing import wait_until
 
 MOTORS = (*ARM_JOINTS, GRIPPER)
 LEROBOT_MAX_RES = 4095  # LeRobot's model_resolution_table["sts3215"] - 1

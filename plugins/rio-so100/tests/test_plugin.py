@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import pytest
+
 from rio.cli import main
 from rio.plugins import Registry
 from rio.station.load import load_station

@@ -9,10 +9,11 @@ import pytest
 pytest.importorskip("rio_sim")
 pytest.importorskip("mujoco")
 
-from rio.station.load import parse_station  # noqa: E402
-from rio.teleop import run_teleop as run  # noqa: E402
 from rio_so100.calibration import default_calibration  # noqa: E402
 from rio_so100.virtual.sim import parse_sim_port  # noqa: E402
+
+from rio.station.load import parse_station  # noqa: E402
+from rio.workflows.teleop import run_teleop as run  # noqa: E402
 
 SIM_HOME = np.array([0.0, 0.0706, 1.6431, 1.4278, 1.5708])  # rio-sim's so100 home pose
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from rio.conformance.drivers import TeleopConformance
 from rio.control.rotations import quat_to_matrix, rotvec_to_quat
 from rio.emulation import free_loopback
@@ -29,9 +30,10 @@ from rio.testing import block_import, lifecycle, wait_until
 
 pytest.importorskip("avp_stream")
 
-from rio.testing import fake_eef_station
 from rio_teleop.avp import emulator as em  # noqa: E402
 from rio_teleop.avp.node import SDK_TO_ROBOT, VISIONOS_JOINTS, VisionProTeleop  # noqa: E402
+
+from rio.testing import fake_eef_station
 
 #: visionOS world (x right, y up, z toward the wearer) -> robot (x forward, y left, z up), written out:
 #: forward is -z, left is -x, up is +y.
@@ -342,7 +344,7 @@ class Reach:
 
 
 def test_rio_teleop_moves_a_fake_arm_with_the_emulated_hand(tmp_path):
-    from rio.teleop import run_teleop
+    from rio.workflows.teleop import run_teleop
 
     reach = Reach()
     with em.TrackingStreamerEmulator(reach, noise_m=1e-5) as e:

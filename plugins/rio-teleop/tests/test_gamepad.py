@@ -20,11 +20,12 @@ import numpy as np
 import pytest
 from evdev import AbsInfo, InputEvent
 from evdev import ecodes as e
+from rio_teleop.gamepad.driver import GamepadTeleop
+
 from rio.conformance.drivers import TeleopConformance
 from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, BUTTON_MODE
 from rio.errors import RioError
 from rio.testing import fake_eef_station
-from rio_teleop.gamepad.driver import GamepadTeleop
 
 STICK16 = AbsInfo(0, -32768, 32767, 16, 128, 0)
 HAT = AbsInfo(0, -1, 1, 0, 0, 0)
@@ -352,7 +353,7 @@ STATION = fake_eef_station("gamepad-eef", 'driver = "teleop.xbox"\nspeed = 0.1',
 
 
 def test_recorded_stream_drives_rio_teleop_on_a_fake_arm(plugged, tmp_path):
-    from rio.teleop import run_teleop
+    from rio.workflows.teleop import run_teleop
 
     timeline = [(0.3, frame(0.3, ax(e.ABS_X, -32768))),                      # left stick fully left: +y
                 (0.9, frame(0.9, ax(e.ABS_X, 0))),                           # let go after 0.6 s

@@ -10,10 +10,6 @@ import time
 
 import numpy as np
 import pytest
-from rio.errors import RioError
-from rio.station.load import parse_station
-from rio.teleop import run_teleop
-from rio.testing import lifecycle
 from rio_teleop.gello import control_table as T
 from rio_teleop.gello import protocol as P
 from rio_teleop.gello.bus import BusError, DynamixelBus
@@ -29,6 +25,11 @@ from rio_teleop.gello.calibration import (
 from rio_teleop.gello.driver import GelloLeader
 from rio_teleop.gello.layouts import LAYOUTS, get_layout
 from rio_teleop.gello.virtual import VirtualDynamixelBus, VirtualGello, virtual_mounting
+
+from rio.errors import RioError
+from rio.station.load import parse_station
+from rio.testing import lifecycle
+from rio.workflows.teleop import run_teleop
 
 STATIONS = os.path.join(os.path.dirname(__file__), "..", "src", "rio_teleop", "stations")
 

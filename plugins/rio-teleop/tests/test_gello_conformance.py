@@ -8,9 +8,10 @@ import tempfile
 from contextlib import contextmanager
 from dataclasses import replace
 
-from rio.conformance.drivers import TeleopConformance
 from rio_teleop.gello.calibration import save_calibration
 from rio_teleop.gello.virtual import VirtualGello
+
+from rio.conformance.drivers import TeleopConformance
 
 
 class OnVirtualGello:

@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 import pytest
+
 from rio.testing import lifecycle
 
 pytestmark = pytest.mark.hardware

@@ -20,11 +20,12 @@ from unittest import mock
 import numpy as np
 import pyspacemouse.api
 import pytest
+from rio_teleop.spacemouse.driver import SpaceMouseTeleop
+
 from rio.conformance.drivers import TeleopConformance
 from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, BUTTON_MODE
 from rio.errors import RioError
 from rio.testing import fake_eef_station
-from rio_teleop.spacemouse.driver import SpaceMouseTeleop
 
 COMPACT = (0x256F, 0xC635)
 WIRELESS = (0x256F, 0xC62E)
@@ -251,7 +252,7 @@ STATION = fake_eef_station("spacemouse-eef", 'driver = "teleop.spacemouse"\nspee
 
 
 def test_recorded_stream_drives_rio_teleop_on_a_fake_arm(plugged, tmp_path):
-    from rio.teleop import run_teleop
+    from rio.workflows.teleop import run_teleop
 
     timeline = [(0.3, compact_translation(y=-FULL)), (0.3, compact_rotation()),  # push away 0.6 s
                 (0.9, compact_translation()),                                    # let go

@@ -173,8 +173,9 @@ def hands(tmp_path):
 
 
 def test_the_page_streams_both_hands_and_the_node_publishes_them(browser, hands):
-    from rio.control.rotations import matrix_to_quat, quat_angle, quat_mul, quat_normalize
     from rio_teleop.webxr.mapping import XR_TO_ROBOT
+
+    from rio.control.rotations import matrix_to_quat, quat_angle, quat_mul, quat_normalize
 
     node, contexts = hands
     ctx, page = harness.open_page(browser, node.page()["url"], contexts)

@@ -179,8 +179,9 @@ def test_serving_beyond_loopback_needs_asking():
 
 
 def test_robot_feedback_reaches_the_status_panel(tmp_path):
-    from rio.testing import lifecycle
     from rio_teleop.webxr.node import WebXRTeleop
+
+    from rio.testing import lifecycle
 
     node = WebXRTeleop(port=0, cert_dir=str(tmp_path / "cert"))
     node.setup()

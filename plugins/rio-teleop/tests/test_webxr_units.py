@@ -9,13 +9,14 @@ import ssl
 
 import numpy as np
 import pytest
-from rio.control.rotations import quat_rotate
-from rio.interfaces.teleop import HAND_JOINTS, hand_tracker_sample
 from rio_teleop.webxr import protocol
 from rio_teleop.webxr.certs import ensure_certificate
 from rio_teleop.webxr.harness import hands_message, synthetic_hand
 from rio_teleop.webxr.harness import input_message as msg
 from rio_teleop.webxr.mapping import ClutchMapper, HandMapper
+
+from rio.control.rotations import quat_rotate
+from rio.interfaces.teleop import HAND_JOINTS, hand_tracker_sample
 
 
 # -- protocol ------------------------------------------------------------------------------------------
@@ -226,8 +227,9 @@ def test_the_certificate_is_made_again_when_expired_or_missing_an_address(tmp_pa
 
 def test_the_node_keeps_its_fingerprint_across_restarts(tmp_path):
     pytest.importorskip("aiohttp")
-    from rio.testing import lifecycle
     from rio_teleop.webxr.node import WebXRTeleop
+
+    from rio.testing import lifecycle
 
     prints = []
     for _ in range(2):
@@ -322,8 +324,9 @@ def test_the_driving_hands_pinch_is_the_gripper_and_finish_is_done():
 
 def test_the_hands_node_is_a_hand_tracker_with_the_contracts_sample(tmp_path):
     pytest.importorskip("aiohttp")
-    from rio.testing import lifecycle
     from rio_teleop.webxr.node import WebXRHands, WebXRTeleop
+
+    from rio.testing import lifecycle
 
     assert WebXRHands.hand_tracker and not WebXRTeleop.hand_tracker
     node = WebXRHands(port=0, cert_dir=str(tmp_path / "cert"), hand="left", yaw_deg=-90)

@@ -78,10 +78,11 @@ def main() -> None:
     ap.add_argument("--model", default="xarm7")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
-    from rio import clock
-    from rio.testing import lifecycle
     from rio_ufactory.arm.driver import XArm
     from xarm.wrapper import XArmAPI
+
+    from rio import clock
+    from rio.testing import lifecycle
 
     proc, host = start_emulator(a.model)
     res: dict[str, dict] = {}

@@ -5,14 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from rio import clock
-from rio.conformance.driving import Loop
-from rio.errors import InvalidRequest
-from rio.testing import lifecycle, wait_until
 from rio_ufactory.arm.driver import XArm
 from rio_ufactory.controller import Controller
 from rio_ufactory.faults import XArmError, XArmFault
 from rio_ufactory.loopback import free_loopback
+
+from rio import clock
+from rio.conformance.driving import Loop
+from rio.errors import InvalidRequest
+from rio.testing import lifecycle, wait_until
 
 
 def spin(arm, seconds: float) -> dict:

@@ -6,9 +6,10 @@ from __future__ import annotations
 from contextlib import contextmanager
 
 import pytest
-from rio.conformance.drivers import ArmConformance, GripperConformance
 from rio_ufactory.emulator import XArmEmulator
 from rio_ufactory.loopback import PORT_502_HINT, can_listen_on_502, free_loopback
+
+from rio.conformance.drivers import ArmConformance, GripperConformance
 
 
 class OnEmulator:

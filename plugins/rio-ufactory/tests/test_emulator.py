@@ -11,10 +11,11 @@ import time
 
 import numpy as np
 import pytest
-from rio.testing import wait_until
 from rio_ufactory.emulator import XArmEmulator
 from rio_ufactory.emulator.protocol import feedback_frame, split_frames
 from rio_ufactory.models import ARMS, get_arm
+
+from rio.testing import wait_until
 
 pytestmark = pytest.mark.timeout(120)
 

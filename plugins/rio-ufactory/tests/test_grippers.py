@@ -4,13 +4,14 @@ opening and closing to a width, an object stopping the fingers, and the tool-IO 
 from __future__ import annotations
 
 import pytest
-from rio import clock
-from rio.conformance.driving import Loop
-from rio.testing import lifecycle
 from rio_ufactory.gripper.bio import BioGripper
 from rio_ufactory.gripper.lite6 import Lite6Gripper, VacuumGripper
 from rio_ufactory.gripper.robotiq import XArmRobotiq
 from rio_ufactory.gripper.xarm_gripper import XArmGripper
+
+from rio import clock
+from rio.conformance.driving import Loop
+from rio.testing import lifecycle
 
 
 def run_until(node, pred, timeout: float = 10.0) -> dict:

@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 import pytest
+
 from rio.testing import cycle_gripper, lifecycle, nudge_last_joint
 
 pytestmark = pytest.mark.hardware

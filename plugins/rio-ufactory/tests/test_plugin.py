@@ -9,11 +9,12 @@ import sys
 
 import pytest
 from pydantic import ValidationError
+from rio_ufactory.arm.driver import XArm
+from rio_ufactory.models import ARMS
+
 from rio.cli import main
 from rio.plugins import Registry
 from rio.station.load import load_station
-from rio_ufactory.arm.driver import XArm
-from rio_ufactory.models import ARMS
 
 STATIONS = ["xarm7-robotiq", "xarm7-emulator", "xarm7-virtual", "lite6-virtual"]
 

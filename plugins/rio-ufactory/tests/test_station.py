@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from rio_ufactory.loopback import PORT_502_HINT, can_listen_on_502
+
 from rio.recording.dataset import Dataset
 from rio.testing import run_rio as rio
 from rio.testing import run_scripted_square
-from rio_ufactory.loopback import PORT_502_HINT, can_listen_on_502
 
 pytestmark = pytest.mark.skipif(not can_listen_on_502(), reason=PORT_502_HINT)
 

@@ -5,6 +5,7 @@ starts is closed when it ends."""
 from __future__ import annotations
 
 import pytest
+
 from rio.testing import no_new_threads, started
 
 pytest.importorskip("cyclonedds")

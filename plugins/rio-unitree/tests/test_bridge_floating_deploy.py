@@ -40,9 +40,10 @@ def tilt_deg(quat_wxyz) -> float:
 
 def test_a_zero_policy_stands_the_free_g1_after_the_gantry_lowers_it(domain_id, tmp_path):
     pytest.importorskip("rio_sim")  # the G1 model that stands with these gains (the fallback is only G1-like)
-    from rio.policy.deploy import run_deploy
     from rio_policies.locomotion import G1_DEFAULT_POSE, G1_JOINTS
     from rio_policies.testing import G1_STANDING, standing_policy
+
+    from rio.workflows.deploy import run_deploy
 
     gain = 1e-4
     spec, _ = standing_policy(tmp_path, gain, command=[0.1, -0.05, 0.2])

@@ -15,10 +15,11 @@ import time
 
 import numpy as np
 import pytest
-from rio.testing import wait_until
 from rio_unitree.cli import app
 from rio_unitree.tools import check
 from typer.testing import CliRunner
+
+from rio.testing import wait_until
 
 runner = CliRunner()
 

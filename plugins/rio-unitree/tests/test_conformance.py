@@ -13,8 +13,9 @@ from __future__ import annotations
 
 import contextlib
 
-from rio.conformance.drivers import HumanoidConformance
 from rio_unitree.g1 import HOME, JOINTS
+
+from rio.conformance.drivers import HumanoidConformance
 
 _START = [HOME.get(j.name, 0.0) for j in JOINTS]
 _KD = [2.0 if "wrist" in j.name else 10.0 if j.slot >= 15 else 30.0 for j in JOINTS]  # about critical

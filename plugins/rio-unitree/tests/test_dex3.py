@@ -8,14 +8,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from rio_unitree import dex3
+from rio_unitree.hand_wire import HandCmd, HandState
+from rio_unitree.testing import Tap
+
 from rio import clock
 from rio.conformance.driving import Loop, build_node, resolve_driver
 from rio.errors import InvalidRequest
 from rio.interfaces.damping import STALE_COMMANDS
 from rio.testing import lifecycle
-from rio_unitree import dex3
-from rio_unitree.hand_wire import HandCmd, HandState
-from rio_unitree.testing import Tap
 
 rng = np.random.default_rng(3)
 
@@ -135,7 +136,7 @@ def test_a_hand_tracker_curls_the_fingers_on_the_bridge_station(tmp_path, domain
     pytest.importorskip("rio_sim")
     pytest.importorskip("mink")
     from rio.station.load import read_station_text
-    from rio.teleop import run_teleop
+    from rio.workflows.teleop import run_teleop
 
     text, _ = read_station_text("g1-bridge-hands")
     path = tmp_path / "g1-bridge-hands.toml"

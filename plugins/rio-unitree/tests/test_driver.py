@@ -10,16 +10,17 @@ import time
 
 import numpy as np
 import pytest
-from rio import clock
-from rio.conformance.driving import Loop, build_node, resolve_driver
-from rio.errors import InvalidRequest
-from rio.interfaces.damping import FALL, STALE_COMMANDS, STATE_LOST, tilt_from_quat
-from rio.testing import lifecycle, wait_until
 from rio_unitree.commands import is_damping
 from rio_unitree.dds import ARM_SDK, LOWCMD, LOWSTATE, Participant
 from rio_unitree.g1 import WEIGHT_SLOT, joint_names
 from rio_unitree.testing import Tap
 from rio_unitree.wire import LowCmd, LowState
+
+from rio import clock
+from rio.conformance.driving import Loop, build_node, resolve_driver
+from rio.errors import InvalidRequest
+from rio.interfaces.damping import FALL, STALE_COMMANDS, STATE_LOST, tilt_from_quat
+from rio.testing import lifecycle, wait_until
 
 
 def g1(domain_id: int, **fields):

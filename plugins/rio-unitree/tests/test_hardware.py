@@ -20,11 +20,12 @@ INTERFACE = os.environ.get("RIO_G1_INTERFACE")
 def test_the_robots_lowstate_is_sane():
     if not INTERFACE:
         pytest.skip("set RIO_G1_INTERFACE (the interface on the G1's network, 192.168.123.x)")
-    from rio.interfaces.damping import tilt_from_quat as tilt_deg
     from rio_unitree.dds import LOWSTATE, Participant
     from rio_unitree.g1 import JOINTS
     from rio_unitree.tools import check
     from rio_unitree.wire import LowState, state_crc_ok
+
+    from rio.interfaces.damping import tilt_from_quat as tilt_deg
 
     report = check(INTERFACE, timeout_s=5.0)
     assert report.ok, report.problem

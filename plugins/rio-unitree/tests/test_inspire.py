@@ -11,16 +11,17 @@ import contextlib
 
 import numpy as np
 import pytest
+from rio_unitree import inspire
+from rio_unitree.dds import INSPIRE_CMD
+from rio_unitree.inspire_wire import MotorCmds, MotorStates
+from rio_unitree.testing import Tap
+
 from rio import clock
 from rio.conformance.drivers import HandConformance
 from rio.conformance.driving import Loop, build_node, resolve_driver
 from rio.errors import InvalidRequest
 from rio.interfaces.damping import STALE_COMMANDS, STATE_LOST
 from rio.testing import lifecycle
-from rio_unitree import inspire
-from rio_unitree.dds import INSPIRE_CMD
-from rio_unitree.inspire_wire import MotorCmds, MotorStates
-from rio_unitree.testing import Tap
 
 rng = np.random.default_rng(5)
 

@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 import pytest
+
 from rio.plugins import Registry
 from rio.station.load import load_station
 from rio.testing import wait_until

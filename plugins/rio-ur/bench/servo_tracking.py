@@ -53,12 +53,13 @@ def stats(ts, qs, qds, home) -> dict:
 
 
 def run(emu, seconds: float, through_rio: bool) -> dict:
-    from rio import clock
-    from rio.conformance.driving import Loop
-    from rio.testing import lifecycle
     from rio_ur.arm.driver import URArm
     from rio_ur.control import EmulatedControl
     from rtde_receive import RTDEReceiveInterface
+
+    from rio import clock
+    from rio.conformance.driving import Loop
+    from rio.testing import lifecycle
 
     emu.inject("reset")
     home = np.asarray(emu.state()["q"])

@@ -7,11 +7,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from rio_ur.arm.driver import URArm
+
 from rio import clock
 from rio.conformance.driving import Loop
 from rio.errors import InvalidRequest
 from rio.testing import lifecycle, wait_until
-from rio_ur.arm.driver import URArm
 
 
 def run_until(arm, pred, timeout: float = 8.0) -> dict:

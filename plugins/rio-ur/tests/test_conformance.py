@@ -8,8 +8,9 @@ from __future__ import annotations
 from contextlib import contextmanager
 
 import pytest
-from rio.conformance.drivers import ArmConformance
 from rio_ur.emulator.process import EmulatorProcess
+
+from rio.conformance.drivers import ArmConformance
 
 
 @pytest.fixture(scope="class")

@@ -4,6 +4,7 @@ the Dashboard Server 29999): what a real UR would answer."""
 from __future__ import annotations
 
 import numpy as np
+
 from rio.testing import wait_until
 
 

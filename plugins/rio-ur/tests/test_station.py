@@ -9,9 +9,10 @@ from __future__ import annotations
 import json
 
 import pytest
-from rio.teleop import run_teleop
+
 from rio.testing import run_rio as rio
 from rio.testing import run_scripted_square
+from rio.workflows.teleop import run_teleop
 
 
 def test_the_virtual_station_traces_the_scripted_square():

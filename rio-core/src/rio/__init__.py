@@ -11,11 +11,12 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 _EXPORTS = {
-    "NodeClient": ".client",
+    "NodeClient": ".runtime.client",
     "RioError": ".errors", "InvalidRequest": ".errors", "NodeDiedError": ".errors", "NodeError": ".errors",
     "NodeTimeout": ".errors", "QueueFull": ".errors",
-    "ServerManager": ".manager", "ServedNode": ".manager", "connect": ".manager", "serve": ".manager",
-    "Node": ".node", "client_side": ".node", "remote": ".node",
+    "ServerManager": ".runtime.manager", "ServedNode": ".runtime.manager", "connect": ".runtime.manager",
+    "serve": ".runtime.manager",
+    "Node": ".runtime.node", "client_side": ".runtime.node", "remote": ".runtime.node",
 }
 
 __all__ = [
@@ -24,10 +25,10 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from .client import NodeClient
-    from .errors import InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull, RioError
-    from .manager import ServedNode, ServerManager, connect, serve
-    from .node import Node, client_side, remote
+    from rio.errors import InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull, RioError
+    from rio.runtime.client import NodeClient
+    from rio.runtime.manager import ServedNode, ServerManager, connect, serve
+    from rio.runtime.node import Node, client_side, remote
 
 
 def __getattr__(name: str) -> Any:

@@ -12,7 +12,7 @@ import math
 import time as _time
 from collections.abc import Callable
 
-from .host import yield_cpu as _yield
+from rio.machine.host import yield_cpu as _yield
 
 __all__ = ["now", "precise_wait", "Schedule", "Rate", "CountRate", "set_timer_slack"]
 

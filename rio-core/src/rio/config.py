@@ -24,7 +24,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from .suggest import closest
+from rio.suggest import closest
 
 
 class Config(BaseModel):

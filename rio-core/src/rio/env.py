@@ -23,10 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from . import clock
-from .embodiments.base import Embodiment, EmbodimentConfig
-from .errors import RioError
-from .schema import Camera, Step
+from rio import clock
+from rio.embodiments.base import Embodiment, EmbodimentConfig
+from rio.errors import RioError
+from rio.schema import Camera, Step
 
 
 class Env:

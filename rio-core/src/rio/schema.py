@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import FrameGone
+from rio.errors import FrameGone
 
 #: Lens distortion models a camera may publish (rio.interfaces.camera: the sample's `distortion_model` is the
 #: index of one, `distortion` its 5 coefficients). The Brown-Conrady family takes [k1, k2, p1, p2, k3]
@@ -51,7 +51,8 @@ def depth_meters(units: np.ndarray, depth_scale: float) -> np.ndarray:
 class Camera:
     rgb: np.ndarray | None = None
     depth: np.ndarray | None = None
-    #: e.g. {"timestamp": float, "intrinsics": (3, 3) array, "source": where the frame lives (`rio.ring_ref`)}; a
+    #: e.g. {"timestamp": float, "intrinsics": (3, 3) array, "source": where the frame lives
+    #: (`rio.runtime.ring_ref`)}; a
     #: camera that publishes its lens distortion adds "distortion_model" (`DISTORTION_MODELS`), "distortion" (5,)
     meta: dict = field(default_factory=dict)
 
@@ -92,7 +93,7 @@ class RingCamera(Camera):
     once, by the one who needs it, not copied out here first and again there."""
 
     def __init__(self, ring: Any, camera: str, meta: dict):
-        self._ring, self._camera = ring, camera  # a rio.buffers.RingBuffer; the camera node's name
+        self._ring, self._camera = ring, camera  # a rio.runtime.buffers.RingBuffer; the camera node's name
         self._taken = False
         self._rgb: np.ndarray | None = None
         self._depth: np.ndarray | None = None

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from rio import clock
 from rio.errors import RioError
 from rio.station import roles as R
@@ -158,8 +159,8 @@ class StationBridge:
 
     def start(self) -> None:
         """Start the station's nodes (a `ServerManager`), then connect its `Env`: the order of every RIO
-        workflow (`rio.control.workflow.run_workflow`)."""
-        from rio.manager import ServerManager
+        workflow (`rio.workflows.run.run_workflow`)."""
+        from rio.runtime.manager import ServerManager
 
         if self.running:
             return

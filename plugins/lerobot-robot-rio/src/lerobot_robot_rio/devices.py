@@ -4,8 +4,8 @@ Nothing here imports LeRobot. The device nodes (the station's `teleop` / `teleop
 `device` names: keyboard, scripted, a SpaceMouse driver, a leader arm) are served here; the controller
 is RIO's own, unchanged: `rio.teleop.twist.TwistTeleop` for a twist device (end-effector targets
 integrated from the twist, IK for joint-space arms) or `rio.teleop.leader_follower.LeaderFollower` for a
-leader arm, exactly as `rio teleop` builds them (`rio.teleop.loop.run_teleop`). LeRobot's loop stands
-in for `rio.control.loop.ControlLoop`: each `action()` is one tick of that controller.
+leader arm, exactly as `rio teleop` builds them (`rio.workflows.teleop.run_teleop`). LeRobot's loop stands
+in for `rio.loop.control_loop.ControlLoop`: each `action()` is one tick of that controller.
 
 The controller reads the arms of the `RioRobot` of the same station connected in this process (LeRobot
 gives a teleoperator no access to its robot; `lerobot-teleoperate` even connects the teleoperator
@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from rio import clock
 from rio.errors import RioError
 from rio.station.build import make_station
@@ -48,7 +49,7 @@ class DeviceBridge:
                  mode: str = "translation", max_pos_speed: float = 0.15, max_rot_speed: float = 1.0,
                  align_speed: float = 0.5, filter_hz: float | None = 8.0):
         from rio.control.teleop import TeleopMode
-        from rio.teleop.loop import drives_leader_arm, prepare_station
+        from rio.workflows.teleop import drives_leader_arm, prepare_station
 
         if not station:
             raise BridgeError("no station given: set --teleop.station=<the robot's station, name or .toml path>")
@@ -82,7 +83,7 @@ class DeviceBridge:
 
     def start(self) -> None:
         """Serve the device node(s) of this station (in its namespace, beside the robot's nodes)."""
-        from rio.manager import ServerManager
+        from rio.runtime.manager import ServerManager
 
         if self.running:
             return
@@ -103,9 +104,9 @@ class DeviceBridge:
 
     def _bind(self) -> None:
         """Build RIO's teleop controller on the connected robot of this station, as `rio teleop` does."""
-        from rio.control.workflow import Session
         from rio.teleop.leader_follower import LeaderFollower
         from rio.teleop.twist import TwistTeleop
+        from rio.workflows.run import Session
 
         robot = ACTIVE.get(self.name)
         if robot is None or not robot.running:
@@ -130,7 +131,7 @@ class DeviceBridge:
 
     def action(self) -> dict[str, float]:
         """One tick of the controller: the station's action as {feature name: value}."""
-        from rio.control.loop import Tick
+        from rio.loop.control_loop import Tick
 
         if not self.running:
             raise BridgeError(f"rio teleop of station '{self.name}' is not connected")

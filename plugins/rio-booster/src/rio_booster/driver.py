@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
+
 from rio import clock
 from rio.control.rotations import euler_to_quat
 from rio.interfaces import FAULT_KEYS, BodyDampingConfig, DampingSafety, HumanoidNode, MotorGainsConfig, motor_gains

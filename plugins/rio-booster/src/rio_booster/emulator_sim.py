@@ -23,6 +23,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
 from rio.control.rotations import euler_to_quat, quat_to_euler
 
 from .t1 import JOINTS, NUM_JOINTS

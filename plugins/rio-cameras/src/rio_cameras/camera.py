@@ -17,10 +17,11 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
+
 from rio import clock
 from rio.interfaces import CameraNode
 from rio.interfaces.grabber import Grabber, GrabbingCamera, Source
-from rio.node import remote
+from rio.runtime.node import remote
 
 from .errors import CameraError
 from .fit import fit_frame

@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 from pydantic import Field, model_validator
+
 from rio.interfaces import CameraNode
 from rio.interfaces.camera import distortion_fields
 

@@ -4,9 +4,9 @@ nothing here imports OpenCV or a camera SDK."""
 
 from __future__ import annotations
 
-from rio.hookspecs import hookimpl
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 from .sdk import ZED_INSTALL
 

@@ -23,6 +23,7 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
+
 from rio.config import Config
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress

@@ -18,6 +18,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 from pydantic import Field
+
 from rio.config import Config
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress

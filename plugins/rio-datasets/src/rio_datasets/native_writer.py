@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from rio.recording import Recorder
 from rio.recording.flatten import load_class
 from rio.schema import Camera, Observation, Step

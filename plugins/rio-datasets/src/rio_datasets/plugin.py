@@ -1,8 +1,8 @@
 """Entry point (`rio` group): registers the formats. Cheap: nothing heavy is imported here."""
 
-from rio.hookspecs import hookimpl
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 
 @hookimpl

@@ -29,6 +29,7 @@ from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
+
 from rio import clock
 
 from .faults import ERROR_FLAGS

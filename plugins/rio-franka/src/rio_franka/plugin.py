@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from rio.hookspecs import hookimpl
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 from .models import ARMS
 

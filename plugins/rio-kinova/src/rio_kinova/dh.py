@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
 
 PI, HALF = math.pi, math.pi / 2
 
@@ -60,6 +62,8 @@ GEN3_LITE = (
 
 def link(p: DH, theta: float) -> np.ndarray:
     """One DH transform (4x4)."""
+    import numpy as np  # here: the tables are read by the plugin's entry module, which must not load numpy
+
     ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(p.alpha), math.sin(p.alpha)
     return np.array([[ct, -st * ca, st * sa, p.a * ct],
                      [st, ct * ca, -ct * sa, p.a * st],
@@ -69,6 +73,8 @@ def link(p: DH, theta: float) -> np.ndarray:
 
 def fk(table: tuple[DH, ...], q, base: DH | None = None) -> np.ndarray:
     """The last frame's pose in the base frame (4x4) at joint positions `q` (rad)."""
+    import numpy as np
+
     t = np.eye(4) if base is None else link(base, base.offset)
     for p, qi in zip(table, np.asarray(q, dtype=np.float64), strict=True):
         t = t @ link(p, float(qi) + p.offset)

@@ -14,12 +14,10 @@ import types
 from typing import Any
 
 from .faults import KinovaError
+from .models import INSTALL
 
 log = logging.getLogger("rio_kinova")
 
-WHEEL = "kortex_api-2.6.0.post3-py3-none-any.whl"
-INSTALL = (f"download {WHEEL} from https://github.com/Kinovarobotics/kortex/releases (Kinova's kortex "
-           f"release assets), then: pip install ./{WHEEL} 'protobuf==3.20.0'")
 TCP_PORT, UDP_PORT = 10000, 10001
 
 

@@ -13,6 +13,11 @@ from pathlib import Path
 
 from . import dh
 
+#: kortex_api is not on PyPI: where to get it (named by `rio doctor` and by the error of a missing import).
+WHEEL = "kortex_api-2.6.0.post3-py3-none-any.whl"
+INSTALL = (f"download {WHEEL} from https://github.com/Kinovarobotics/kortex/releases (Kinova's kortex "
+           f"release assets), then: pip install ./{WHEEL} 'protobuf==3.20.0'")
+
 ASSETS = Path(__file__).parent / "assets"
 INF = math.inf
 

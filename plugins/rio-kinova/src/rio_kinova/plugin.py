@@ -3,12 +3,11 @@ requirement. Specs only: nothing here imports kortex."""
 
 from __future__ import annotations
 
-from rio.hookspecs import hookimpl
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
-from .kortex import INSTALL
-from .models import ARMS
+from .models import ARMS, INSTALL
 
 _P = "rio_kinova"
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
 from rio.control import euler_to_quat, matrix_to_quat, quat_to_euler
 
 

@@ -17,6 +17,7 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
+
 from rio.policy import Policy, PolicyConfig, PolicyMetadata, PolicyNode
 from rio.schema import Observation
 

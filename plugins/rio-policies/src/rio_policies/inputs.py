@@ -11,6 +11,7 @@ import re
 from typing import Any
 
 import numpy as np
+
 from rio.schema import Observation
 
 _SLICE = re.compile(r"^(\w+)\[(-?\d*):(-?\d*)\]$")

@@ -40,6 +40,7 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
+
 from rio.policy import Policy, PolicyConfig, PolicyMetadata, PolicyNode
 from rio.schema import Observation
 

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
+
 from rio.policy import Policy, PolicyConfig, PolicyMetadata, PolicyNode
 from rio.schema import Observation
 

@@ -2,7 +2,7 @@
 
 The device is one of the station's teleop components (keyboard, spacemouse, `teleop.scripted`, ...),
 served beside the robot during `rio deploy`; the policy node reads its newest sample in place from its ring
-(`ObsLayout.inputs`, a `rio.ring_ref` reference), as it reads camera frames, so nothing of the control
+(`ObsLayout.inputs`, a `rio.runtime.ring_ref` reference), as it reads camera frames, so nothing of the control
 loop changes for it. Its linear x, linear y and angular z (the twist's 0, 1 and 5: base frame, x forward, z
 up) are multiplied by `gain`, zeroed within `deadband` (a spacemouse at rest is never exactly still) and
 clipped to +-`command_max`. A device that has published nothing yet, or nothing for `timeout_s` (it stopped),
@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
 from rio import clock
 
 #: The twist's components that make the command: linear x, linear y, angular z.
@@ -32,7 +33,7 @@ class DeviceCommand:
     """The velocity command from the teleop device at station role `role`, read from `layout.inputs`."""
 
     def __init__(self, layout: Any, role: str, gain: Any, deadband: Any, command_max: Any, timeout_s: float):
-        from rio.ring_ref import SharedRing
+        from rio.runtime.ring_ref import SharedRing
 
         refs = getattr(layout, "inputs", None) or {}
         if role not in refs:

@@ -26,10 +26,11 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
+
 from rio import clock
 from rio.interfaces import CameraNode
 from rio.interfaces.grabber import Grabber, GrabbingCamera
-from rio.node import remote
+from rio.runtime.node import remote
 
 from .errors import RealSenseError
 from .stream import RealSenseStream

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from rio.interfaces.camera import distortion_fields
 
 from .errors import RealSenseError

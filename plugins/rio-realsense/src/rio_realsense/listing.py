@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from rio.cameras import CameraDevice
+from rio.plugins.cameras import CameraDevice
 
 
 def list_devices(context: Any = None) -> list[CameraDevice]:

@@ -3,9 +3,9 @@
 
 from __future__ import annotations
 
-from rio.hookspecs import hookimpl
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 _P = "rio_robotiq"
 _RTU = f"{_P}.robotiq.driver:RobotiqGripper"
@@ -37,6 +37,6 @@ def rio_stations() -> list[Spec]:
 def rio_requirements() -> list[Requirement]:
     return [
         Requirement("minimalmodbus", "pip install minimalmodbus", "Modbus RTU of the Robotiq and DH drivers",
-                    check="rio.requirements:serial_port_problem"),
+                    check="rio.plugins.requirements:serial_port_problem"),
         Requirement("serial", "pip install pyserial", "serial ports under minimalmodbus"),
     ]

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from rio import clock
 from rio.control.teleop import TeleopMode, make_teleop_eef_cmd
 from rio.errors import RioError

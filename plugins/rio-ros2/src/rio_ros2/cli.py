@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 import typer
+
 from rio.cli.args import known_station, not_empty, one_of, positive
 
 from .messages import DISTROS
@@ -48,7 +49,7 @@ def bridge(
     """Start STATION and publish it to ROS 2: joint states, end-effector poses, TF and camera images;
     follow joint trajectories and cmd_vel from ROS through each arm's own safety limits (Ctrl-C stops)."""
     from rio import clock
-    from rio.control.signals import StopSignals
+    from rio.loop.signals import StopSignals
 
     from .bridge import BridgeOptions
     from .rmw import DEFAULT_CONNECT, DEFAULT_LISTEN

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from rio.hookspecs import hookimpl
-from rio.requirements import Requirement
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement
 
 
 @hookimpl

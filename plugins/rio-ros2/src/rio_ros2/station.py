@@ -37,7 +37,7 @@ class RosOptions:
 @dataclass
 class RunningBridge:
     bridge: Bridge
-    manager: Any        # rio.manager.ServerManager of the nodes served here
+    manager: Any        # rio.runtime.manager.ServerManager of the nodes served here
     factories: dict     # {role: ClientFactory}: another client of a bridged node (`factories["arm"]()`)
     node_name: str
 
@@ -65,7 +65,7 @@ def open_bridge(station: Any, *, middleware: str | None = None, ros: RosOptions 
     """Start `station` (name, path or `Station`), connect its joint devices and cameras, open the ROS node;
     yield a `RunningBridge`. Everything stops on exit."""
     from rio.errors import ConfigError
-    from rio.manager import ServerManager
+    from rio.runtime.manager import ServerManager
     from rio.station.build import make_station
     from rio.station.load import load_station
 

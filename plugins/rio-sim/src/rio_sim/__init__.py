@@ -27,8 +27,8 @@ The drivers implement the standard interfaces (`rio.interfaces.ArmNode`, `Grippe
 
 from __future__ import annotations
 
-from .bus import session_id as _session_id
 from .gl import default_backend as _default_backend
+from .session import session_id as _session_id
 
 _default_backend()  # MUJOCO_GL=egl on Linux unless set: headless rendering, no display needed
 _session_id()       # before any node process is spawned, so they all inherit it

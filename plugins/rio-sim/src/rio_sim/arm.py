@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
+
 from rio import clock
 from rio.interfaces import ArmNode
 

@@ -6,7 +6,7 @@ them (threads of one process or a process each):
 
 - state, written by the world after every batch of physics steps: `qpos`, `qvel`, `ctrl`, simulated
   time, under a sequence counter (odd while a write is in progress) and a checksum of the state
-  seeded with the counter (`rio.slot_check`): a reader accepts its copy only when the checksum of
+  seeded with the counter (`rio.runtime.slot_check`): a reader accepts its copy only when the checksum of
   the copy matches, which holds on CPUs that reorder memory (ARM) as on x86;
 - commands, one slot per actuator: `target`, `t_target` (a `rio.clock.now()` time), a `stamp`
   bumped after both are written, and a check of (target, t_target) seeded with the stamp. Each
@@ -20,7 +20,7 @@ The block's name joins the user id, a session id that `rio_sim` puts in the envi
 process that builds the station (inherited by the node processes it spawns), and the world's name,
 so two stations running at once on one machine never meet. A block left behind by a world that was
 SIGKILLed (its owner pid is gone) is removed by the next world created on the machine, whatever its
-name, so crashes do not accumulate in /dev/shm. Shared-memory calls go through `rio.host` (macOS's
+name, so crashes do not accumulate in /dev/shm. Shared-memory calls go through `rio.machine.host` (macOS's
 short names and missing listing included).
 """
 
@@ -28,13 +28,16 @@ from __future__ import annotations
 
 import mmap
 import os
-import uuid
 
 import numpy as np
-from rio import clock, host, slot_check
-from rio.errors import RioError
 
-SESSION_ENV = "RIO_SIM_SESSION"
+from rio import clock
+from rio.errors import RioError
+from rio.machine import host
+from rio.runtime import slot_check
+
+from .session import session_id
+
 _MAGIC = 0x52494F53494D  # "RIOSIM"
 _VERSION = 3
 # int64 header fields (the state's check is a uint64)
@@ -44,15 +47,6 @@ _NAME_BYTES = 128
 #: How long a reader waits for a write in progress before calling the writer dead (a preempted writer on
 #: a loaded machine can hold the lock for tens of milliseconds).
 _LOCKED_S = 1.0
-
-
-def session_id() -> str:
-    """This process tree's session (set once, inherited by spawned node processes)."""
-    sid = os.environ.get(SESSION_ENV)
-    if not sid:
-        sid = f"{os.getpid()}-{uuid.uuid4().hex[:6]}"
-        os.environ[SESSION_ENV] = sid
-    return sid
 
 
 def block_name(world: str) -> str:

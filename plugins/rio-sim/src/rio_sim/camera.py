@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
+
 from rio.interfaces import CameraNode
 
 from .attached import Attached

@@ -20,6 +20,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field, field_validator
+
 from rio import clock
 from rio.interfaces import HandNode, HumanoidNode
 

@@ -3,9 +3,9 @@ Specs only: nothing here imports MuJoCo."""
 
 from __future__ import annotations
 
-from rio.hookspecs import hookimpl
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 from .robots import ROBOTS  # a table of names and files: no MuJoCo
 

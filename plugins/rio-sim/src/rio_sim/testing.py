@@ -13,7 +13,7 @@ from typing import Any
 def running_world(scene: str = "xarm7", world: str = "sim") -> Iterator[Any]:
     """Serve a `sim.world` of `scene` named `world` (thread middleware) until the block ends; yields its
     client (`get_state()`, `object_names()`, ...)."""
-    from rio.manager import ServerManager
+    from rio.runtime.manager import ServerManager
     from rio.station import make_station, parse_station
 
     station = parse_station({"name": f"world-{world}", "rate_hz": 30, "middleware": {"name": "thread"},
@@ -51,7 +51,7 @@ def record_pick_and_place(station: str, root: Any, duration: float = 30.0, cli: 
                       str(root), "--on-end", "keep", "--instruction", instruction)
         assert "1 episode(s) kept" in out.stdout, out.stdout[-2000:]
         return root
-    from rio.teleop.command import teleop
+    from rio.cli.teleop_cmd import teleop
 
     teleop(station, device="scripted", instruction=instruction, duration=duration, middleware="thread",
            record=str(root), on_end="keep")
@@ -70,6 +70,7 @@ def check_recorded_pick_and_place(root: Any) -> None:
     """Episode 0 of `root` holds the cameras and enough steps, verifies, and its ground truth shows the
     cube carried over to the pad (12 cm away), lifted on the way and put down."""
     import numpy as np
+
     from rio.recording.dataset import Dataset
 
     ep = Dataset(root).episode(0)
@@ -96,7 +97,7 @@ def check_replay_repeats_the_task(station: str, root: Any, rollout: Any, duratio
         said = run_rio("deploy", station, "--policy", policy, "--duration", f"{duration:g}", "--record",
                        str(rollout)).stdout[-2000:]
     else:
-        from rio.policy.deploy import run_deploy
+        from rio.workflows.deploy import run_deploy
 
         said = run_deploy(station, policy, record=str(rollout), duration=duration, middleware="thread",
                           log=None).format()
@@ -112,8 +113,9 @@ def check_humanoid_replay(root: Any, station: str, body_dof: int) -> None:
     off. The hands' joints, after them, may jump as the tracker acquires the hands (~1 rad at the hand
     node's step limit per cycle: as fast as that node runs, which a loaded machine slows)."""
     import numpy as np
+
     from rio.recording.dataset import Dataset
-    from rio.recording.replay import replay_episode
+    from rio.workflows.replay import replay_episode
 
     ep = Dataset(root).episode(0)
     t_rec = ep.column("t") - ep.column("t")[0]

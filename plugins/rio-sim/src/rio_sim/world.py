@@ -23,9 +23,10 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
+
 from rio import clock
 from rio.control.interpolators import LinearInterpolator
-from rio.node import Node, NodeConfig, client_side, remote
+from rio.runtime.node import Node, NodeConfig, client_side, remote
 
 from .bus import WorldBus
 from .indices import arm_indices, joint_indices

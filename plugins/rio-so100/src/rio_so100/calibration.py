@@ -24,7 +24,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from rio import calibration_files as files
+from rio.machine import calibration_files as files
 
 from .errors import CalibrationError
 from .feetech import control_table as T
@@ -96,7 +96,7 @@ class ArmCalibration:
 
 
 def calibration_path(name: str, model: str, device: str) -> Path:
-    """A name -> its file in the config directory (`rio.calibration_files`); a path as given."""
+    """A name -> its file in the config directory (`rio.machine.calibration_files`); a path as given."""
     return files.calibration_path(name, f"{model}-{device}")
 
 

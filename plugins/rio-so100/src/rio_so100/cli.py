@@ -15,6 +15,7 @@ import time
 from typing import Annotated
 
 import typer
+
 from rio.cli.args import not_empty, one_of, positive
 
 app = typer.Typer(help="SO-100 / SO-101 arms on the Feetech bus: calibrate, virtual bus, torque, scan "

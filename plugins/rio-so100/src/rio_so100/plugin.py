@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from rio.hookspecs import hookimpl
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 _P = "rio_so100"
 
@@ -51,7 +51,7 @@ def rio_requirements() -> list[Requirement]:
     return [
         Requirement("scservo_sdk", "pip install feetech-servo-sdk",
                     "the Feetech STS3215 bus of every SO-100/SO-101 driver",
-                    check="rio.requirements:serial_port_problem"),
+                    check="rio.plugins.requirements:serial_port_problem"),
         Requirement("serial", "pip install pyserial", "serial ports under the Feetech SDK"),
     ]
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any, Literal
 
 from pydantic import Field
+
 from rio.config import Config
 
 from .connection import ArmConnection

@@ -27,11 +27,12 @@ from typing import Any, Protocol
 
 import numpy as np
 from pydantic import Field, field_validator
+
 from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, BUTTON_MODE
 from rio.errors import RioError
 from rio.interfaces import TeleopNode
 from rio.interfaces.teleop import TeleopConfig
-from rio.node import remote
+from rio.runtime.node import remote
 
 from .axes import TwistMap, parse_source
 

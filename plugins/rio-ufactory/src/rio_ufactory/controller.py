@@ -22,6 +22,7 @@ import time
 from typing import Any
 
 import numpy as np
+
 from rio import clock
 
 from .faults import STOPPED as STOPPED_FAULT

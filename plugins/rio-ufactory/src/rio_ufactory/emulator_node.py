@@ -12,7 +12,8 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
-from rio.node import Node, NodeConfig
+
+from rio.runtime.node import Node, NodeConfig
 
 from .models import ARMS, get_arm
 

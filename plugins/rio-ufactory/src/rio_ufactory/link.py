@@ -14,6 +14,7 @@ import logging
 from typing import Any
 
 from pydantic import Field, field_validator
+
 from rio.config import Config
 from rio.interfaces import Fault, FaultHolding
 

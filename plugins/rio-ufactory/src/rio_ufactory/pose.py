@@ -7,6 +7,7 @@ vector `[rx, ry, rz]` (rad) instead, as the SDK's `*_aa` calls send it."""
 from __future__ import annotations
 
 import numpy as np
+
 from rio.control import euler_to_quat, quat_to_euler, quat_to_rotvec, rotvec_to_quat
 
 

@@ -11,6 +11,7 @@ import time
 from typing import Annotated
 
 import typer
+
 from rio.cli.args import non_negative, positive
 
 app = typer.Typer(

@@ -29,6 +29,7 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
+
 from rio import clock
 from rio.interfaces import FAULT_KEYS, DampingConfig, DampingSafety, Fault, HandNode, MotorGainsConfig, motor_gains
 from rio.interfaces.damping import state_lost

@@ -6,9 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from rio.hookspecs import hookimpl
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.hookspecs import hookimpl
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 _P = "rio_unitree"
 

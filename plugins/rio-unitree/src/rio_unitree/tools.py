@@ -13,6 +13,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+
 from rio.interfaces.damping import tilt_from_quat
 
 from .dds import LOWCMD, LOWSTATE, Participant, interfaces

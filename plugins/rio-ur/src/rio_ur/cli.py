@@ -89,7 +89,7 @@ def emulator(
     fixtures, the bench and the station's `ur.emulator` node run, in a process of their own)."""
     import threading
 
-    from rio import host
+    from rio.machine import host
 
     from .emulator import UREmulator
 

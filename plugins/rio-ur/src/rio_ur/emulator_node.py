@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
-from rio.node import Node, NodeConfig
+
+from rio.runtime.node import Node, NodeConfig
 
 
 class EmulatorNode(Node):

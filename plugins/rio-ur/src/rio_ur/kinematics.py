@@ -7,6 +7,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+
 from rio.control import matrix_to_pose
 
 from .models import URModel

@@ -119,7 +119,7 @@ def sleep_reference(env: Any, rate_hz: float, seconds: float) -> dict[str, float
 
 
 def rio_loop(env: Any, rate_hz: float, seconds: float, **options: Any) -> dict[str, float]:
-    from rio.control.loop import ControlLoop
+    from rio.loop.control_loop import ControlLoop
 
     loop = ControlLoop(env, Hold(), rate_hz=rate_hz, duration=seconds, settle=False, log=None, **options)
     s = loop.run()
@@ -139,7 +139,7 @@ def _can_realtime() -> bool:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from rio.manager import ServerManager
+    from rio.runtime.manager import ServerManager
     from rio.station import make_station
 
     say = (lambda m: print(m, file=sys.stderr, flush=True))

@@ -103,7 +103,7 @@ def summarize(rtts_s: np.ndarray) -> dict[str, float]:
 # -- one middleware --------------------------------------------------------------------------------
 @contextlib.contextmanager
 def _keep_start_method() -> Iterator[None]:
-    from .raw_transports import keep_start_method
+    from rio.benchmarks.raw_transports import keep_start_method
 
     with keep_start_method():
         yield
@@ -115,8 +115,8 @@ RoundTrip = Callable[[np.ndarray], Any]
 @contextlib.contextmanager
 def node_roundtrip(mw: str, station: str, payload: np.ndarray) -> Iterator[RoundTrip]:
     """`client.echo` of an EchoNode served on `mw` by a ServerManager."""
-    from ..manager import ServerManager, connect, serve
-    from ..testing import EchoNode
+    from rio.runtime.manager import ServerManager, connect, serve
+    from rio.testing import EchoNode
 
     cfg: dict[str, Any] = {"payload_bytes": int(payload.nbytes)}
     with ServerManager(mw, [serve(EchoNode, name="echo", **cfg)], station=station, ready_timeout=60.0):
@@ -125,7 +125,7 @@ def node_roundtrip(mw: str, station: str, payload: np.ndarray) -> Iterator[Round
 
 
 def raw_roundtrip(mw: str, payload: np.ndarray) -> contextlib.AbstractContextManager[RoundTrip]:
-    from .raw_transports import RAW
+    from rio.benchmarks.raw_transports import RAW
 
     return RAW[mw].open(payload)
 
@@ -150,10 +150,10 @@ def interleaved_rtts(node: RoundTrip, raw: RoundTrip | None, payload: np.ndarray
 
 def image_stream(mw: str, station: str, seconds: float, rate_hz: float, poll_s: float,
                  settle_s: float = 0.3) -> dict[str, float]:
-    from .. import clock
-    from ..errors import NodeDiedError, RioError
-    from ..manager import ServerManager, connect, serve
-    from ..testing import ImageNode
+    from rio import clock
+    from rio.errors import NodeDiedError, RioError
+    from rio.runtime.manager import ServerManager, connect, serve
+    from rio.testing import ImageNode
 
     cfg: dict[str, Any] = {"rate_hz": float(rate_hz)}
     with ServerManager(mw, [serve(ImageNode, name="camera", **cfg)], station=station, ready_timeout=60.0):
@@ -219,12 +219,12 @@ def _skip(details: dict[str, Any], name: str, why: str) -> None:
 # -- command line ----------------------------------------------------------------------------------
 def registered_middlewares() -> list[str]:
     try:
-        from ..plugins import specs
+        from rio.plugins import get_registry
 
-        return [s.name for s in specs("rio_middlewares")]
+        return [s.name for s in get_registry().specs("rio_middlewares")]
     except Exception as e:  # a broken third-party plugin must not hide the built-in ones
         _progress(f"could not list registered middlewares ({_reason(e)}); using the built-in names")
-        from .raw_transports import RAW
+        from rio.benchmarks.raw_transports import RAW
 
         return list(RAW)
 
@@ -280,7 +280,7 @@ def _stdout_to_stderr() -> Iterator[None]:
 
 def run(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
     """Measure; returns (results for JSON, extra details for the table)."""
-    from .raw_transports import RAW
+    from rio.benchmarks.raw_transports import RAW
 
     names = ([m.strip() for m in args.middlewares.split(",") if m.strip()] if args.middlewares
              else registered_middlewares())
@@ -295,7 +295,7 @@ def run(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
         t0 = time.monotonic()
         with _keep_start_method():
             try:
-                from ..plugins import get_middleware
+                from rio.plugins import get_middleware
 
                 get_middleware(name)
             except BaseException as e:
@@ -356,7 +356,7 @@ def _fmt(x: float | None, spec: str = ".1f") -> str:
 
 
 def format_table(results: dict[str, Any], details: dict[str, Any], args: argparse.Namespace) -> str:
-    from .raw_transports import RAW
+    from rio.benchmarks.raw_transports import RAW
 
     lines = [
         f"RIO middleware latency: {args.payload_bytes}-byte payload, {args.rounds} alternating node/raw rounds of "

@@ -70,7 +70,7 @@ def bench_station(middleware: str, cameras: int, width: int, height: int, camera
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from rio.policy import AsyncConfig
-    from rio.policy.deploy import run_deploy
+    from rio.workflows.deploy import run_deploy
 
     camera_age: list[float] = []
 

@@ -29,7 +29,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from .. import host
+from rio.machine import host
 
 RoundTrip = Callable[[np.ndarray], Any]
 
@@ -95,7 +95,7 @@ def _report_error(conn: Any, e: BaseException) -> None:
 def _end_child(e: BaseException) -> NoReturn:
     """End a server child whose error `_report_error` sent: the parent says it in one line, so the
     child's traceback (multiprocessing prints it) is left out, unless `rio --debug`."""
-    from ..errors import debug
+    from rio.errors import debug
 
     if debug():
         raise e

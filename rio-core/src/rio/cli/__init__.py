@@ -13,6 +13,6 @@ import sys
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the `rio` script; returns the exit status (rio.cli.app.RioGroup says which)."""
-    from .app import run
+    from rio.cli.app import run
 
     return run(sys.argv[1:] if argv is None else argv)

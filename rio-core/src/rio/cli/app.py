@@ -59,8 +59,8 @@ def _exit_status(invoke: Any) -> int:
     """Run `invoke` (the command line, not in standalone mode) and turn how it ended into a status."""
     from typer._click.exceptions import ClickException, NoArgsIsHelpError
 
-    from ..errors import RioError
-    from .output import error
+    from rio.cli.output import error
+    from rio.errors import RioError
 
     try:
         result = invoke()
@@ -83,7 +83,7 @@ def _exit_status(invoke: Any) -> int:
 
 def _traceback_if_debug() -> None:
     """Under `rio --debug`: the traceback of the exception being handled, on stderr."""
-    from ..errors import debug
+    from rio.errors import debug
 
     if debug():
         import traceback
@@ -92,7 +92,7 @@ def _traceback_if_debug() -> None:
 
 
 def _interrupted() -> int:
-    from .output import error
+    from rio.cli.output import error
 
     error("interrupted")
     return EXIT_INTERRUPTED
@@ -106,7 +106,7 @@ def _help_hint(e: Any) -> str:
 
 def _version(value: bool) -> None:
     if value:
-        from .. import __version__
+        from rio import __version__
 
         typer.echo(f"rio {__version__}")
         raise typer.Exit()
@@ -119,8 +119,7 @@ def _debug(value: bool) -> None:
 
 
 def build_app(load_plugins: bool = True) -> typer.Typer:
-    from ..teleop import command as teleop_cmd
-    from . import (
+    from rio.cli import (
         bench_cmd,
         cameras_cmd,
         datasets_cmd,
@@ -136,6 +135,7 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
         run_cmd,
         serve_cmd,
         stations_cmd,
+        teleop_cmd,
         top_cmd,
     )
 
@@ -169,7 +169,7 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
     app.command("ports")(ports_cmd.ports)
     app.command("find-port")(ports_cmd.find_port)
     if load_plugins:
-        from ..plugins import get_registry
+        from rio.plugins import get_registry
 
         get_registry().extend_cli(app)
     return app

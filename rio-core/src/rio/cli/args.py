@@ -89,8 +89,8 @@ def known_station(value: P) -> P:
     """A station name or .toml path that can be found (`rio stations list`), before anything opens."""
     not_empty(value)
     if value is not None:
-        from ..errors import RioError
-        from ..station.load import read_station_text
+        from rio.errors import RioError
+        from rio.station.load import read_station_text
 
         try:
             read_station_text(str(value))

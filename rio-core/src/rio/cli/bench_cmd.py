@@ -13,6 +13,6 @@ _PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True, "help
 @app.command("middleware", context_settings=_PASS_THROUGH, add_help_option=False)
 def middleware(ctx: typer.Context) -> None:
     """Middleware latency (the paper's method); `rio bench middleware --help` lists its options."""
-    from ..benchmarks.middleware_latency import main as bench_main
+    from rio.benchmarks.middleware_latency import main as bench_main
 
     raise typer.Exit(bench_main(list(ctx.args)) or 0)

@@ -13,8 +13,8 @@ app = typer.Typer(help="Cameras connected to this machine.", no_args_is_help=Tru
 def list_cameras(as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False) -> None:
     """Each connected camera: the driver that opens it, the value that selects it (serial, device path),
     model, firmware and modes. Plugins whose SDK could not list are named below the table."""
-    from ..cameras import list_cameras as find
-    from .output import console, print_json, table
+    from rio.cli.output import console, print_json, table
+    from rio.plugins.cameras import list_cameras as find
 
     devices, problems = find()
     if as_json:

@@ -12,7 +12,7 @@ from typing import Annotated
 
 import typer
 
-from .args import existing_path, not_empty, output_dir
+from rio.cli.args import existing_path, not_empty, output_dir
 
 app = typer.Typer(help="Recorded datasets: inspect, repair after a crash, import from other formats, merge "
                        "embodiments, view an episode.",
@@ -24,8 +24,8 @@ def damaged_warnings() -> Iterator[None]:
     """Show each DamagedEpisodeWarning (an episode used with --allow-damaged) as one CLI warning line."""
     import warnings
 
-    from ..recording import DamagedEpisodeWarning
-    from .output import warn
+    from rio.cli.output import warn
+    from rio.recording import DamagedEpisodeWarning
 
     def show(message, category, *args, **kwargs) -> None:  # noqa: ANN001 - warnings.showwarning's signature
         if issubclass(category, DamagedEpisodeWarning):
@@ -51,15 +51,15 @@ def info(
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
 ) -> None:
     """Episodes, steps, rate, cameras, size, damaged files, and anything left by a crash."""
-    from ..recording import Dataset
-    from .output import console, print_json, table, warn
+    from rio.cli.output import console, print_json, table, warn
+    from rio.recording import Dataset
 
     ds = Dataset(dataset)
     summary = ds.summary()
     damaged = ds.damaged() if verify else {}
     if verify:
         summary["damaged"] = damaged
-    from ..recording.merge import embodiment_mix
+    from rio.recording.merge import embodiment_mix
 
     summary["embodiments"] = mix = embodiment_mix(ds)  # {tag: episodes}: a merged dataset holds several
     if as_json:
@@ -107,8 +107,8 @@ def repair(dataset: Annotated[str, typer.Argument(callback=not_empty, help="Nati
     episodes' data is never modified and nothing is deleted: what cannot be used goes to .quarantine/."""
     from rich.markup import escape
 
-    from ..recording import repair_dataset
-    from .output import console, warn
+    from rio.cli.output import console, warn
+    from rio.recording import repair_dataset
 
     report = repair_dataset(dataset)
     c = console()
@@ -137,14 +137,14 @@ def import_(
     """Import a LeRobot v3 / Zarr / HDF5 dataset as a native RIO dataset."""
     from pathlib import Path
 
-    from ..recording.format import get_format
-    from .export_cmd import parse_options, run_with_progress
-    from .output import console
+    from rio.cli.export_cmd import parse_options, run_with_progress
+    from rio.cli.output import console
+    from rio.recording.format import get_format
 
     f = get_format(fmt, parse_options(option))
     if not f.can_import:
         raise typer.BadParameter(f"format '{fmt}' cannot import")
-    from ..errors import ConfigError, RioError
+    from rio.errors import ConfigError, RioError
 
     try:
         result = run_with_progress(f"import {fmt}", lambda p: f.import_(Path(src), Path(out), progress=p))
@@ -174,8 +174,8 @@ def merge(
 ) -> None:
     """Merge datasets of different morphologies into one: fields padded to the largest size, per-episode
     masks and embodiment tags, the union of cameras (docs/datasets.md). Inputs are only read."""
-    from ..recording.merge import merge_datasets
-    from .output import console
+    from rio.cli.output import console
+    from rio.recording.merge import merge_datasets
 
     err = console(stderr=True)
     result = merge_datasets(dataset, out, progress=lambda line: err.print(line, markup=False, soft_wrap=True))
@@ -194,8 +194,8 @@ def merge(
 @app.command("formats")
 def formats(as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False) -> None:
     """Dataset formats provided by installed plugins."""
-    from ..plugins import get_registry
-    from .output import print_json, table, warn_problems
+    from rio.cli.output import print_json, table, warn_problems
+    from rio.plugins import get_registry
 
     reg = get_registry()
     if as_json:
@@ -221,10 +221,10 @@ def view(
     """An episode in rerun's viewer: cameras, state and action per joint, gripper, end-effector path."""
     from rich.markup import escape
 
-    from ..recording import Dataset
-    from ..recording.view import view_episode
-    from .export_cmd import run_with_progress
-    from .output import console, warn
+    from rio.cli.export_cmd import run_with_progress
+    from rio.cli.output import console, warn
+    from rio.recording import Dataset
+    from rio.recording.view import view_episode
 
     ds = Dataset(dataset, allow_damaged=allow_damaged)
     with damaged_warnings():

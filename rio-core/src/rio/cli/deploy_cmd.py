@@ -1,5 +1,5 @@
 """`rio deploy STATION --policy SPEC`: run a policy on a station (typer front door). All the work is
-done by `rio.policy.deploy.run_deploy`, so scripts and tests call exactly what the command runs."""
+done by `rio.workflows.deploy.run_deploy`, so scripts and tests call exactly what the command runs."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from typing import Annotated
 
 import typer
 
-from .args import fraction, key_values, non_negative, not_empty, one_of, positive
-from .run_cmd import (
+from rio.cli.args import fraction, key_values, non_negative, not_empty, one_of, positive
+from rio.cli.run_cmd import (
     DurationOption,
     JsonOption,
     MiddlewareOption,
@@ -53,9 +53,9 @@ def deploy(
 ) -> None:
     """Deploy a policy with asynchronous chunked inference; prints a summary when it ends. A teleop device
     (--teleop) runs beside it for a policy that reads one (a locomotion policy's velocity command)."""
-    from ..policy.async_inference import AsyncConfig
-    from ..policy.deploy import run_deploy
-    from .run_cmd import finish
+    from rio.cli.run_cmd import finish
+    from rio.policy.async_inference import AsyncConfig
+    from rio.workflows.deploy import run_deploy
 
     config = AsyncConfig(request_threshold=threshold, blend=blend, crossfade_s=crossfade, on_late=on_late,
                          lowpass_hz=lowpass)

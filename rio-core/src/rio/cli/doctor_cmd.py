@@ -12,8 +12,8 @@ from typing import Annotated, Any
 
 import typer
 
-from .. import host
-from ..requirements import evaluate, module_present
+from rio.machine import host
+from rio.plugins.requirements import evaluate, module_present
 
 # middleware name -> (import name or None, install command)
 MIDDLEWARE_DEPS = {
@@ -71,9 +71,9 @@ def doctor(as_json: Annotated[bool, typer.Option("--json", help="Machine-readabl
     """Python version, plugins found, what each plugin needs and whether this machine has it."""
     from rich.markup import escape
 
-    from .. import __version__
-    from ..plugins import get_registry
-    from .output import console, print_json, table, warn, warn_problems
+    from rio import __version__
+    from rio.cli.output import console, print_json, table, warn, warn_problems
+    from rio.plugins import get_registry
 
     reg = get_registry()
     reg.all_specs()

@@ -6,7 +6,7 @@ from typing import Annotated
 
 import typer
 
-from .args import not_empty
+from rio.cli.args import not_empty
 
 app = typer.Typer(help="Registered device drivers and policies.", no_args_is_help=True)
 
@@ -18,11 +18,11 @@ def list_drivers(
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
 ) -> None:
     """List drivers (and policies) by name, kind and plugin."""
-    from ..errors import ConfigError
-    from ..plugins import get_registry
-    from ..specs import DRIVER_KINDS
-    from ..suggest import unknown
-    from .output import print_json, table, warn_problems
+    from rio.cli.output import print_json, table, warn_problems
+    from rio.errors import ConfigError
+    from rio.plugins import get_registry
+    from rio.plugins.specs import DRIVER_KINDS
+    from rio.suggest import unknown
 
     kinds = (*DRIVER_KINDS, "policy")
     if kind is not None and kind not in kinds:
@@ -47,10 +47,10 @@ def show(name: Annotated[str, typer.Argument(callback=not_empty,
     Imports the driver's module (not its SDK: drivers import that in `open()`)."""
     from pydantic_core import PydanticUndefined
 
-    from ..errors import ConfigError
-    from ..plugins import get_registry
-    from ..suggest import unknown
-    from .output import console, print_json, table
+    from rio.cli.output import console, print_json, table
+    from rio.errors import ConfigError
+    from rio.plugins import get_registry
+    from rio.suggest import unknown
 
     reg = get_registry()
     specs = {s.name: s for s in reg.specs("rio_drivers") + reg.specs("rio_policies")}

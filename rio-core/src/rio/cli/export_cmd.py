@@ -12,8 +12,8 @@ from typing import Annotated
 
 import typer
 
-from ..errors import ConfigError
-from .args import not_empty, output_dir
+from rio.cli.args import not_empty, output_dir
+from rio.errors import ConfigError
 
 _EPISODE_PART = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+)\s*)?$")
 
@@ -48,7 +48,7 @@ def run_with_progress(label: str, fn):
     """Call fn(progress) under a rich progress bar; returns fn's result."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from .output import console
+    from rio.cli.output import console
 
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=console(stderr=True), transient=False) as bar:
@@ -78,10 +78,10 @@ def export(
     """Export a recorded dataset (e.g. `rio export data/pick --format lerobot out/pick_lerobot`)."""
     from pathlib import Path
 
-    from ..recording import Dataset
-    from ..recording.format import export_dataset, get_format
-    from .datasets_cmd import damaged_warnings
-    from .output import console
+    from rio.cli.datasets_cmd import damaged_warnings
+    from rio.cli.output import console
+    from rio.recording import Dataset
+    from rio.recording.format import export_dataset, get_format
 
     chosen = parse_episodes(episodes)
     opts = parse_options(option)

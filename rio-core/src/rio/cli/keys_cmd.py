@@ -1,4 +1,4 @@
-"""`rio keys generate|add|show`: the keys of a station whose nodes run on several machines (`rio.keys`).
+"""`rio keys generate|add|show`: the keys of a station whose nodes run on several machines (`rio.machine.keys`).
 
 `generate DIR --name robot --name workstation` makes a station CA and one directory per machine;
 copy `DIR/<machine>` to that machine (same path on each, e.g. `~/.config/rio/keys/lab`) and name it in
@@ -10,7 +10,7 @@ from typing import Annotated
 
 import typer
 
-from .args import not_empty, positive
+from rio.cli.args import not_empty, positive
 
 app = typer.Typer(help="Keys that authenticate and encrypt a station's links between machines.",
                   no_args_is_help=True)
@@ -36,7 +36,7 @@ def _cryptography() -> None:
     try:
         import cryptography  # noqa: F401
     except ImportError:
-        from ..errors import ConfigError
+        from rio.errors import ConfigError
 
         raise ConfigError("making keys needs the cryptography package: pip install 'rio-core[keys]'") from None
 
@@ -50,7 +50,7 @@ def generate(
     days: Annotated[int, typer.Option(callback=positive, help="Validity of the certificates in days.")] = 3650,
 ) -> None:
     """A new station CA and keys for each named machine."""
-    from .. import keys
+    from rio.machine import keys
 
     _cryptography()
     made = keys.generate(out, names, _addresses(addresses, names), days)
@@ -65,7 +65,7 @@ def add(
     days: Annotated[int, typer.Option(callback=positive, help="Validity of the certificates in days.")] = 3650,
 ) -> None:
     """Keys for more machines, signed by the same CA; every machine's peers/ learns them."""
-    from .. import keys
+    from rio.machine import keys
 
     _cryptography()
     made = keys.add(out, names, _addresses(addresses, names), days)
@@ -77,7 +77,7 @@ def add(
 def show(path: Annotated[str, typer.Argument(callback=not_empty, help="One machine's keys directory.")],
          as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False) -> None:
     """Whose keys these are, which machines they trust, and when the certificate expires."""
-    from .. import keys
+    from rio.machine import keys
 
     k = keys.load(path)
     expires = None
@@ -88,7 +88,7 @@ def show(path: Annotated[str, typer.Argument(callback=not_empty, help="One machi
     except ImportError:
         pass
     if as_json:
-        from .output import print_json
+        from rio.cli.output import print_json
 
         print_json({"machine": k.identity, "trusts": sorted(k.peers), "expires": expires})
         return

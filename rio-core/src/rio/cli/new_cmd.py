@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from .args import existing_dir, not_empty, output_dir
+from rio.cli.args import existing_dir, not_empty, output_dir
 
 app = typer.Typer(help="Create new things from templates.", no_args_is_help=True)
 
@@ -26,7 +26,7 @@ def plugin(
 ) -> None:
     """Generate rio-NAME/: pyproject with the `rio` entry point, a driver of KIND in the kind's contract,
     an emulator, a demo station, tests and a README."""
-    from ..scaffold import new_plugin
+    from rio.plugins.scaffold import new_plugin
 
     dst = new_plugin(name, kind, Path(output), force=force)
     typer.echo(f"created {dst}\nnext, install it into this environment and test it:\n"
@@ -49,7 +49,7 @@ def driver(
     """Add a driver of KIND to an existing plugin: its module, an emulator, a demo station and a test;
     then register it in plugin.py (or print the lines to add when that file is not in a shape that can
     be edited safely)."""
-    from ..scaffold import new_driver
+    from rio.plugins.scaffold import new_driver
 
     out = new_driver(name, kind, Path(plugin_dir), register=register)
     root = out.plugin.root

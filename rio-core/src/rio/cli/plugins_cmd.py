@@ -11,8 +11,8 @@ app = typer.Typer(help="Installed RIO plugins.", no_args_is_help=True)
 
 
 def _show_plugins(as_json: bool = False) -> None:
-    from ..plugins import get_registry
-    from .output import print_json, table, warn_problems
+    from rio.cli.output import print_json, table, warn_problems
+    from rio.plugins import get_registry
 
     reg = get_registry()
     reg.all_specs()  # fills each plugin's `provides` and collects problems
@@ -45,7 +45,7 @@ def _run_installer(cmd: list[str]) -> None:
 
     from rich.markup import escape
 
-    from .output import console, error
+    from rio.cli.output import console, error
 
     console(stderr=True).print(f"[dim]$ {escape(shlex.join(cmd))}[/]", soft_wrap=True)
     try:
@@ -65,7 +65,7 @@ def _installer() -> tuple[str, str | None]:
     import shutil
     import sys
 
-    from ..errors import RioError
+    from rio.errors import RioError
 
     uv = shutil.which("uv")
     if uv is None and importlib.util.find_spec("pip") is None:
@@ -75,8 +75,8 @@ def _installer() -> tuple[str, str | None]:
 
 
 def _after_change(before: set[str]) -> None:
-    from .. import plugins
-    from ..plugin_install import activate_new_paths
+    from rio.plugins import registry as plugins
+    from rio.plugins.install import activate_new_paths
 
     activate_new_paths(before)
     plugins.reset()
@@ -97,8 +97,8 @@ def install(
     """
     import sys
 
-    from ..plugin_install import install_command, pth_files, uv_project_of
-    from .output import warn
+    from rio.cli.output import warn
+    from rio.plugins.install import install_command, pth_files, uv_project_of
 
     python, uv = _installer()
     before = pth_files()
@@ -119,8 +119,8 @@ def uninstall(
     """Uninstall plugins from the environment rio runs in (rio-core itself is refused)."""
     import sys
 
-    from ..errors import RioError
-    from ..plugin_install import protected, pth_files, uninstall_command
+    from rio.errors import RioError
+    from rio.plugins.install import protected, pth_files, uninstall_command
 
     refused = protected(names)
     if refused:

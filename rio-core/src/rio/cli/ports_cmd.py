@@ -1,5 +1,5 @@
 """`rio ports` (the serial ports on this machine) and `rio find-port` (which one is this device?
-LeRobot's `lerobot-find-port`: unplug it, see which port went). The work is in `rio.ports`."""
+LeRobot's `lerobot-find-port`: unplug it, see which port went). The work is in `rio.machine.ports`."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from .args import positive
+from rio.cli.args import positive
 
 #: `--replug` without `--timeout`: how long to wait for the device to come back.
 REPLUG_WAIT_S = 60.0
@@ -19,8 +19,8 @@ JsonOption = Annotated[bool, typer.Option("--json", help="Machine-readable outpu
 def ports(as_json: JsonOption = False) -> None:
     """Serial ports on this machine (USB adapters of servo buses, grippers): device, stable
     /dev/serial/by-id path (use it in station files), USB vid:pid, serial number, description."""
-    from .. import ports as P
-    from .output import print_json, table
+    from rio.cli.output import print_json, table
+    from rio.machine import ports as P
 
     found = P.list_ports()
     if as_json:
@@ -46,9 +46,9 @@ def find_port(
     """Which serial port is a device on: unplug its USB cable when asked (then press Enter); the port that
     disappeared is the device's (LeRobot's lerobot-find-port). Instructions go to stderr, the answer to
     stdout."""
-    from .. import ports as P
-    from ..errors import RioError
-    from .output import print_json
+    from rio.cli.output import print_json
+    from rio.errors import RioError
+    from rio.machine import ports as P
 
     def say(message: str) -> None:
         typer.echo(message, err=True)

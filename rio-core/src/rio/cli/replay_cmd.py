@@ -9,8 +9,8 @@ from typing import Annotated
 
 import typer
 
-from .args import known_station, non_negative, not_empty, positive
-from .run_cmd import JsonOption, MiddlewareOption, ProfileOption
+from rio.cli.args import known_station, non_negative, not_empty, positive
+from rio.cli.run_cmd import JsonOption, MiddlewareOption, ProfileOption
 
 
 def replay(
@@ -29,10 +29,10 @@ def replay(
     profile: ProfileOption = None,
 ) -> None:
     """Replay an episode's actions on a station (checks the morphology and action layout first)."""
-    from ..recording import Dataset
-    from ..recording.replay import replay_episode
-    from .datasets_cmd import damaged_warnings
-    from .run_cmd import finish
+    from rio.cli.datasets_cmd import damaged_warnings
+    from rio.cli.run_cmd import finish
+    from rio.recording import Dataset
+    from rio.workflows.replay import replay_episode
 
     with damaged_warnings():
         summary = replay_episode(Dataset(dataset, allow_damaged=allow_damaged), episode, station,

@@ -13,7 +13,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .args import key_values, known_station, not_empty, output_dir, positive
+from rio.cli.args import key_values, known_station, not_empty, output_dir, positive
 
 #: The run's arm did not follow its commands.
 EXIT_NOT_FOLLOWED = 3
@@ -50,7 +50,7 @@ def finish(summary: Any, json_out: bool, printed: bool = False) -> None:
     """Print the run's summary (text or JSON; `printed`: the text is out already) and end the command
     with the documented status."""
     if json_out:
-        from .output import print_json
+        from rio.cli.output import print_json
 
         print_json(summary.to_json())
     elif not printed:
@@ -100,7 +100,7 @@ def run(
 ) -> None:
     """Run your own controller on a station, with the loop, recording, signals and summary of every
     other workflow."""
-    from ..control.workflow import run_workflow
+    from rio.workflows.run import run_workflow
 
     cls = load_controller(controller)
     kwargs = key_values(option, "--set")

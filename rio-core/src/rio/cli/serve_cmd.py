@@ -12,8 +12,8 @@ from typing import Annotated
 
 import typer
 
-from .args import not_empty
-from .run_cmd import MiddlewareOption, StationArgument
+from rio.cli.args import not_empty
+from rio.cli.run_cmd import MiddlewareOption, StationArgument
 
 
 def serve(
@@ -27,12 +27,12 @@ def serve(
     middleware: MiddlewareOption = None,
 ) -> None:
     """Serve this machine's nodes of a station spread over several machines (Ctrl-C stops them)."""
-    from .. import clock
-    from ..control.signals import StopSignals
-    from ..errors import ConfigError, RioError
-    from ..manager import ServerManager
-    from ..station.build import make_station
-    from ..station.load import load_station
+    from rio import clock
+    from rio.errors import ConfigError, RioError
+    from rio.loop.signals import StopSignals
+    from rio.runtime.manager import ServerManager
+    from rio.station.build import make_station
+    from rio.station.load import load_station
 
     with StopSignals() as stop:
         st = load_station(station)
@@ -55,7 +55,7 @@ def serve(
 
 
 def _which_machine(st, machine: str | None, nodes: str | None) -> str:  # noqa: ANN001 - a Station
-    from ..errors import ConfigError
+    from rio.errors import ConfigError
 
     if not st.machines:
         raise ConfigError(f"{st.source} places no node on another machine: add a [machines.<name>] section "

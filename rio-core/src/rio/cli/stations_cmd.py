@@ -6,7 +6,7 @@ from typing import Annotated
 
 import typer
 
-from .run_cmd import MiddlewareOption, StationArgument
+from rio.cli.run_cmd import MiddlewareOption, StationArgument
 
 app = typer.Typer(help="Station files.", no_args_is_help=True)
 
@@ -14,8 +14,8 @@ app = typer.Typer(help="Station files.", no_args_is_help=True)
 @app.command("list")
 def list_stations(as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False) -> None:
     """List the station files that plugins ship (use the name wherever a station path is accepted)."""
-    from ..plugins import get_registry
-    from .output import print_json, table, warn_problems
+    from rio.cli.output import print_json, table, warn_problems
+    from rio.plugins import get_registry
 
     reg = get_registry()
     specs = reg.specs("rio_stations")
@@ -36,9 +36,9 @@ def check(
 ) -> None:
     """Validate a station completely (drivers, their fields, middleware options, embodiment) and show
     what it contains; imports the drivers' code but starts nothing."""
-    from ..station import load_station
-    from ..station.build import load_node_class, resolve_embodiment, resolve_middleware
-    from .output import console, print_json, table
+    from rio.cli.output import console, print_json, table
+    from rio.station import load_station
+    from rio.station.build import load_node_class, resolve_embodiment, resolve_middleware
 
     st = load_station(station)
     mw = resolve_middleware(st, middleware)

@@ -1,5 +1,5 @@
 """`rio top [STATION]`: live per-node rates, sample age, CPU and memory of the stations running on this
-machine (rio.profiling.top). `--once` measures one interval and prints it (scripts, `--json`)."""
+machine (rio.runtime.top). `--once` measures one interval and prints it (scripts, `--json`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from .args import positive
+from rio.cli.args import positive
 
 
 def top(
@@ -20,8 +20,8 @@ def top(
 ) -> None:
     """Watch running stations like htop: each node's publishing rate, the age of its newest sample, and
     its process's CPU and memory. Read-only: it never sends a node anything."""
-    from ..profiling.top import StationTop, format_rows
-    from .output import error, print_json
+    from rio.cli.output import error, print_json
+    from rio.runtime.top import StationTop, format_rows
 
     with StationTop(station) as watch:
         if not watch.watched:

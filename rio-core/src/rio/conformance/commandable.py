@@ -11,13 +11,7 @@ import numpy as np
 import pytest
 
 from rio import clock
-from rio.errors import InvalidRequest
-from rio.interfaces import JOINT, ArmNode, GripperNode, HandNode, HumanoidNode, JointNode
-from rio.interfaces.damping import STALE_COMMANDS
-from rio.node import Node
-from rio.testing import lifecycle, wait_until
-
-from .driver_base import (
+from rio.conformance.driver_base import (
     BOOL,
     CLIP,
     DISABLED,
@@ -35,12 +29,12 @@ from .driver_base import (
     far_target,
     quat_ok,
 )
-from .driving import (
-    Loop,
-    expect,
-    fmt,
-    violated,
-)
+from rio.conformance.driving import Loop, expect, fmt, violated
+from rio.errors import InvalidRequest
+from rio.interfaces import JOINT, ArmNode, GripperNode, HandNode, HumanoidNode, JointNode
+from rio.interfaces.damping import STALE_COMMANDS
+from rio.runtime.node import Node
+from rio.testing import lifecycle, wait_until
 
 
 class _CommandableConformance(DriverConformance):

@@ -14,11 +14,7 @@ import numpy as np
 import pytest
 
 from rio import ServerManager, connect, serve
-from rio.errors import RioError
-from rio.node import Node
-from rio.testing import lifecycle, wait_until
-
-from .driving import (
+from rio.conformance.driving import (
     DriverUnderTest,
     InjectedFault,
     Loop,
@@ -31,6 +27,9 @@ from .driving import (
     run_with_fault,
     violated,
 )
+from rio.errors import RioError
+from rio.runtime.node import Node
+from rio.testing import lifecycle, wait_until
 
 FLOAT, BOOL, INT = "f", "b", "iu"
 #: {key: (shape, or None for any; dtype kind letters such as "f", or an exact dtype)}

@@ -34,9 +34,9 @@ kind (see `rio.conformance.pytest_plugin`); docs/conformance.md has the table of
 """
 from __future__ import annotations
 
-from .commandable import ArmConformance, GripperConformance, HandConformance, HumanoidConformance
-from .driver_base import DriverConformance, SensorConformance
-from .sensing import CameraConformance, TeleopConformance
+from rio.conformance.commandable import ArmConformance, GripperConformance, HandConformance, HumanoidConformance
+from rio.conformance.driver_base import DriverConformance, SensorConformance
+from rio.conformance.sensing import CameraConformance, TeleopConformance
 
 __all__ = ["DriverConformance", "SensorConformance", "ArmConformance", "GripperConformance", "HandConformance",
            "HumanoidConformance", "CameraConformance", "TeleopConformance"]

@@ -16,8 +16,8 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from .. import clock
-from ..node import Node
+from rio import clock
+from rio.runtime.node import Node
 
 __all__ = ["DriverUnderTest", "resolve_driver", "build_node", "Loop", "run_with_fault", "InjectedFault", "caused_by",
            "violated", "expect", "fmt", "check_layout"]
@@ -66,10 +66,10 @@ def resolve_driver(driver: str | type[Node]) -> DriverUnderTest:
     if not isinstance(driver, str) or not driver:
         raise TypeError(f"driver must be a registered name or a node class, got {driver!r}")
     if ":" in driver:
-        from ..specs import import_path
+        from rio.plugins.specs import import_path
 
         return resolve_driver(import_path(driver))
-    from ..plugins import get_registry
+    from rio.plugins import get_registry
 
     spec = get_registry().find("rio_drivers", driver, "driver")
     return DriverUnderTest(spec.load(), driver, dict(spec.preset), spec.kind)
@@ -79,7 +79,7 @@ def build_node(dut: DriverUnderTest, fields: Mapping[str, Any], name: str) -> No
     """The node as a station builds it: the spec's preset under the station fields, validated."""
     from pydantic import ValidationError
 
-    from ..config import apply_preset, error_lines
+    from rio.config import apply_preset, error_lines
 
     values = apply_preset(dut.preset, dict(fields), dut.label)
     try:
@@ -171,13 +171,13 @@ def caused_by(e: BaseException | None, cls: type) -> bool:
 
 def run_with_fault(node: Node, hook: str, after: int = 3,
                    timeout: float = 10.0) -> tuple[BaseException | None, list[str]]:
-    """Serve `node` with `rio.runtime.NodeRunner` on the thread middleware, in this thread; once it is
+    """Serve `node` with `rio.runtime.runner.NodeRunner` on the thread middleware, in this thread; once it is
     ready, its `hook` (e.g. "read_joints") raises `InjectedFault` on the call after `after` good ones.
     Returns (the error `run()` ended with, or None if it ran until `timeout`; the calls of
     `closing` / `close` in order)."""
-    from ..middleware.base import NodeLayouts
-    from ..middleware.thread import ThreadMiddleware
-    from ..runtime import Dispatcher, NodeRunner
+    from rio.middleware.thread import ThreadMiddleware
+    from rio.runtime.runner import Dispatcher, NodeRunner
+    from rio.runtime.transport import NodeLayouts
 
     calls: list[str] = []
     for name in ("closing", "close"):

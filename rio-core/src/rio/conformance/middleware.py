@@ -28,10 +28,9 @@ import pytest
 
 import rio
 from rio import ServerManager, connect, serve
-from rio.middleware.base import Middleware
+from rio.conformance.process import assert_no_shm_left, child_pids, shm_entries
+from rio.runtime.transport import Middleware
 from rio.testing import EchoNode, FailingOpenNode, ImageNode, wait_until
-
-from .process import assert_no_shm_left, child_pids, shm_entries
 
 __all__ = ["MiddlewareConformance"]
 

@@ -16,7 +16,7 @@ it accepts *independently of the slot checks the buffers use*:
 
 `unchecked=True` reads the rings bypassing the slot checks (copy the slot the count points at, as the
 pre-check code did): on any machine that run must report torn reads, which shows the checks can see
-them. A pass on one machine is evidence, not proof: the protocol's argument is in `rio.slot_check`.
+them. A pass on one machine is evidence, not proof: the protocol's argument is in `rio.runtime.slot_check`.
 """
 
 from __future__ import annotations
@@ -34,9 +34,9 @@ from typing import Any
 
 import numpy as np
 
-from .. import host
-from ..buffers import RequestQueue, RingBuffer
-from ..layout import Layout
+from rio.machine import host
+from rio.runtime.buffers import RequestQueue, RingBuffer
+from rio.runtime.layout import Layout
 
 _MULT = np.uint64(2654435761)
 

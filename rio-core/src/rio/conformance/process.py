@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from .. import host
+from rio.machine import host
 
 
 def _is_resource_tracker(pid: int) -> bool:
@@ -41,7 +41,7 @@ def child_pids() -> set[int]:
 
 def shm_entries() -> set[str]:
     """Names of POSIX shared-memory objects (/dev/shm on Linux; RIO's marker registry on macOS and
-    under RIO_HOST_FALLBACK: see `rio.host`)."""
+    under RIO_HOST_FALLBACK: see `rio.machine.host`)."""
     return host.shm_list()
 
 

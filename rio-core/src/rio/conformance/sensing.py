@@ -9,23 +9,12 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 
+from rio.conformance.driver_base import BOOL, BUTTONS, FLOAT, SI, DriverConformance, KeySpec
+from rio.conformance.driving import expect, fmt
 from rio.interfaces import CameraNode, TeleopNode
-from rio.node import Node
+from rio.runtime.node import Node
 from rio.schema import DISTORTION_MODELS
 from rio.testing import lifecycle
-
-from .driver_base import (
-    BOOL,
-    BUTTONS,
-    FLOAT,
-    SI,
-    DriverConformance,
-    KeySpec,
-)
-from .driving import (
-    expect,
-    fmt,
-)
 
 
 class CameraConformance(DriverConformance):

@@ -6,9 +6,9 @@
 - `teleop`: teleop modes, speed limits, twist -> end-effector target, button handling.
 """
 
-from .filters import LowPassFilter, OneEuroFilter, PoseFilter
-from .interpolators import LinearInterpolator, PoseInterpolator, Waypoints
-from .rotations import (
+from rio.control.filters import LowPassFilter, OneEuroFilter, PoseFilter
+from rio.control.interpolators import LinearInterpolator, PoseInterpolator, Waypoints
+from rio.control.rotations import (
     euler_to_quat,
     matrix_to_quat,
     quat_angle,
@@ -22,7 +22,7 @@ from .rotations import (
     quat_to_rotvec,
     rotvec_to_quat,
 )
-from .se3 import (
+from rio.control.se3 import (
     IDENTITY,
     apply_twist,
     as_pose,
@@ -34,7 +34,7 @@ from .se3 import (
     pose_to_matrix,
     twist_between,
 )
-from .teleop import (
+from rio.control.teleop import (
     BUTTON_DISCARD,
     BUTTON_DONE,
     BUTTON_KEEP,

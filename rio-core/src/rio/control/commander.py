@@ -25,9 +25,9 @@ import logging
 
 import numpy as np
 
-from .interpolators import LinearInterpolator, PoseInterpolator
-from .rotations import quat_angle, quat_slerp
-from .se3 import as_pose
+from rio.control.interpolators import LinearInterpolator, PoseInterpolator
+from rio.control.rotations import quat_angle, quat_slerp
+from rio.control.se3 import as_pose
 
 log = logging.getLogger("rio.control")
 

@@ -17,8 +17,8 @@ import math
 
 import numpy as np
 
-from .rotations import quat_slerp
-from .se3 import as_pose
+from rio.control.rotations import quat_slerp
+from rio.control.se3 import as_pose
 
 
 def _alpha(cutoff_hz: float, dt: float) -> float:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .se3 import as_pose, pose_interp
+from rio.control.se3 import as_pose, pose_interp
 
 
 class LinearInterpolator:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .rotations import (
+from rio.control.rotations import (
     matrix_to_quat,
     quat_angle,
     quat_conj,

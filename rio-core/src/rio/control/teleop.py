@@ -18,7 +18,7 @@ import enum
 
 import numpy as np
 
-from .se3 import apply_twist, as_pose
+from rio.control.se3 import apply_twist, as_pose
 
 BUTTON_MODE = 0
 BUTTON_DONE = 1
@@ -39,7 +39,7 @@ def episode_verdict(buttons) -> str | None:
 
 class EpisodeEnd:
     """Whether a device has ended the episode (`BUTTON_DONE`) and what it said of it, over a run: the
-    part every teleop controller shares (`done()` and `finish()` of rio.control.loop's protocol)."""
+    part every teleop controller shares (`done()` and `finish()` of rio.loop.control_loop's protocol)."""
 
     def __init__(self) -> None:
         self.finished = False

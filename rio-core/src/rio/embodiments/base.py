@@ -12,9 +12,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .. import config as _config
-from ..config import Configurable
-from ..schema import Observation
+from rio import config as _config
+from rio.config import Configurable
+from rio.schema import Observation
 
 
 class Embodiment(Configurable):

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..schema import BimanualObs
-from .arm_group import ArmGroup
-from .base import Embodiment
-from .single_arm import ArmEmbodimentConfig
+from rio.embodiments.arm_group import ArmGroup
+from rio.embodiments.base import Embodiment
+from rio.embodiments.single_arm import ArmEmbodimentConfig
+from rio.schema import BimanualObs
 
 
 class Bimanual(Embodiment):

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..schema import HumanoidObs
-from .base import Embodiment
+from rio.embodiments.base import Embodiment
+from rio.schema import HumanoidObs
 
 
 class Humanoid(Embodiment):

@@ -3,9 +3,9 @@ the most specific one (most required roles) winning; or the one the station name
 
 from __future__ import annotations
 
-from ..errors import ConfigError
-from ..plugins import Problem, Registry, get_registry
-from ..specs import Spec
+from rio.errors import ConfigError
+from rio.plugins import Problem, Registry, get_registry
+from rio.plugins.specs import Spec
 
 
 def _required(spec: Spec, reg: Registry) -> frozenset[str] | None:

@@ -11,9 +11,9 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from ..schema import SingleArmObs
-from .arm_group import ArmGroup
-from .base import Embodiment, EmbodimentConfig
+from rio.embodiments.arm_group import ArmGroup
+from rio.embodiments.base import Embodiment, EmbodimentConfig
+from rio.schema import SingleArmObs
 
 
 class SingleArm(Embodiment):

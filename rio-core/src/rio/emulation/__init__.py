@@ -12,22 +12,22 @@ model moves like the hardware would.
 - `free_loopback(ports)`: a 127.0.0.N address of its own for an emulator whose SDK dials fixed ports.
 """
 
-from .finger import FingerModel
-from .loopback import can_listen, free_loopback, is_free
-from .modbus import (
-    ILLEGAL_DATA_ADDRESS,
-    ILLEGAL_DATA_VALUE,
-    ILLEGAL_FUNCTION,
-    ModbusError,
-    ModbusRtuDevice,
-    RegisterSlave,
-    crc16,
-    frame_length,
-    in_block,
-    with_crc,
+from rio.emulation.finger import FingerModel
+from rio.emulation.loopback import can_listen, free_loopback, is_free
+from rio.emulation.modbus import (
+           ILLEGAL_DATA_ADDRESS,
+           ILLEGAL_DATA_VALUE,
+           ILLEGAL_FUNCTION,
+           ModbusError,
+           ModbusRtuDevice,
+           RegisterSlave,
+           crc16,
+           frame_length,
+           in_block,
+           with_crc,
 )
-from .pty import PtyDevice
-from .tcp import TcpDevice
+from rio.emulation.pty import PtyDevice
+from rio.emulation.tcp import TcpDevice
 
 __all__ = ["FingerModel", "PtyDevice", "TcpDevice", "RegisterSlave", "ModbusRtuDevice", "ModbusError",
            "ILLEGAL_FUNCTION", "ILLEGAL_DATA_ADDRESS", "ILLEGAL_DATA_VALUE", "crc16", "with_crc", "frame_length",

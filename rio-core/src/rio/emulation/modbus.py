@@ -19,7 +19,7 @@ import threading
 import time
 from typing import Any
 
-from .pty import PtyDevice
+from rio.emulation.pty import PtyDevice
 
 ILLEGAL_FUNCTION, ILLEGAL_DATA_ADDRESS, ILLEGAL_DATA_VALUE, SLAVE_DEVICE_FAILURE = 1, 2, 3, 4
 #: Slave id 0: every slave applies the request and none replies.

@@ -32,16 +32,16 @@ Every sample also carries `timestamp` (added by the runtime). A value a driver c
 published as NaN, never as a made-up number.
 """
 
-from .arm import EEF, IDENTITY_POSE, JOINT, ArmNode
-from .camera import CameraNode
-from .damping import BodyDampingConfig, DampingConfig, DampingSafety, MotorGainsConfig, motor_gains
-from .faults import FAULT_KEYS, Fault, FaultHolding
-from .grabber import CameraError, Grabber, GrabbingCamera, SourceFinished, SourceLost
-from .gripper import GripperNode
-from .hand import HandNode, HumanoidNode
-from .joints import JointNode
-from .model_table import ModelTableArm
-from .teleop import TeleopNode
+from rio.interfaces.arm import EEF, IDENTITY_POSE, JOINT, ArmNode
+from rio.interfaces.camera import CameraNode
+from rio.interfaces.damping import BodyDampingConfig, DampingConfig, DampingSafety, MotorGainsConfig, motor_gains
+from rio.interfaces.faults import FAULT_KEYS, Fault, FaultHolding
+from rio.interfaces.grabber import CameraError, Grabber, GrabbingCamera, SourceFinished, SourceLost
+from rio.interfaces.gripper import GripperNode
+from rio.interfaces.hand import HandNode, HumanoidNode
+from rio.interfaces.joints import JointNode
+from rio.interfaces.model_table import ModelTableArm
+from rio.interfaces.teleop import TeleopNode
 
 __all__ = ["ArmNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "JointNode",
            "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolding", "FAULT_KEYS", "ModelTableArm",

@@ -20,11 +20,11 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from .. import clock
-from ..control.commander import PoseCommander
-from ..errors import InvalidRequest
-from ..node import client_side, remote
-from .joints import JointConfig, JointNode, as_vector, t_target
+from rio import clock
+from rio.control.commander import PoseCommander
+from rio.errors import InvalidRequest
+from rio.interfaces.joints import JointConfig, JointNode, as_vector, t_target
+from rio.runtime.node import client_side, remote
 
 log = logging.getLogger("rio.interfaces")
 
@@ -88,7 +88,7 @@ class ArmNode(JointNode):
             raise ValueError(f"node '{self.name}': robot_description() joints {joints} differ from the node's "
                              f"joint_names {self.joint_list}")
         try:
-            from ..kinematics import solver_from_description
+            from rio.kinematics import solver_from_description
 
             return solver_from_description(desc, orientation_cost=1.0 if self.dof >= 6 else 0.1, damping=1e-4)
         except ImportError as e:

@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from ..node import Node, NodeConfig, client_side
-from ..schema import DISTORTION_MODELS, Camera, RingCamera, camera_meta
+from rio.runtime.node import Node, NodeConfig, client_side
+from rio.schema import DISTORTION_MODELS, Camera, RingCamera, camera_meta
 
 
 class CameraNode(Node):

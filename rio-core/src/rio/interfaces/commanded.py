@@ -16,10 +16,10 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from .. import clock
-from ..control.commander import JointCommander
-from ..errors import InvalidRequest
-from ..node import Node, NodeConfig, remote
+from rio import clock
+from rio.control.commander import JointCommander
+from rio.errors import InvalidRequest
+from rio.runtime.node import Node, NodeConfig, remote
 
 log = logging.getLogger("rio.interfaces")
 

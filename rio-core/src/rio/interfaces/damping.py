@@ -33,10 +33,10 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from .. import clock
-from ..config import Config
-from ..control.rotations import quat_to_matrix
-from .faults import Fault, FaultHolding
+from rio import clock
+from rio.config import Config
+from rio.control.rotations import quat_to_matrix
+from rio.interfaces.faults import Fault, FaultHolding
 
 #: `fault_code` of each stop (the same on every driver, so a script can match them across vendors).
 STATE_LOST, FALL, STALE_COMMANDS = 1, 2, 3

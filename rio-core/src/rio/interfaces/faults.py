@@ -28,8 +28,8 @@ import logging
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import InvalidRequest
-from ..node import remote
+from rio.errors import InvalidRequest
+from rio.runtime.node import remote
 
 log = logging.getLogger("rio.interfaces")
 

@@ -17,8 +17,8 @@ import threading
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from .. import clock
-from ..errors import RioError
+from rio import clock
+from rio.errors import RioError
 
 Frame = Any  # whatever the driver's source returns; a frame with a `t` attribute (its capture time) shows an age
 

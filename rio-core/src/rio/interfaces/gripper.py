@@ -15,11 +15,11 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from .. import clock
-from ..control.commander import JointCommander
-from ..node import client_side
-from .commanded import CommandedNode
-from .joints import t_target
+from rio import clock
+from rio.control.commander import JointCommander
+from rio.interfaces.commanded import CommandedNode
+from rio.interfaces.joints import t_target
+from rio.runtime.node import client_side
 
 
 class GripperNode(CommandedNode):

@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from ..node import remote
-from .joints import JointConfig, JointNode
+from rio.interfaces.joints import JointConfig, JointNode
+from rio.runtime.node import remote
 
 
 class HandNode(JointNode):

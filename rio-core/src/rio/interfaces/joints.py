@@ -24,10 +24,10 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from .. import clock
-from ..control.commander import JointCommander
-from ..node import client_side, remote
-from .commanded import CommandedNode
+from rio import clock
+from rio.control.commander import JointCommander
+from rio.interfaces.commanded import CommandedNode
+from rio.runtime.node import client_side, remote
 
 
 def t_target(t_cmd_target: float | None) -> float:

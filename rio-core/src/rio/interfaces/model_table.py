@@ -21,7 +21,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..node import remote
+from rio.runtime.node import remote
 
 
 class ModelTableArm:

@@ -26,15 +26,9 @@ from typing import Any, ClassVar
 import numpy as np
 from pydantic import Field
 
-from ..node import Node, NodeConfig
+from rio.kinematics.hand_skeleton import HAND_JOINTS as HAND_JOINTS  # re-exported: part of the teleop contract
+from rio.runtime.node import Node, NodeConfig
 
-#: A tracked hand's 25 joints, the order of WebXR's XRHand and visionOS's HandSkeleton.
-HAND_JOINTS: tuple[str, ...] = (
-    "wrist",
-    "thumb-metacarpal", "thumb-phalanx-proximal", "thumb-phalanx-distal", "thumb-tip",
-    *(f"{finger}-{part}" for finger in ("index-finger", "middle-finger", "ring-finger", "pinky-finger")
-      for part in ("metacarpal", "phalanx-proximal", "phalanx-intermediate", "phalanx-distal", "tip")),
-)
 LEFT, RIGHT = 0, 1
 
 

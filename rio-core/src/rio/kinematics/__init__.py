@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from .base import DEFAULT_POS_TOL, DEFAULT_ROT_TOL, IKResult, IKSolver
-from .description import mjcf_description, read_model, solver_from_description, tool_pose_from_offset
+from rio.kinematics.base import DEFAULT_POS_TOL, DEFAULT_ROT_TOL, IKResult, IKSolver
+from rio.kinematics.description import mjcf_description, read_model, solver_from_description, tool_pose_from_offset
 
 __all__ = ["IKSolver", "IKResult", "MinkSolver", "PinocchioSolver", "solver_from_description", "mjcf_description",
            "tool_pose_from_offset", "read_model", "HandRetargeter", "palm_pose", "MultiFrameIK",

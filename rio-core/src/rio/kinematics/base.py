@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..control.se3 import as_pose, pose_error
+from rio.control.se3 import as_pose, pose_error
 
 DEFAULT_POS_TOL = 1e-3            # m
 DEFAULT_ROT_TOL = np.deg2rad(1.0)  # rad

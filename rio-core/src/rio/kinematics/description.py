@@ -12,7 +12,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from .base import IKSolver
+from rio.kinematics.base import IKSolver
 
 
 def mjcf_description(xml: str, joints: Sequence[str], home: Sequence[float] | None = None, *,
@@ -39,7 +39,7 @@ def tool_pose_from_offset(tcp_offset: Sequence[float] | None, rotation: str = "r
     """A controller's TCP offset `[x, y, z (m), a, b, c (rad)]` as `mjcf_description`'s `tool_pose`, or None
     for no offset (absent or all zero). `rotation` says how the vendor writes `a, b, c`: "rpy" (fixed-axis
     roll, pitch, yaw: UFACTORY, Franka, Kinova) or "rotvec" (a rotation vector: Universal Robots)."""
-    from ..control import euler_to_quat, rotvec_to_quat
+    from rio.control import euler_to_quat, rotvec_to_quat
 
     if tcp_offset is None or not any(tcp_offset):
         return None
@@ -59,12 +59,12 @@ def read_model(path: Path) -> str:
 def solver_from_description(desc: dict[str, Any], **options: Any) -> IKSolver:
     fmt = str(desc.get("format", "")).lower()
     if fmt == "mjcf":
-        from .mink_solver import MinkSolver
+        from rio.kinematics.mink_solver import MinkSolver
 
         return MinkSolver(desc["xml"], desc["frame"], frame_type=desc.get("frame_type", "site"),
                           joints=desc.get("joints"), **options)
     if fmt == "urdf":
-        from .pin_solver import PinocchioSolver
+        from rio.kinematics.pin_solver import PinocchioSolver
 
         return PinocchioSolver(desc["xml"], desc["frame"], joints=desc.get("joints"), **options)
     raise ValueError(f"unknown robot description format {fmt!r} (expected 'mjcf' or 'urdf')")

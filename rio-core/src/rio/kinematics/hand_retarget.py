@@ -30,10 +30,10 @@ from typing import Any
 
 import numpy as np
 
-from ..control.rotations import matrix_to_quat
-from ..interfaces.teleop import HAND_JOINTS
-from .base import require
-from .mink_solver import frame_body, freeze_others, joint_table, joints_moving, load_mujoco_model
+from rio.control.rotations import matrix_to_quat
+from rio.kinematics.base import require
+from rio.kinematics.hand_skeleton import HAND_JOINTS
+from rio.kinematics.mink_solver import frame_body, freeze_others, joint_table, joints_moving, load_mujoco_model
 
 _INDEX = {name: i for i, name in enumerate(HAND_JOINTS)}
 _MIDDLE = ("middle-finger-phalanx-proximal", "middle-finger-phalanx-intermediate", "middle-finger-phalanx-distal",

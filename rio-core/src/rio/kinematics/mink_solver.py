@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import IKSolver, require
+from rio.kinematics.base import IKSolver, require
 
 
 def load_mujoco_model(model: Any):

@@ -35,10 +35,10 @@ from typing import Any
 
 import numpy as np
 
-from ..control.se3 import as_pose, pose_error
-from .base import require
-from .mink_solver import frame_body, freeze_others, joint_table, joints_moving, load_mujoco_model
-from .self_collision import SelfCollision, default_pairs, distances, named_pairs
+from rio.control.se3 import as_pose, pose_error
+from rio.kinematics.base import require
+from rio.kinematics.mink_solver import frame_body, freeze_others, joint_table, joints_moving, load_mujoco_model
+from rio.kinematics.self_collision import SelfCollision, default_pairs, distances, named_pairs
 
 _POS_DONE, _ROT_DONE = 1e-5, 1e-4  # m, rad: closer than this, further iterations change nothing useful
 _BACKTRACKS = 5  # shortenings of a step that self-collision rejects, before giving it up

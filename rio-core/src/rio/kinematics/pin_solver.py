@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import IKSolver, require
+from rio.kinematics.base import IKSolver, require
 
 
 class PinocchioSolver(IKSolver):

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import require
+from rio.kinematics.base import require
 
 _FAR = 1.0  # m: farther than this counts as "far" when reporting clearance
 #: m: how far inside `min_distance` a pair may slip while sliding along: a slide along a curved surface

@@ -11,7 +11,7 @@ Portal is request/reply only (no pub/sub), so every channel is a method of the n
   `send_request` raises (QueueFull, InvalidRequest): no request is dropped silently.
 - ``call(wire.pack_call bytes)`` -> ``wire.pack_reply`` bytes: remote API methods.
 
-Every argument and result is one `bytes` value that RIO encodes itself (raw records, `rio.wire`).
+Every argument and result is one `bytes` value that RIO encodes itself (raw records, `rio.runtime.wire`).
 
 Both ends are ours and speak portal 3.8's wire format (`portal_wire`), so danijar's `portal.Client`
 can still call a node; the `portal` package itself is not used (its server ended the whole process on
@@ -20,7 +20,7 @@ checking it, and attached shared memory named by a peer). What the server does w
 (`portal_server`): a length prefix outside 16..`max_message_bytes` disconnects the peer before
 anything is allocated; a message that is not one `bytes` argument (e.g. a numpy or shared-memory
 leaf) is answered with an error without decoding any leaf; records are checked against the layout
-and calls decoded by `rio.wire` (msgpack, nothing unpickled); each connection has at most
+and calls decoded by `rio.runtime.wire` (msgpack, nothing unpickled); each connection has at most
 `max_pending_per_connection` messages waiting; an error reply carries the exception's type and message,
 never a traceback. There is no authentication: servers bind loopback by default (`host` option);
 expose a node beyond loopback only to trusted peers.
@@ -37,16 +37,17 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import Field
 
-from .. import clock, wire
-from ..buffers import RequestSender, RingBuffer
-from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
-from ..node import Node
-from . import portal_wire as pw
-from .base import ClientTransport, Middleware, NetworkConfig, NodeLayouts, local_process_watch
+from rio import clock
+from rio.errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
+from rio.middleware import portal_wire as pw
+from rio.runtime import wire
+from rio.runtime.buffers import RequestSender, RingBuffer
+from rio.runtime.node import Node
+from rio.runtime.transport import ClientTransport, Middleware, NetworkConfig, NodeLayouts, local_process_watch
 
 if TYPE_CHECKING:
-    from ..station.model import MachineSection
-from .portal_server import OK, PortalServer
+    from rio.station.model import MachineSection
+from rio.middleware.portal_server import OK, PortalServer
 
 log = logging.getLogger("rio.middleware.portal")
 

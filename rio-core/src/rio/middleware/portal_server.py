@@ -31,15 +31,16 @@ import threading
 import time
 from typing import TYPE_CHECKING, Any
 
-from .. import clock, wire
-from ..buffers import RequestQueue, RingBuffer
-from ..errors import InvalidRequest, QueueFull
-from ..node import Node
-from . import portal_wire as pw
-from .base import NodeLayouts, ServerTransport, warn_if_exposed
+from rio import clock
+from rio.errors import InvalidRequest, QueueFull
+from rio.middleware import portal_wire as pw
+from rio.runtime import wire
+from rio.runtime.buffers import RequestQueue, RingBuffer
+from rio.runtime.node import Node
+from rio.runtime.transport import NodeLayouts, ServerTransport, warn_if_exposed
 
 if TYPE_CHECKING:
-    from .portal import PortalConfig
+    from rio.middleware.portal import PortalConfig
 
 log = logging.getLogger("rio.middleware.portal")
 

@@ -9,9 +9,9 @@
   node over a Unix socket in the manager's run directory (`shm_calls`).
 - Segments and files are created and removed by the ServerManager (`prepare`/`release`), never by
   the node process, so a SIGKILLed node leaves nothing in /dev/shm.
-- Memory order: the ring buffer and request queue check each slot (`rio.slot_check`), the call channel
+- Memory order: the ring buffer and request queue check each slot (`rio.runtime.slot_check`), the call channel
   hands messages over through a pipe where the CPU may reorder stores (`shm_calls`), so the
-  middleware is correct on ARM as on x86. Operating-system calls go through `rio.host` (Linux,
+  middleware is correct on ARM as on x86. Operating-system calls go through `rio.machine.host` (Linux,
   macOS; Windows is refused with a clear error).
 """
 
@@ -27,12 +27,14 @@ import uuid
 import weakref
 from typing import Any
 
-from .. import clock, host, wire
-from ..buffers import RequestQueue, RingBuffer
-from ..errors import ConfigError, NodeDiedError, NodeError, NodeTimeout
-from ..node import Node
-from .base import ClientTransport, Middleware, NodeLayouts, ProcessWatch, ServerTransport
-from .shm_calls import CallChannel, PeerGone, accept_channel, open_client_channel
+from rio import clock
+from rio.errors import ConfigError, NodeDiedError, NodeError, NodeTimeout
+from rio.machine import host
+from rio.middleware.shm_calls import CallChannel, PeerGone, accept_channel, open_client_channel
+from rio.runtime import wire
+from rio.runtime.buffers import RequestQueue, RingBuffer
+from rio.runtime.node import Node
+from rio.runtime.transport import ClientTransport, Middleware, NodeLayouts, ProcessWatch, ServerTransport
 
 log = logging.getLogger("rio.middleware.shm")
 

@@ -2,11 +2,11 @@
 
 Why not a socket: on this class of machine a Unix-socket round trip costs about twice a pipe's, and
 a socket copies every payload through the kernel twice. Here a message is written straight into
-memory both processes map (the arrays' own bytes: see `rio.wire.call_message`), and only a one-byte
+memory both processes map (the arrays' own bytes: see `rio.runtime.wire.call_message`), and only a one-byte
 wake-up crosses the kernel: the "raw pipe + shared memory" transport the latency benchmark compares
 against.
 
-- Set-up: the client creates the memory (`rio.host.anonymous_memory`: a memfd on Linux, so nothing
+- Set-up: the client creates the memory (`rio.machine.host.anonymous_memory`: a memfd on Linux, so nothing
   appears in /dev/shm, and the kernel frees it with the last descriptor) and both pipes, and hands
   the node's ends over the node's Unix socket (SCM_RIGHTS). The socket is closed after that hand-over.
 - Calls strictly alternate (the client holds a lock), so one area carries the call, then its reply.
@@ -34,8 +34,9 @@ import socket
 import threading
 from collections.abc import Callable
 
-from .. import clock, host
-from ..wire import Message
+from rio import clock
+from rio.machine import host
+from rio.runtime.wire import Message
 
 # Header: 8 bytes reserved, u32 message length at 8, u32 count of messages written so far at 12.
 # Read and written through a native-int memoryview: each field is one aligned load or store.
@@ -89,7 +90,7 @@ class CallChannel:
 
     # -- sending ------------------------------------------------------------------------------------
     def send(self, message: Message) -> None:
-        """Write `message` (a `rio.wire` message: head bytes, then the arrays' data) and wake the peer."""
+        """Write `message` (a `rio.runtime.wire` message: head bytes, then the arrays' data) and wake the peer."""
         head, arrays = message
         n = len(head)
         for a in arrays:

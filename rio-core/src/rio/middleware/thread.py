@@ -9,11 +9,11 @@ from __future__ import annotations
 import threading
 from typing import Any
 
-from ..buffers import RequestQueue, RingBuffer
-from ..errors import NodeDiedError, NodeError
-from ..node import Node
-from ..wire import error_payload
-from .base import ClientTransport, Middleware, NodeLayouts, ServerTransport
+from rio.errors import NodeDiedError, NodeError
+from rio.runtime.buffers import RequestQueue, RingBuffer
+from rio.runtime.node import Node
+from rio.runtime.transport import ClientTransport, Middleware, NodeLayouts, ServerTransport
+from rio.runtime.wire import error_payload
 
 # Servers of this process by (station, node name): the thread middleware's "address space".
 _SERVERS: dict[tuple[str, str], ThreadServer] = {}

@@ -9,7 +9,7 @@ Key expressions, under `rio/<station>/<node>`:
                  requests), matched by request id: `send_request` waits for it, so nothing is dropped
                  silently. Answered from zenoh's callback thread (a full queue: from its own thread),
                  never behind an API call.
-- `call/<cid>`   client `<cid>` -> server: an API call (`rio.wire`, msgpack; never pickle).
+- `call/<cid>`   client `<cid>` -> server: an API call (`rio.runtime.wire`, msgpack; never pickle).
 - `reply/<cid>`  server -> client `<cid>`: the reply, matched to its call by call id. An error carries
                  type and message only (`wire.remote_error_payload`); the traceback stays in the node's log.
 - `hb`           server -> clients: a heartbeat every 50 ms, from its own thread.
@@ -24,7 +24,7 @@ before the peer's subscription has propagated, so every publisher whose first me
 (requests, calls, replies) is only used once zenoh reports a matching subscriber. The state stream
 may lose its first samples that way, which is why the handshake seeds the client's mirror.
 
-With the station's keys (`keys`, `rio.keys`) every link is mutual TLS (`tls/` endpoints only, the
+With the station's keys (`keys`, `rio.machine.keys`) every link is mutual TLS (`tls/` endpoints only, the
 station's CA on both sides) and zenoh's access control lets through only machines this one trusts
 (their certificates' common names, `peers/`), only under `rio/<station>/**`: see `_secure`.
 
@@ -48,11 +48,12 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import model_validator
 
-from .. import clock, wire
-from ..buffers import RequestQueue, RequestSender, RingBuffer
-from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
-from ..node import Node
-from .base import (
+from rio import clock
+from rio.errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
+from rio.runtime import wire
+from rio.runtime.buffers import RequestQueue, RequestSender, RingBuffer
+from rio.runtime.node import Node
+from rio.runtime.transport import (
     ClientTransport,
     Middleware,
     NetworkConfig,
@@ -65,8 +66,8 @@ from .base import (
 )
 
 if TYPE_CHECKING:
-    from ..keys import MachineKeys
-    from ..station.model import MachineSection
+    from rio.machine.keys import MachineKeys
+    from rio.station.model import MachineSection
 
 log = logging.getLogger("rio.zenoh")
 

@@ -5,7 +5,7 @@ Server sockets (bound to loopback unless `host` says otherwise):
   fingerprint, server epoch, sample sequence number) and the record's raw bytes; plus a heartbeat every
   `heartbeat_s` from its own thread, so a client on another machine notices a dead server even when
   the node publishes nothing. A "bye" goes out on a clean shutdown.
-- ROUTER (`rpc_port`): the handshake, requests (raw record bytes) and API calls (`rio.wire` msgpack).
+- ROUTER (`rpc_port`): the handshake, requests (raw record bytes) and API calls (`rio.runtime.wire` msgpack).
   One thread owns the socket (zmq sockets are not thread-safe) and never runs node code: it answers
   handshakes, enqueues requests and answers each one at once (taken / queue full / invalid / no
   requests: nothing is dropped silently), and hands API calls to the API thread through a bounded
@@ -17,7 +17,7 @@ Server sockets (bound to loopback unless `host` says otherwise):
   Errors going back to a peer carry the exception's type and message (absolute paths cut,
   `wire.remote_error_payload`); the traceback stays in the server's debug log.
 
-Authentication (`keys` in the config, `rio.keys`): both server sockets are CURVE servers with this
+Authentication (`keys` in the config, `rio.machine.keys`): both server sockets are CURVE servers with this
 machine's key pair, and a ZAP handler admits only the clients whose public key is in this machine's
 `peers/`: others get no state, no requests in and no calls. The address names the server machine's
 `identity`; a client takes that machine's public key from its *own* `peers/` (never from the
@@ -35,7 +35,7 @@ so the mirror never goes backwards or holds duplicates. `send_request` waits for
 does), InvalidRequest when the server refuses the record, NodeTimeout when no answer comes.
 
 Nothing from the network is unpickled: samples and requests are fixed-size records checked against
-the layout, calls and the handshake are msgpack via `rio.wire`.
+the layout, calls and the handshake are msgpack via `rio.runtime.wire`.
 """
 
 from __future__ import annotations
@@ -54,11 +54,12 @@ import msgpack
 import zmq
 from pydantic import Field
 
-from .. import clock, wire
-from ..buffers import RequestQueue, RequestSender, RingBuffer
-from ..errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull, RioError
-from ..node import Node
-from .base import (
+from rio import clock
+from rio.errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull, RioError
+from rio.runtime import wire
+from rio.runtime.buffers import RequestQueue, RequestSender, RingBuffer
+from rio.runtime.node import Node
+from rio.runtime.transport import (
     ClientTransport,
     Middleware,
     NetworkConfig,
@@ -69,7 +70,7 @@ from .base import (
 )
 
 if TYPE_CHECKING:
-    from ..station.model import MachineSection
+    from rio.station.model import MachineSection
 
 log = logging.getLogger("rio.middleware.zmq")
 

@@ -22,11 +22,11 @@ import collections
 from dataclasses import dataclass, field
 from typing import Any
 
-from .. import clock
-from ..control.filters import LowPassFilter
-from ..control.reservoir import Reservoir
-from .base import ActionChunk, PolicyMetadata
-from .schedule import ChunkSchedule, Sample, ScheduleConfig
+from rio import clock
+from rio.control.filters import LowPassFilter
+from rio.control.reservoir import Reservoir
+from rio.policy.base import ActionChunk, PolicyMetadata
+from rio.policy.schedule import ChunkSchedule, Sample, ScheduleConfig
 
 
 @dataclass

@@ -24,9 +24,9 @@ from typing import Any, ClassVar
 import numpy as np
 from pydantic import Field
 
-from .. import clock
-from ..config import Config, Configurable
-from ..schema import Observation
+from rio import clock
+from rio.config import Config, Configurable
+from rio.schema import Observation
 
 
 @dataclass

@@ -1,9 +1,10 @@
-"""`run_deploy`: the RIO paper's policy-agnostic, hardware-agnostic inference script, written once
-against `Env` and node clients. `rio deploy STATION --policy SPEC` runs exactly this.
+"""`PolicyController`: the RIO paper's policy-agnostic, hardware-agnostic inference script, written once
+against `Env` and node clients. `rio deploy STATION --policy SPEC` runs exactly this
+(`rio.workflows.deploy.run_deploy`).
 
 Start-up: the station is started without its policy component; its first observation fixes the
 `ObsLayout`, with which the policy node is started in its own node (over the station's middleware) and
-loads its model. Then `PolicyController` runs on the one control loop (`rio.control.loop`); every
+loads its model. Then `PolicyController` runs on the one control loop (`rio.loop.control_loop`); every
 `1 / rate_hz` seconds it:
 
 1. takes in a chunk if one arrived (a local ring-buffer read, `AsyncInference.poll`);
@@ -24,20 +25,18 @@ node. `--record DIR` records every step as an episode with the station's recorde
 
 from __future__ import annotations
 
-import dataclasses
 import time
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from .. import clock
-from ..control.loop import Tick
-from ..control.summary import RunSummary
-from ..errors import NodeDiedError
-from .async_inference import AsyncConfig, AsyncInference
-from .base import PolicyMetadata
-from .obs_layout import ObsLayout
+from rio import clock
+from rio.errors import NodeDiedError
+from rio.loop.control_loop import Tick
+from rio.loop.summary import RunSummary
+from rio.policy.async_inference import AsyncConfig, AsyncInference
+from rio.policy.base import PolicyMetadata
+from rio.policy.obs_layout import ObsLayout
 
 POLICY_ROLE = "policy"
 #: Waiting for a chunk between ticks: sleep slices of `_POLL_S` (the bound on how late an arrival is seen)
@@ -48,44 +47,10 @@ _NEAR_S = 0.002
 _FAR_S = 0.001
 
 
-def _without_policy(st: Any) -> Any:
-    return dataclasses.replace(st, components={r: c for r, c in st.components.items() if r != POLICY_ROLE})
-
-
-def run_deploy(station: Any, policy: str | None = None, *, instruction: str | None = None,
-               record: str | None = None, duration: float | None = None, middleware: str | None = None,
-               rate_hz: float | None = None, config: AsyncConfig | None = None,
-               on_tick: Callable[[Tick], None] | None = None, log: Callable[[str], None] | None = print,
-               ready_timeout: float = 600.0, profile: str | None = None, registry: Any = None,
-               device: str | None = None, device_config: dict | None = None) -> RunSummary:
-    """Run `policy` (a `--policy` SPEC; default: the station's policy component) on `station`
-    (registered name, .toml path or `Station`) until `duration` seconds pass or a stop signal.
-    Each tick's `info` holds the schedule's `sample` (None while holding) and the `chunk` that landed.
-    `device` (+ `device_config`): the station's `teleop` component, replaced or added, for a policy that
-    reads a device (`onnx.locomotion`'s `command_from`)."""
-    from ..control.workflow import run_workflow
-    from ..station.load import load_station
-    from ..teleop.loop import prepare_station
-    from .resolve import resolve_policy
-
-    if device is not None or device_config:
-        station = prepare_station(station, device, device_config)
-    st = load_station(station, registry=registry)
-    name, node_cls, policy_kwargs = resolve_policy(policy, st, registry)
-
-    def make(session: Any) -> PolicyController:
-        return PolicyController.start(session, name, node_cls, policy_kwargs, config or AsyncConfig(),
-                                      ready_timeout=ready_timeout)
-
-    return run_workflow(_without_policy(st), make, middleware=middleware, rate_hz=rate_hz, duration=duration,
-                        instruction=instruction, record=record, on_tick=on_tick, profile=profile,
-                        registry=registry, log=log)
-
-
 def _device_rings(session: Any) -> dict[str, dict[str, Any]]:
     """Ring references of the station's teleop devices, for a policy commanded by one (`ObsLayout.inputs`);
     a device whose middleware does not share rings has none."""
-    from ..station.roles import kind_of
+    from rio.station.roles import kind_of
 
     out = {}
     for role in sorted(session.clients):
@@ -97,7 +62,7 @@ def _device_rings(session: Any) -> dict[str, dict[str, Any]]:
 
 
 class PolicyController:
-    """Controller (rio.control.loop) over a running policy node: see the module docstring."""
+    """Controller (rio.loop.control_loop) over a running policy node: see the module docstring."""
 
     name = "deploy"
 
@@ -111,7 +76,7 @@ class PolicyController:
     def start(cls, session: Any, policy: str, node_cls: type, policy_kwargs: dict[str, Any], config: AsyncConfig,
               *, ready_timeout: float = 600.0) -> PolicyController:
         """Serve the policy node over the station's middleware, shaped by the station's first observation."""
-        from ..manager import ServerManager, connect, serve
+        from rio.runtime.manager import ServerManager, connect, serve
 
         env, mw, st = session.env, session.middleware, session.station
         obs_layout = ObsLayout.of(env.reset().observation)

@@ -25,9 +25,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..errors import ConfigError, FrameGone
-from ..ring_ref import SharedRing
-from ..schema import Camera
+from rio.errors import ConfigError, FrameGone
+from rio.runtime.ring_ref import SharedRing
+from rio.schema import Camera
 
 __all__ = ["CameraFrames", "FrameGone"]
 

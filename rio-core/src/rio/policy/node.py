@@ -32,12 +32,12 @@ from typing import Any, ClassVar, Literal, cast
 import numpy as np
 from pydantic import Field, create_model
 
-from ..errors import FrameGone, InvalidRequest
-from ..node import Node, NodeConfig, client_side, remote
-from ..schema import Observation
-from .base import ActionChunk, Policy, PolicyMetadata
-from .frames import CameraFrames
-from .obs_layout import ObsLayout
+from rio.errors import FrameGone, InvalidRequest
+from rio.policy.base import ActionChunk, Policy, PolicyMetadata
+from rio.policy.frames import CameraFrames
+from rio.policy.obs_layout import ObsLayout
+from rio.runtime.node import Node, NodeConfig, client_side, remote
+from rio.schema import Observation
 
 log = logging.getLogger("rio.policy")
 
@@ -117,7 +117,7 @@ class PolicyNode(Node):
         return dict(self.example_data)
 
     def handle_request(self, request: dict[str, Any]) -> None:
-        from .. import clock
+        from rio import clock
 
         t_recv = clock.now()
         if self.layout is None:
@@ -166,7 +166,7 @@ class PolicyNode(Node):
     def request(self, obs: Observation, instruction: str | None, t_obs: float, seq: int, reset: bool = False) -> None:
         """Enqueue one observation for inference; its chunk appears in `latest_chunk()` with this `seq`.
         Where the queue takes whole records (thread, shm) one reused record is filled in place."""
-        from .. import clock
+        from rio import clock
 
         if self.layout is None:
             raise InvalidRequest(self.name, None, "this policy node has no observation layout (pass "

@@ -11,9 +11,9 @@ Camera frames travel one of two ways, fixed per camera when the layout is made:
   the frames are copied into the request as uint8 arrays.
 
 Inputs that are not observations (a teleop device's twist as a locomotion policy's velocity command)
-travel the camera-frame way: `inputs` names the rings of such station nodes (role -> `rio.ring_ref`
+travel the camera-frame way: `inputs` names the rings of such station nodes (role -> `rio.runtime.ring_ref`
 reference, filled in by `rio deploy` for the station's teleop devices where the middleware shares rings),
-and a policy that wants one reads its newest sample in place (`rio.ring_ref.SharedRing`).
+and a policy that wants one reads its newest sample in place (`rio.runtime.ring_ref.SharedRing`).
 
 `ObsLayout.of(observation)` reads the layout off a first observation (its class, every array or scalar
 field it fills, each camera's shapes and source), so one layout works for any embodiment. It is plain
@@ -28,12 +28,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import InvalidRequest
-from ..schema import Camera, Observation
-from ..specs import import_path
+from rio.errors import InvalidRequest
+from rio.plugins.specs import import_path
+from rio.schema import Camera, Observation
 
 if TYPE_CHECKING:
-    from .frames import CameraFrames
+    from rio.policy.frames import CameraFrames
 
 #: Request field names: observation fields, camera images and their capture times, then the rest.
 _F, _RGB, _DEPTH, _CAM_T = "o.", "rgb.", "depth.", "tcam."
@@ -45,7 +45,7 @@ class ObsLayout:
     #: Observation fields (proprio first) -> shape; a scalar field has shape [].
     fields: dict[str, list[int]]
     #: Camera name -> {"rgb": [H, W, 3]} plus "depth": [H, W] when the camera has depth, plus "source": a
-    #: `rio.ring_ref` reference when its frames go by reference.
+    #: `rio.runtime.ring_ref` reference when its frames go by reference.
     cameras: dict[str, dict[str, Any]] = field(default_factory=dict)
     instruction_bytes: int = 256
     #: Station role -> ring reference of a node a policy may read in place (see the module docstring).

@@ -17,10 +17,10 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from ..config import apply_preset, error_lines
-from ..errors import ConfigError
-from ..specs import import_path
-from .node import PolicyNode
+from rio.config import apply_preset, error_lines
+from rio.errors import ConfigError
+from rio.plugins.specs import import_path
+from rio.policy.node import PolicyNode
 
 
 def _top_level_commas(text: str) -> list[str]:
@@ -46,7 +46,7 @@ def _top_level_commas(text: str) -> list[str]:
 def parse_policy_arg(text: str) -> tuple[str, dict[str, Any]]:
     """'name,k=v,...' -> (name, {k: v}); a .toml path -> its [policy] table's driver and fields."""
     if text.endswith(".toml") and os.path.isfile(text):
-        from ..station.toml import read_toml
+        from rio.toml import read_toml
 
         table = dict(read_toml(text).get("policy") or {})
         if "driver" not in table:
@@ -75,7 +75,7 @@ def policy_node_class(name: str, registry: Any = None) -> tuple[type[PolicyNode]
         except (ImportError, AttributeError) as e:
             raise ConfigError(f"policy '{name}' cannot be imported: {e}") from None
     else:
-        from ..plugins import get_registry
+        from rio.plugins import get_registry
 
         spec = (registry or get_registry()).find("rio_policies", name, "policy")
         preset = spec.preset

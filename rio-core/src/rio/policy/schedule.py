@@ -26,8 +26,8 @@ from typing import Literal
 
 import numpy as np
 
-from ..control.interpolators import Waypoints
-from .base import ActionChunk
+from rio.control.interpolators import Waypoints
+from rio.policy.base import ActionChunk
 
 BlendMode = Literal["latest", "crossfade", "ensemble"]
 LateMode = Literal["hold", "continue"]

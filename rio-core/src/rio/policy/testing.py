@@ -13,10 +13,10 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from ..schema import Camera, Observation
-from ..slot_check import checksum
-from .base import Policy, PolicyConfig, PolicyMetadata
-from .node import PolicyNode
+from rio.policy.base import Policy, PolicyConfig, PolicyMetadata
+from rio.policy.node import PolicyNode
+from rio.runtime.slot_check import checksum
+from rio.schema import Camera, Observation
 
 
 class _StandIn(Policy):

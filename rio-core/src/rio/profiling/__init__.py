@@ -22,10 +22,10 @@ Plotting and sampling need `pip install 'rio-core[profile]'`; tracing needs noth
 
 from __future__ import annotations
 
-from .session import PROFILE_ENV, Profile, active_dir, disable, enable
-from .stats import ProcessSampler, children_of
-from .timeline import write_timeline
-from .trace import Trace, load_trace, merge_parts
+from rio.profiling.session import PROFILE_ENV, Profile, active_dir, disable, enable
+from rio.profiling.stats import ProcessSampler, children_of
+from rio.profiling.timeline import write_timeline
+from rio.profiling.trace import Trace, load_trace, merge_parts
 
 __all__ = [
     "PROFILE_ENV", "Profile", "ProcessSampler", "Trace", "active_dir", "children_of", "disable", "enable",

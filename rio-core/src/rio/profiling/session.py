@@ -16,8 +16,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from .stats import ProcessSampler, _Unavailable
-from .trace import PART_SUFFIX, Trace, merge_parts
+from rio.profiling.stats import ProcessSampler, _Unavailable
+from rio.profiling.trace import PART_SUFFIX, Trace, merge_parts
 
 log = logging.getLogger("rio.profiling")
 
@@ -128,7 +128,7 @@ class Profile:
             merged = self._attempt("trace.json", lambda: merge_parts(self.parts, self.out / "trace.json"))
         if merged is not None:  # the trace first: nothing below can cost it
             self.files.append(self.out / "trace.json")
-            from .timeline import write_timeline
+            from rio.profiling.timeline import write_timeline
 
             png = self._attempt("timeline.png", lambda: write_timeline(merged, self.out / "timeline.png", self.title))
             if png is not None:

@@ -12,8 +12,8 @@ import threading
 from dataclasses import dataclass, field
 from typing import Any
 
-from .. import clock
-from .trace import Trace
+from rio import clock
+from rio.profiling.trace import Trace
 
 log = logging.getLogger("rio.profiling")
 

@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from .trace import load_trace
+from rio.profiling.trace import load_trace
 
 __all__ = ["write_timeline"]
 

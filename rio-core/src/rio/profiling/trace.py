@@ -26,7 +26,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from .. import clock
+from rio import clock
 
 log = logging.getLogger("rio.profiling")
 

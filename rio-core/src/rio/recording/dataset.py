@@ -24,14 +24,14 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError, RioError
-from ..schema import Camera, Step
-from . import index as I
-from . import paths as L
-from .durable import read_json, sha256_file
-from .episode_writer import FRAME_RECORD
-from .flatten import StepSchema
-from .video import read_frames
+from rio.errors import ConfigError, RioError
+from rio.recording import index as I
+from rio.recording import paths as L
+from rio.recording.durable import read_json, sha256_file
+from rio.recording.episode_writer import FRAME_RECORD
+from rio.recording.flatten import StepSchema
+from rio.recording.video import read_frames
+from rio.schema import Camera, Step
 
 
 class DatasetError(RioError):

@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..errors import ConfigError
+from rio.errors import ConfigError
 
 #: os.write errors that mean "no space left" (a full disk, or the user's quota)
 DISK_FULL_ERRNOS = (errno.ENOSPC, errno.EDQUOT)

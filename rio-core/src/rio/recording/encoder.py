@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import RioError
-from .frame_ring import FrameRing
-from .video import VideoOptions
+from rio.errors import RioError
+from rio.recording.frame_ring import FrameRing
+from rio.recording.video import VideoOptions
 
 
 class EncoderError(RioError):

@@ -28,9 +28,9 @@ from typing import Any
 def encoder_main(conn: Any, nice: int = 10) -> None:
     from multiprocessing.reduction import recv_handle
 
-    from .durable import fsync_file
-    from .frame_ring import FrameRing
-    from .video import StreamWriter, VideoOptions
+    from rio.recording.durable import fsync_file
+    from rio.recording.frame_ring import FrameRing
+    from rio.recording.video import StreamWriter, VideoOptions
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C belongs to the recorder, which closes episodes
     try:

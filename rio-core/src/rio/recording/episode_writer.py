@@ -19,14 +19,14 @@ from typing import Any
 
 import numpy as np
 
-from .. import clock
-from ..errors import FrameGone
-from ..schema import depth_meters
-from . import paths as L
-from .durable import AppendFile, describe_files, fsync_dir, move_aside, write_json_atomic
-from .encoder import EncoderProcess
-from .flatten import StepSchema, flat_meta
-from .video import VideoOptions, depth_units
+from rio import clock
+from rio.errors import FrameGone
+from rio.recording import paths as L
+from rio.recording.durable import AppendFile, describe_files, fsync_dir, move_aside, write_json_atomic
+from rio.recording.encoder import EncoderProcess
+from rio.recording.flatten import StepSchema, flat_meta
+from rio.recording.video import VideoOptions, depth_units
+from rio.schema import depth_meters
 
 FRAME_RECORD = np.dtype([("t", "<f8"), ("step", "<i8")])
 _RATE_SAMPLES = 4  # distinct frames used to estimate a camera's rate

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..schema import Camera, Observation, Step
+from rio.schema import Camera, Observation, Step
 
 CAMERA_KINDS = ("rgb", "depth")
 

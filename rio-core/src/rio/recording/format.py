@@ -17,8 +17,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
 
-from ..config import Config, Configurable
-from .dataset import Dataset
+from rio.config import Config, Configurable
+from rio.recording.dataset import Dataset
 
 #: progress(done, total, what): called as work advances (the CLI draws a rich progress bar from it)
 Progress = Callable[[int, int, str], None]
@@ -42,9 +42,9 @@ class DatasetFormat(Configurable):
 
 def get_format(name: str, options: dict[str, Any] | None = None, registry: Any = None) -> DatasetFormat:
     """An instance of the registered format `name`, its options validated by the spec's model."""
-    from ..config import error_lines
-    from ..errors import ConfigError
-    from ..plugins import get_registry
+    from rio.config import error_lines
+    from rio.errors import ConfigError
+    from rio.plugins import get_registry
 
     reg = registry or get_registry()
     spec = reg.find("rio_dataset_formats", name, "dataset format")

@@ -20,7 +20,7 @@ import os
 
 import numpy as np
 
-from .. import host
+from rio.machine import host
 
 
 class FrameRing:

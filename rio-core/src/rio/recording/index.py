@@ -12,9 +12,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..errors import ConfigError, RioError
-from . import paths as L
-from .durable import read_json, write_json_atomic
+from rio.errors import ConfigError, RioError
+from rio.recording import paths as L
+from rio.recording.durable import read_json, write_json_atomic
 
 
 def summary(meta: dict[str, Any]) -> dict[str, Any]:

@@ -46,11 +46,11 @@ from typing import Any
 
 import numpy as np
 
-from . import index as I
-from . import paths as L
-from .dataset import DamagedEpisode, Dataset, DatasetError, Episode
-from .durable import fsync_dir, write_json_atomic
-from .flatten import StepSchema
+from rio.recording import index as I
+from rio.recording import paths as L
+from rio.recording.dataset import DamagedEpisode, Dataset, DatasetError, Episode
+from rio.recording.durable import fsync_dir, write_json_atomic
+from rio.recording.flatten import StepSchema
 
 #: progress(line): one line per input dataset as the merge advances (the CLI prints it on stderr)
 MergeProgress = Callable[[str], None]
@@ -105,7 +105,7 @@ def embodiment_of(meta: dict[str, Any]) -> dict[str, Any]:
 def embodiment_mix(dataset: Dataset) -> dict[str, int]:
     """{embodiment tag: episodes} of a dataset (merged or not), from the episodes' metadata only; an
     episode whose episode.json cannot be read is left out (`info` reports it as damaged)."""
-    from ..errors import RioError
+    from rio.errors import RioError
 
     out: dict[str, int] = {}
     for e in dataset.episodes:

@@ -26,14 +26,14 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .. import host
-from ..errors import RioError
-from . import index as I
-from . import paths as L
-from .durable import DISK_FULL_ERRNOS
-from .encoder import EncoderProcess
-from .episode_writer import EpisodeWriter
-from .video import VideoOptions, video_problem
+from rio.errors import RioError
+from rio.machine import host
+from rio.recording import index as I
+from rio.recording import paths as L
+from rio.recording.durable import DISK_FULL_ERRNOS
+from rio.recording.encoder import EncoderProcess
+from rio.recording.episode_writer import EpisodeWriter
+from rio.recording.video import VideoOptions, video_problem
 
 #: free space below which no episode starts and one in progress is ended (kept while it still can be)
 MIN_FREE_BYTES = 64 << 20
@@ -55,7 +55,7 @@ def free_bytes(path: str | os.PathLike) -> int:
 def station_depth(station: Any) -> bool:
     """Whether a `rio.station.Station` has a camera publishing depth (its config's `depth`; a camera whose
     config has no such field is taken to have depth, so its encoder is checked before the first episode)."""
-    from ..station.roles import kind_of
+    from rio.station.roles import kind_of
 
     return any(kind_of(role) == "camera" and bool(getattr(c.config, "depth", True))
                for role, c in station.components.items())

@@ -30,15 +30,15 @@ from typing import Any
 
 import numpy as np
 
-from .. import host
-from ..errors import RioError
-from . import index as I
-from . import paths as L
-from .dataset import episode_problems, load_schema
-from .durable import fsync_file, move_aside, read_json
-from .episode_writer import FRAME_RECORD, estimate_rate, seal
-from .flatten import StepSchema
-from .video import StreamWriter, VideoOptions, read_frames
+from rio.errors import RioError
+from rio.machine import host
+from rio.recording import index as I
+from rio.recording import paths as L
+from rio.recording.dataset import episode_problems, load_schema
+from rio.recording.durable import fsync_file, move_aside, read_json
+from rio.recording.episode_writer import FRAME_RECORD, estimate_rate, seal
+from rio.recording.flatten import StepSchema
+from rio.recording.video import StreamWriter, VideoOptions, read_frames
 
 
 @dataclass
@@ -260,7 +260,7 @@ def _salvage_index(root: Path, report: RepairReport) -> None:
 
 def repair_dataset(root: str | os.PathLike, *, verify: bool = True) -> RepairReport:
     """Repair the dataset at `root` (see the module docstring). Refuses while a recorder holds it."""
-    from .recorder import RecordingError
+    from rio.recording.recorder import RecordingError
 
     root = Path(root)
     if not root.is_dir():

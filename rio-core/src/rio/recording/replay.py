@@ -11,16 +11,15 @@ the time it was recorded for, so drivers interpolate exactly as during recording
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from .. import clock
-from ..control.loop import Tick
-from ..control.summary import RunSummary
-from ..errors import ConfigError, RioError
-from .dataset import Dataset, Episode
+from rio import clock
+from rio.errors import ConfigError, RioError
+from rio.loop.control_loop import Tick
+from rio.loop.summary import RunSummary
+from rio.recording.dataset import Dataset, Episode
 
 
 def check_compatible(meta: dict[str, Any], env: Any, action_dim: int) -> None:
@@ -38,7 +37,7 @@ def check_compatible(meta: dict[str, Any], env: Any, action_dim: int) -> None:
 
 
 class EpisodeReplay:
-    """Controller (rio.control.loop): a recorded episode's actions, interpolated at each tick's target.
+    """Controller (rio.loop.control_loop): a recorded episode's actions, interpolated at each tick's target.
 
     Action i of the recording was the command for the i-th tick's target; here it is due at
     `(t[i] - t[0]) / speed` after the first tick's target, and a tick between two of them gets the
@@ -56,7 +55,7 @@ class EpisodeReplay:
         self.finished = False
 
     def reset(self, loop: Any) -> None:
-        self.due = self.rel + loop.dt + loop.lead_s  # the first tick's target (rio.control.loop's timing)
+        self.due = self.rel + loop.dt + loop.lead_s  # the first tick's target (rio.loop.control_loop's timing)
         if self.approach_s > 0:
             loop.say(f"moving to the episode's first action over {self.approach_s:g} s ...")
             t_arrive = clock.now() + self.approach_s
@@ -102,29 +101,3 @@ def open_episode(dataset: Any, episode: int, allow_damaged: bool = False) -> Epi
     ep.allow_damaged = ep.allow_damaged or allow_damaged
     ep.check()
     return ep
-
-
-def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str | None = None, speed: float = 1.0,
-                   approach_s: float = 2.0, on_tick: Callable[[Tick], None] | None = None, profile: str | None = None,
-                   log: Callable[[str], None] | None = print, allow_damaged: bool = False) -> RunSummary:
-    from ..control.workflow import run_workflow
-
-    check_timing(speed, approach_s)
-    ep = open_episode(dataset, episode, allow_damaged)
-    if "action" not in ep.schema.names:
-        raise RioError(f"episode {episode} recorded no actions; nothing to replay")
-    actions, t = ep.column("action").astype(np.float64), ep.column("t")
-    valid = np.isfinite(actions).all(axis=1)
-    actions, t = actions[valid], t[valid]
-    if len(actions) == 0:
-        raise RioError(f"episode {episode} has no complete action")
-
-    def make(session: Any) -> EpisodeReplay:
-        check_compatible(ep.meta, session.env, actions.shape[1])
-        return EpisodeReplay(actions, t, ep.fps, speed=speed, approach_s=approach_s, episode=episode)
-
-    summary = run_workflow(station, make, middleware=middleware, rate_hz=ep.fps * speed, on_tick=on_tick,
-                           profile=profile, log=log)
-    if not valid.all():
-        summary.warnings.append(f"{int((~valid).sum())} steps without an action skipped")
-    return summary

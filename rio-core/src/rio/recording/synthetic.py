@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from .. import clock
-from ..schema import Camera, SingleArmObs, Step
+from rio import clock
+from rio.schema import Camera, SingleArmObs, Step
 
 
 class SyntheticCamera:
@@ -67,7 +67,7 @@ def record_synthetic(root: str, episodes: int = 2, steps: int = 30, fps: float =
                      **recorder_kw) -> list[dict[str, Any]]:
     """Record a small synthetic dataset (tests, examples); returns the kept episodes' metadata.
     Times are `rio.clock.now()`-based; with `realtime=False` steps are simulated at `fps` without waiting."""
-    from .recorder import Recorder
+    from rio.recording.recorder import Recorder
 
     cams = {name: SyntheticCamera(*size, seed=k, noise=1.0, depth=depth and k == 0) for k, name in enumerate(cameras)}
     metas: list[dict[str, Any]] = []

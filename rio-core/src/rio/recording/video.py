@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from ..schema import depth_meters
+from rio.schema import depth_meters
 
 if TYPE_CHECKING:
     from av.video.stream import VideoStream

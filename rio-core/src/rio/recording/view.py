@@ -17,7 +17,7 @@ What goes where (entity paths):
 Timelines: "time" (seconds from the episode's start, the recorded timestamps) and "step" (0, 1, ...). Frames are
 decoded and logged one at a time, so an episode of any length fits in memory; rgb frames are stored
 JPEG-compressed. The episode is verified first: a damaged one is refused (DamagedEpisode) unless the
-Dataset was opened with `allow_damaged=True`. The logging itself is `rio.teleop.viz.RerunViz`, shared
+Dataset was opened with `allow_damaged=True`. The logging itself is `rio.viz.RerunViz`, shared
 with `rio teleop --viz`.
 """
 
@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import RioError
-from .dataset import Dataset, DatasetError, Episode
+from rio.errors import RioError
+from rio.recording.dataset import Dataset, DatasetError, Episode
 
 #: Stored JPEG quality of rgb frames (raw frames would make an .rrd about as big as the decoded video).
 JPEG_QUALITY = 90
@@ -45,7 +45,7 @@ Progress = Callable[[int, int, str], None]
 
 class RerunMissing(RioError):
     def __init__(self) -> None:
-        from ..teleop.viz import INSTALL_HINT
+        from rio.viz import INSTALL_HINT
 
         super().__init__(f"viewing a dataset needs rerun: {INSTALL_HINT} (or pip install rio-sim[viz])")
 
@@ -156,7 +156,7 @@ def view_episode(dataset: Dataset | str | Path, episode: int | None = None, *, s
     """Log episode `episode` (its index; None: the first) of `dataset` to rerun: its viewer is spawned,
     or with `save` (or headless: `default_save_path`) an .rrd is written. Returns what was logged:
     {"episode", "steps", "frames": {stream: count}, "where": "viewer" or the .rrd path, "headless"}."""
-    from ..teleop.viz import RerunViz, headless, load_rerun
+    from rio.viz import RerunViz, headless, load_rerun
 
     ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
     if episode is None:

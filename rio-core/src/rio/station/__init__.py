@@ -4,9 +4,9 @@
 factories and an `Env` for the inferred embodiment.
 """
 
-from .build import ClientFactory, make_station, resolve_embodiment, resolve_middleware
-from .load import load_station, parse_station
-from .model import Component, Station
+from rio.station.build import ClientFactory, make_station, resolve_embodiment, resolve_middleware
+from rio.station.load import load_station, parse_station
+from rio.station.model import Component, Station
 
 __all__ = ["Station", "Component", "load_station", "parse_station", "make_station", "ClientFactory",
            "resolve_middleware", "resolve_embodiment"]

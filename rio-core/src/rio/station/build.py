@@ -12,19 +12,19 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from pydantic import ValidationError
 
-from ..config import error_lines
-from ..errors import ConfigError
-from ..plugins import Registry, get_registry
-from . import roles as R
-from .load import load_station
-from .model import Station
+from rio.config import error_lines
+from rio.errors import ConfigError
+from rio.plugins import Registry, get_registry
+from rio.station import roles as R
+from rio.station.load import load_station
+from rio.station.model import Station
 
 if TYPE_CHECKING:
-    from ..embodiments.base import Embodiment
-    from ..env import Env
-    from ..manager import ServedNode
-    from ..middleware.base import Middleware
-    from ..node import Node
+    from rio.embodiments.base import Embodiment
+    from rio.env import Env
+    from rio.runtime.manager import ServedNode
+    from rio.runtime.node import Node
+    from rio.runtime.transport import Middleware
 
 N = TypeVar("N", bound="Node")
 
@@ -39,7 +39,7 @@ class ClientFactory(Generic[N]):
         self.role, self.cls, self.mw, self.kwargs, self.address = role, cls, mw, kwargs, address
 
     def __call__(self) -> N:
-        from ..manager import connect
+        from rio.runtime.manager import connect
 
         return connect(self.cls, self.mw, name=self.role, address=self.address, **self.kwargs)
 
@@ -73,7 +73,7 @@ def resolve_middleware(station: Station, name: str | None = None, options: dict[
 
 def resolve_embodiment(station: Station, registry: Registry | None = None) -> tuple[type[Embodiment] | None, Any]:
     """(Embodiment class, validated options), or (None, None) when the roles make no embodiment."""
-    from ..embodiments.infer import infer_embodiment
+    from rio.embodiments.infer import infer_embodiment
 
     try:
         spec = infer_embodiment(station.roles(), station.embodiment, registry)
@@ -119,8 +119,8 @@ def make_station(station: str | os.PathLike | Station, *, middleware: str | None
 
     `middleware=` overrides the file's middleware (its options then default to none).
     """
-    from ..env import Env
-    from ..manager import serve
+    from rio.env import Env
+    from rio.runtime.manager import serve
 
     st = load_station(station, registry=registry)
     mw = resolve_middleware(st, middleware, middleware_options, registry)

@@ -14,13 +14,13 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from ..config import error_lines
-from ..errors import ConfigError
-from ..plugins import Registry, get_registry
-from ..suggest import closest, unknown
-from . import roles as R
-from .model import Component, Station, StationFile
-from .toml import parse_toml, read_text
+from rio.config import error_lines
+from rio.errors import ConfigError
+from rio.plugins import Registry, get_registry
+from rio.station import roles as R
+from rio.station.model import Component, Station, StationFile
+from rio.suggest import closest, unknown
+from rio.toml import parse_toml, read_text
 
 
 def _looks_like_path(ref: str) -> bool:
@@ -92,7 +92,7 @@ def parse_station(data: dict[str, Any], *, source: str = "<dict>", registry: Reg
 
 def _check_machines(top: StationFile, errors: list[str]) -> None:
     """Each placed role exists and is placed once; machine names are key names."""
-    from ..keys import NAME
+    from rio.machine.keys import NAME
 
     placed: dict[str, str] = {}
     for machine, sec in top.machines.items():

@@ -8,10 +8,10 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from ..specs import Spec
+from rio.plugins.specs import Spec
 
 if TYPE_CHECKING:
-    from ..node import Node
+    from rio.runtime.node import Node
 
 
 class MiddlewareSection(BaseModel):
@@ -102,6 +102,6 @@ class Station:
 
     @property
     def has_cameras(self) -> bool:
-        from .roles import kind_of
+        from rio.station.roles import kind_of
 
         return any(kind_of(r) == "camera" for r in self.components)

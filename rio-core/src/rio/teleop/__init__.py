@@ -1,8 +1,9 @@
-"""Teleoperation: `run_teleop` (also `rio teleop`) with its two controllers (`TwistTeleop`, `LeaderFollower`)
-on the one control loop, arm bindings for any embodiment,
-and two devices that need no hardware: `teleop.keyboard` (terminal keys) and `teleop.scripted`.
+"""Teleoperation: the controllers `rio teleop` (`rio.workflows.teleop`) plugs into the one control loop
+(`TwistTeleop` for twist devices, `LeaderFollower` for leader arms, `HandTeleop` for hand trackers), arm
+bindings for any embodiment, hand retargeting, and two devices that need no hardware: `teleop.keyboard`
+(terminal keys) and `teleop.scripted`.
 
-Exports resolve lazily: the command line imports `rio.teleop.command` while building its app, and
+Exports resolve lazily: the command line imports `rio.cli.teleop_cmd` while building its app, and
 that must not pull numpy into `rio plugins list`."""
 
 from __future__ import annotations
@@ -10,8 +11,7 @@ from __future__ import annotations
 from importlib import import_module
 from typing import Any
 
-_EXPORTS = {"run_teleop": ".loop", "prepare_station": ".loop", "TwistTeleop": ".twist",
-            "LeaderFollower": ".leader_follower"}
+_EXPORTS = {"TwistTeleop": ".twist", "LeaderFollower": ".leader_follower", "HandTeleop": ".hands"}
 
 __all__ = list(_EXPORTS)
 

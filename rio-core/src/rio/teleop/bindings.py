@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from ..control.tracking import arm_labels, arm_roles
-from ..embodiments.arm_group import ACTION_SPACES
-from ..errors import RioError
+from rio.embodiments.arm_group import ACTION_SPACES
+from rio.errors import RioError
+from rio.loop.tracking import arm_labels, arm_roles
 
 #: A target further than this from what IK reaches is pulled back, so it never runs off.
 MAX_TARGET_LEAD_M = 0.03
@@ -72,7 +72,7 @@ class ArmBinding:
 
 
 def _ik_for(role: str, client: Any) -> Any:
-    from ..kinematics import solver_from_description
+    from rio.kinematics import solver_from_description
 
     desc = client.robot_description()
     if not desc:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..errors import RioError
+from rio.errors import RioError
 
 
 class DeviceFeedback:

@@ -27,14 +27,14 @@ from typing import Any
 
 import numpy as np
 
-from ..control.rotations import quat_conj, quat_mul, quat_normalize
-from ..control.se3 import as_pose, twist_between
-from ..control.teleop import EpisodeEnd, TeleopMode, make_teleop_eef_cmd
-from ..errors import RioError
-from ..interfaces.teleop import LEFT, RIGHT, pinch_opening
-from .bindings import MAX_TARGET_LEAD_M, bind_arms, build_action
-from .feedback import DeviceFeedback
-from .twist import DevicePoll
+from rio.control.rotations import quat_conj, quat_mul, quat_normalize
+from rio.control.se3 import as_pose, twist_between
+from rio.control.teleop import EpisodeEnd, TeleopMode, make_teleop_eef_cmd
+from rio.errors import RioError
+from rio.interfaces.teleop import LEFT, RIGHT, pinch_opening
+from rio.teleop.bindings import MAX_TARGET_LEAD_M, bind_arms, build_action
+from rio.teleop.feedback import DeviceFeedback
+from rio.teleop.twist import DevicePoll
 
 SIDES = {"left": LEFT, "right": RIGHT}
 
@@ -85,7 +85,7 @@ class HumanoidWrists:
     and the twist teleop move on a humanoid (the upper body; the legs are not on the wrists' chains)."""
 
     def __init__(self, client: Any):
-        from ..kinematics import MultiFrameIK
+        from rio.kinematics import MultiFrameIK
 
         desc = client.robot_description()
         if not desc or not desc.get("frames"):
@@ -120,7 +120,7 @@ class DexterousHand:
     """A robot hand driven by the operator's hand of the same side."""
 
     def __init__(self, role: str, client: Any, log: Any):
-        from ..kinematics import HandRetargeter
+        from rio.kinematics import HandRetargeter
 
         desc = client.robot_description()
         self.q = np.asarray(client.get_state()["joint_pos"], dtype=np.float64).copy()
@@ -137,7 +137,7 @@ class DexterousHand:
 
 
 class HandTeleop:
-    """Controller (rio.control.loop): see the module docstring. `device`: the tracker's connected client."""
+    """Controller (rio.loop.control_loop): see the module docstring. `device`: the tracker's connected client."""
 
     name = "teleop"
 

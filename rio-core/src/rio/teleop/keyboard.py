@@ -18,11 +18,11 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from .. import clock
-from ..control.teleop import BUTTON_DONE, BUTTON_MODE
-from ..interfaces import TeleopNode
-from ..interfaces.teleop import TeleopConfig
-from ..node import remote
+from rio import clock
+from rio.control.teleop import BUTTON_DONE, BUTTON_MODE
+from rio.interfaces import TeleopNode
+from rio.interfaces.teleop import TeleopConfig
+from rio.runtime.node import remote
 
 HELP = ("keys: w/s a/d r/f move x/y/z, i/k j/l u/o rotate, space gripper, m mode, q or Enter finish")
 

@@ -8,7 +8,7 @@ Start-up alignment: a follower is rarely where its leader is when the run starts
 once would snap it across. So each arm first moves towards its leader at `align_speed` (rad/s; the
 jaw at `align_speed` of its range per second), chasing the leader if it moves, until every joint is
 within `align_tolerance`; from then on it mirrors the leader each cycle. Loop timing is the RIO
-the one control loop's (`rio.control.loop`); `LeaderFollower` is its controller.
+the one control loop's (`rio.loop.control_loop`); `LeaderFollower` is its controller.
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from ..control.tracking import arm_labels, arm_roles
-from ..errors import RioError
+from rio.errors import RioError
+from rio.loop.tracking import arm_labels, arm_roles
 
 PAIRS = (("teleop", "arm", "gripper"), ("teleop2", "arm2", "gripper2"))
 
@@ -73,7 +73,7 @@ def _step_towards(cmd: np.ndarray, goal: np.ndarray, max_delta: float) -> np.nda
 
 
 class LeaderFollower:
-    """Controller (rio.control.loop): align each follower to its leader, then mirror it."""
+    """Controller (rio.loop.control_loop): align each follower to its leader, then mirror it."""
 
     name = "leader-follower"
 
@@ -82,7 +82,7 @@ class LeaderFollower:
 
     @classmethod
     def connect(cls, session: Any, *, align_speed: float = 0.5, align_tolerance: float = 0.05) -> LeaderFollower:
-        """Connect the station's leaders (`session`: rio.control.workflow.Session) and pair them with its arms."""
+        """Connect the station's leaders (`session`: rio.workflows.run.Session) and pair them with its arms."""
         st, robot = session.station, session.env.robot
         roles = find_pairs(st)
         labels = _labels(robot, [a for _, a, _ in roles])

@@ -26,11 +26,11 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from .. import clock
-from ..control.teleop import BUTTON_DONE
-from ..interfaces import TeleopNode
-from ..interfaces.teleop import TeleopConfig
-from ..node import remote
+from rio import clock
+from rio.control.teleop import BUTTON_DONE
+from rio.interfaces import TeleopNode
+from rio.interfaces.teleop import TeleopConfig
+from rio.runtime.node import remote
 
 
 @dataclass(frozen=True)

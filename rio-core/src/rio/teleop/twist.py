@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from ..control.filters import LowPassFilter
-from ..control.teleop import BUTTON_MODE, ButtonEdges, EpisodeEnd, ModeSwitch, TeleopMode, make_teleop_eef_cmd
-from .bindings import ArmBinding, bind_arms, build_action
-from .feedback import DeviceFeedback
+from rio.control.filters import LowPassFilter
+from rio.control.teleop import BUTTON_MODE, ButtonEdges, EpisodeEnd, ModeSwitch, TeleopMode, make_teleop_eef_cmd
+from rio.teleop.bindings import ArmBinding, bind_arms, build_action
+from rio.teleop.feedback import DeviceFeedback
 
 DEVICE_ROLES = ("teleop", "teleop2")
 
@@ -63,7 +63,7 @@ class DevicePoll:
 
 
 class TwistTeleop:
-    """Controller (rio.control.loop): see the module docstring. `devices`: {role: connected client}."""
+    """Controller (rio.loop.control_loop): see the module docstring. `devices`: {role: connected client}."""
 
     name = "teleop"
 
@@ -83,7 +83,7 @@ class TwistTeleop:
         robot = loop.env.robot
         self.body = None
         if "humanoid" in robot.clients:  # its wrists, by IK on its model: the upper body, as two arms
-            from .hands import HumanoidWrists
+            from rio.teleop.hands import HumanoidWrists
 
             self.body = HumanoidWrists(robot.clients["humanoid"])
             self.arms = list(self.body.wrists.values())

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
+
 from rio import clock
 
 from ..camera import ThreadedCamera

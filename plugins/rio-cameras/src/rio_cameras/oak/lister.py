@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 
-from rio.cameras import CameraDevice
+from rio.plugins.cameras import CameraDevice
 
 
 def list_oak_cameras() -> list[CameraDevice]:

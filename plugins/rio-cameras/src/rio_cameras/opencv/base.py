@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field, model_validator
+
 from rio.interfaces.camera import distortion_fields
 
 from ..camera import ThreadedCamera

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+
 from rio import clock
 from rio.interfaces.grabber import SourceFinished
 

@@ -16,7 +16,7 @@ import os
 import sys
 from pathlib import Path
 
-from rio.cameras import CameraDevice
+from rio.plugins.cameras import CameraDevice
 
 DRIVER = "cameras.uvc"
 

@@ -15,6 +15,7 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
+
 from rio import clock
 from rio.interfaces import FAULT_KEYS, ArmNode, Fault, ModelTableArm
 

@@ -20,6 +20,7 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
+
 from rio.control import quat_conj, quat_mul, quat_to_rotvec
 from rio.interfaces import FAULT_KEYS, ArmNode, ModelTableArm
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Any, Literal
 
 from pydantic import Field
+
 from rio.interfaces import FAULT_KEYS, GripperNode
 
 from ..link import KortexLink, LinkConfig

@@ -21,8 +21,9 @@ import time
 from typing import Any, Literal
 
 from pydantic import Field, model_validator
+
 from rio import clock
-from rio.node import remote
+from rio.runtime.node import remote
 
 from .. import virtual
 from ..errors import ActivationError, GripperFault

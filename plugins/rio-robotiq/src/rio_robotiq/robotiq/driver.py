@@ -28,8 +28,9 @@ from collections.abc import Callable
 from typing import Any, Literal
 
 from pydantic import Field, model_validator
+
 from rio import clock
-from rio.node import remote
+from rio.runtime.node import remote
 
 from .. import virtual
 from ..errors import ActivationError, CommunicationError, RobotiqFault

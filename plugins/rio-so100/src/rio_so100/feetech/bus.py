@@ -9,7 +9,7 @@ What it adds to the SDK, and why:
 - the error byte of every status packet, which the SDK's GroupSyncRead drops, so the drivers can
   stop on overload, overheat or voltage faults;
 - a port lock per transaction (`PortLock`), so an arm node and a gripper node can share one bus;
-- a read that blocks for at most 1 ms (`rio.servo_port`) instead of spinning on a zero-timeout port, which
+- a read that blocks for at most 1 ms (`rio.machine.servo_port`) instead of spinning on a zero-timeout port, which
   leaves the CPU (and the GIL) to the rest of the node.
 """
 
@@ -23,7 +23,7 @@ try:  # what pyserial's POSIX port raises when its device is unplugged under it 
 except ImportError:  # Windows
     TermiosError = OSError  # type: ignore[misc, assignment]
 
-from rio.servo_port import port_handler
+from rio.machine.servo_port import port_handler
 
 from ..errors import BusError, ServoFault
 from . import control_table as T

@@ -2,7 +2,7 @@
 
 The SO-100's jaw servo sits on the arm's bus but is driven by its own gripper node (possibly in
 another process), so both open the same port. Each transaction (instruction out, status packets in)
-holds an exclusive lock (`rio.host.FileLock`: flock on Linux and macOS) on a lock file named after
+holds an exclusive lock (`rio.machine.host.FileLock`: flock on Linux and macOS) on a lock file named after
 the port's real path; the tty's input queue is shared, so the holder also drops stale input before
 it speaks. (Windows opens a COM port for one process only, so there both nodes must share one process.)
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import tempfile
 
-from rio import host
+from rio.machine import host
 
 
 def lock_dir() -> str:

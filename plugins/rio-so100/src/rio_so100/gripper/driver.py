@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from pydantic import Field
+
 from rio.interfaces import GripperNode
 
 from ..models import GRIPPER

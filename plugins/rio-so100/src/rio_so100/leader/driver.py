@@ -13,8 +13,9 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
+
 from rio.interfaces import TeleopNode
-from rio.node import client_side, remote
+from rio.runtime.node import client_side, remote
 
 from ..models import ARM_JOINTS, GRIPPER
 from ..servo_node import ServoConfig, ServoDriver

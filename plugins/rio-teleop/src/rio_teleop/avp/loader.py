@@ -2,7 +2,7 @@
 
 `import avp_stream` (any of its modules: the package imports its streamer) registers SIGINT and SIGTERM
 handlers that print and raise KeyboardInterrupt, when imported in the main thread. A RIO node process
-ignores SIGINT (Ctrl+C belongs to the parent) and ends gracefully on SIGTERM (`rio.manager`), so the
+ignores SIGINT (Ctrl+C belongs to the parent) and ends gracefully on SIGTERM (`rio.runtime.manager`), so the
 handlers in place before the import are put back.
 
 gRPC's core logs connection events at INFO to stderr ("Got goaway ..." when the app stops streaming);

@@ -30,12 +30,13 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field, field_validator
+
 from rio import clock
 from rio.control.rotations import matrix_to_quat
 from rio.errors import RioError
 from rio.interfaces import TeleopNode
 from rio.interfaces.teleop import HAND_JOINTS, TeleopConfig, hand_tracker_sample, pinch_opening
-from rio.node import remote
+from rio.runtime.node import remote
 
 from .loader import GRPC_PORT
 

@@ -47,6 +47,7 @@ from typing import Any
 
 import grpc
 from avp_stream.streamer import JOINT_NAMES, YUP2ZUP, VisionProStreamer
+
 from rio import clock
 
 from .loader import GRPC_PORT

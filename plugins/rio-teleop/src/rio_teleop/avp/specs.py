@@ -3,8 +3,8 @@ avp_stream."""
 
 from __future__ import annotations
 
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 
 def drivers() -> list[Spec]:

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import sys
 
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 _T = "rio_teleop.gamepad.driver:GamepadTeleop"
 

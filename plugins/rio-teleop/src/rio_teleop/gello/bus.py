@@ -3,7 +3,7 @@
 What it adds to the SDK:
 - one error naming the port and the id (and joint) for a port that does not open, servos that do not
   answer a ping, a read that fails after retries;
-- a port read that blocks for at most 1 ms (`rio.servo_port`) instead of spinning on a zero-timeout port
+- a port read that blocks for at most 1 ms (`rio.machine.servo_port`) instead of spinning on a zero-timeout port
   (the SDK polls), which leaves the CPU and the GIL to the rest of the node;
 - one Sync Read of Present Velocity + Present Position (addresses 128-135) for all servos.
 """
@@ -14,8 +14,9 @@ import time
 from collections.abc import Iterable, Mapping
 
 import numpy as np
+
 from rio.errors import RioError
-from rio.servo_port import port_handler
+from rio.machine.servo_port import port_handler
 
 from . import control_table as T
 from . import protocol as P

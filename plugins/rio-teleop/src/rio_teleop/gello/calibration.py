@@ -26,8 +26,9 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
-from rio import calibration_files as files
+
 from rio.errors import RioError
+from rio.machine import calibration_files as files
 
 from .layouts import Layout, get_layout
 
@@ -136,7 +137,7 @@ def calibrate(layout: Layout | str, raw: np.ndarray, *, name: str = "default", g
 
 # -- files ------------------------------------------------------------------------------------------
 def calibration_path(name: str, layout: str) -> Path:
-    """A name -> its file in the config directory (`rio.calibration_files`); a path as given."""
+    """A name -> its file in the config directory (`rio.machine.calibration_files`); a path as given."""
     return files.calibration_path(name, f"gello-{layout}")
 
 

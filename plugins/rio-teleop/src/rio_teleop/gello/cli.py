@@ -7,6 +7,7 @@ import time
 from typing import Annotated
 
 import typer
+
 from rio.cli.args import positive
 
 from .layouts import LAYOUTS

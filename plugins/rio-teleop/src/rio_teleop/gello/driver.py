@@ -18,8 +18,9 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
+
 from rio.interfaces import TeleopNode
-from rio.node import client_side, remote
+from rio.runtime.node import client_side, remote
 
 from . import control_table as T
 from .bus import EMULATED_TIMEOUT_MS, DynamixelBus

@@ -3,8 +3,8 @@ packaged stations and requirements. Specs only: nothing here imports dynamixel-s
 
 from __future__ import annotations
 
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 from .layouts import LAYOUTS
 
@@ -35,4 +35,4 @@ def stations() -> list[Spec]:
 def requirements() -> list[Requirement]:
     return [Requirement("dynamixel_sdk", "pip install dynamixel-sdk",
                         "the Dynamixel bus of GELLO leader arms (gello.*)",
-                        check="rio.requirements:serial_port_problem")]
+                        check="rio.plugins.requirements:serial_port_problem")]

@@ -20,6 +20,7 @@ from collections.abc import Callable
 from typing import Any
 
 from pydantic import Field
+
 from rio.errors import RioError
 
 from ..axes import TWIST_AXES

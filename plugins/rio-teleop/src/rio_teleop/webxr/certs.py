@@ -31,7 +31,7 @@ class Certificate:
 
 
 def default_dir() -> Path:
-    from rio.calibration_files import config_home
+    from rio.machine.calibration_files import config_home
 
     return config_home() / "webxr"
 
@@ -96,7 +96,7 @@ def _read(cert_file: Path, key_file: Path) -> Certificate | None:
 
 
 def _make(names: tuple[str, ...], days: int, now: datetime.datetime) -> tuple[bytes, bytes]:
-    from rio.keys import self_signed
+    from rio.machine.keys import self_signed
 
     return self_signed("rio teleop webxr", list(names), days, now)
 

@@ -1,5 +1,5 @@
 """Running `teleop.webxr` end to end without a headset, for tests and `bench.webxr_latency`: a station
-of RIO's fake arm and gripper driven by the WebXR device through `rio.teleop.run_teleop` (the loop
+of RIO's fake arm and gripper driven by the WebXR device through `rio.workflows.teleop.run_teleop` (the loop
 `rio teleop` runs) in a background thread, and the page opened in headless Chromium (playwright),
 where `window.__rioInjectPose(...)` feeds synthetic poses into the path WebXR frames take.
 
@@ -129,7 +129,7 @@ class TeleopRun:
         self.ticks += 1
 
     def _run(self) -> None:
-        from rio.teleop import run_teleop
+        from rio.workflows.teleop import run_teleop
 
         try:
             self.summary = run_teleop(self.station, duration=self.duration, on_tick=self._on_tick,
@@ -275,7 +275,7 @@ def serve_hands(cert_dir: str | os.PathLike[str], *, port: int = 0, rate_hz: flo
                 **config: Any) -> Iterator[Any]:
     """`teleop.webxr_hands` served alone (thread middleware): yields a client of the node (its
     `get_state()` is what it publishes, `page()` where the page is)."""
-    from rio.manager import ServerManager, connect, serve
+    from rio.runtime.manager import ServerManager, connect, serve
 
     from .node import WebXRHands
 

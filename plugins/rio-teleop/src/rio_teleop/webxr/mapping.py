@@ -34,6 +34,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
 from rio.control.rotations import (
     matrix_to_quat,
     quat_conj,

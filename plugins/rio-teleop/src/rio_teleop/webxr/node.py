@@ -19,10 +19,11 @@ import threading
 from typing import Any, Literal
 
 from pydantic import Field, model_validator
+
 from rio import clock
 from rio.interfaces import TeleopNode
 from rio.interfaces.teleop import TeleopConfig
-from rio.node import remote
+from rio.runtime.node import remote
 
 
 def is_loopback(host: str) -> bool:
@@ -93,7 +94,7 @@ class WebXRTeleop(TeleopNode):
 
     # -- lifecycle ---------------------------------------------------------------------------------
     def open(self) -> None:
-        from rio.keys import check_private
+        from rio.machine.keys import check_private
 
         from .certs import ensure_certificate
         from .server import WebXRServer

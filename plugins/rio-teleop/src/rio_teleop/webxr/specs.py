@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from rio.requirements import Requirement
-from rio.specs import Spec
+from rio.plugins.requirements import Requirement
+from rio.plugins.specs import Spec
 
 
 def drivers() -> list[Spec]:

@@ -13,6 +13,7 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
+
 from rio.interfaces import FAULT_KEYS, ArmNode, ModelTableArm
 
 from ..controller import STOPPED as STOPPED_STATE

@@ -23,6 +23,7 @@ import time
 from typing import Any
 
 import numpy as np
+
 from rio.kinematics import IKSolver, solver_from_description
 
 from ..description import description

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+
 from rio.control import IDENTITY, pose_inv, pose_mul, quat_to_rotvec
 from rio.kinematics import IKResult, IKSolver
 

@@ -13,6 +13,7 @@ rio-sim is optional: importing it happens only for a sim backend.
 from __future__ import annotations
 
 import numpy as np
+
 from rio import clock
 
 #: A setpoint reaches the world as a target this far ahead (s): the joints' servo lag.

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
+
 from rio.interfaces import FAULT_KEYS, GripperNode
 
 from ..faults import XArmFault, XArmLost

@@ -13,7 +13,8 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
-from rio.node import Node, NodeConfig, remote
+
+from rio.runtime.node import Node, NodeConfig, remote
 
 
 class BridgeNode(Node):

@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from rio.control.rotations import quat_to_euler
 
 from .. import dex3

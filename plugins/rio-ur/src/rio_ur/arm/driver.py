@@ -19,6 +19,7 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field, field_validator
+
 from rio.control import quat_to_rotvec, rotvec_to_quat
 from rio.interfaces import FAULT_KEYS, ArmNode, Fault, FaultHolding, ModelTableArm
 

@@ -19,6 +19,7 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
+
 from rio.control import pose_mul, quat_to_rotvec, rotvec_to_quat
 
 from ..kinematics import flange_pose

@@ -25,6 +25,7 @@ import socket
 from typing import Any
 
 import numpy as np
+
 from rio.emulation import TcpDevice
 
 from ..description import description

@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
 from rio import clock
 
 LEAD_S = 0.02  # a setpoint reaches the world this far ahead (s): the joints' servo lag

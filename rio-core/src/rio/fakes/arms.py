@@ -1,0 +1,137 @@
+"""Fake arms and a fake gripper: the `rio.fake_arm`, `rio.fake_model_arm` and `rio.fake_gripper` drivers."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from rio import clock
+from rio import interfaces as ifc
+
+
+class FakeArm(ifc.ArmNode):
+    """Arm with joint and Cartesian control and no kinematic model. Its tool is carried by its joints
+    the way a gantry's is (each joint moves it 0.1 m per rad along one axis: joint i along x, y, z for
+    i mod 3 = 0, 1, 2), so the measured pose follows joint moves; an end-effector goal moves the tool
+    directly and leaves the joints where they are."""
+
+    class Config(ifc.ArmNode.Config):
+        dof: int = Field(6, ge=1, le=64, description="number of joints (named joint1..N)")
+        max_step_rad: float = Field(0.5, gt=0, description="largest joint goal change per cycle (rad)")
+        max_step_m: float = Field(0.05, gt=0, description="largest end-effector travel per cycle (m)")
+        max_step_eef_rad: float = Field(0.5, gt=0, description="largest end-effector rotation per cycle (rad)")
+        frozen: bool = Field(False, description="ignore every command, as a disabled or e-stopped arm does (to "
+                                                "check that a workflow notices)")
+
+    def default_joint_names(self) -> list[str]:
+        return [f"joint{i + 1}" for i in range(self.config.dof)]
+
+    def open(self) -> None:
+        home = self.config.home
+        self.q = np.zeros(self.dof) if home is None else np.asarray(home, dtype=np.float64)
+        #: tool travel (m) per joint motion (rad): 3 x dof
+        self._carry = 0.1 * (np.arange(3)[:, None] == np.arange(self.dof)[None, :] % 3)
+        self.pose = ifc.IDENTITY_POSE.copy()
+        self.pose[:3] = self._carry @ self.q
+        self._q_prev, self._t_prev = self.q.copy(), clock.now()
+
+    def read_joints(self) -> dict[str, Any]:
+        t = clock.now()
+        vel = (self.q - self._q_prev) / max(t - self._t_prev, 1e-6)
+        self._q_prev, self._t_prev = self.q.copy(), t
+        return {"joint_pos": self.q.copy(), "joint_vel": vel, "eef_pose": self.pose.copy()}
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        if self.config.frozen:
+            return
+        q = np.array(joint_pos, dtype=np.float64)
+        self.pose[:3] += self._carry @ (q - self.q)  # the joints carry the tool
+        self.q = q
+
+    def write_pose(self, eef_pose: np.ndarray) -> None:
+        if not self.config.frozen:
+            self.pose = np.array(eef_pose, dtype=np.float64)
+
+
+class FakeJoints:
+    """Joints that follow the goal (the fake hand, humanoid and model arm)."""
+
+    config: Any
+    dof: int
+
+    def default_joint_names(self) -> list[str]:
+        return [f"joint{i + 1}" for i in range(self.config.dof)]
+
+    def open(self) -> None:  # at the configured home when there is one (a pose away from singularities)
+        home = self.config.home
+        self.q = np.zeros(self.dof) if home is None else np.asarray(home, dtype=np.float64)
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.q = np.array(joint_pos, dtype=np.float64)
+
+
+#: A 6-joint arm for tests of the kinematic part of the arm contract (simple geoms, tool site "tool"):
+#: yaw, two pitches, then a spherical wrist (roll, pitch, roll). Arm straight up at zero.
+SIX_DOF_MJCF = """<mujoco model="rio-test-arm">
+  <compiler angle="radian" autolimits="true"/>
+  <worldbody>
+    <body name="base">
+      <geom type="cylinder" size="0.04 0.02"/>
+      <body name="l1" pos="0 0 0.05"><joint name="j1" axis="0 0 1" range="-3 3"/>
+        <geom type="capsule" fromto="0 0 0 0 0 0.1" size="0.02"/>
+        <body name="l2" pos="0 0 0.1"><joint name="j2" axis="0 1 0" range="-2 2"/>
+          <geom type="capsule" fromto="0 0 0 0 0 0.2" size="0.02"/>
+          <body name="l3" pos="0 0 0.2"><joint name="j3" axis="0 1 0" range="-2.5 2.5"/>
+            <geom type="capsule" fromto="0 0 0 0 0 0.2" size="0.02"/>
+            <body name="l4" pos="0 0 0.2"><joint name="j4" axis="0 0 1" range="-3 3"/>
+              <geom type="sphere" size="0.02"/>
+              <body name="l5" pos="0 0 0.04"><joint name="j5" axis="0 1 0" range="-2 2"/>
+                <geom type="sphere" size="0.02"/>
+                <body name="l6" pos="0 0 0.04"><joint name="j6" axis="0 0 1" range="-3 3"/>
+                  <geom type="box" size="0.02 0.02 0.01"/>
+                  <site name="tool" pos="0 0 0.05"/>
+                </body></body></body></body></body></body>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+
+class FakeModelArm(FakeJoints, ifc.ArmNode):
+    """A joint-only arm that ships a robot model and measures no end-effector pose: the arm kind
+    computes `eef_pose` by forward kinematics and turns end-effector targets into joint targets by IK
+    (needs `rio-core[ik]`)."""
+
+    class Config(ifc.ArmNode.Config):
+        max_step_rad: float = Field(0.5, gt=0, description="largest joint goal change per cycle (rad)")
+
+    def default_joint_names(self) -> list[str]:
+        return [f"j{i + 1}" for i in range(6)]
+
+    def default_home(self) -> list[float]:
+        return [0.0, 0.5, 1.2, 0.0, 1.4, 0.0]  # tool in front of the base, pointing down
+
+    def read_joints(self) -> dict[str, Any]:
+        return {"joint_pos": self.q.copy()}
+
+    def robot_description(self) -> dict[str, Any]:
+        return {"format": "mjcf", "xml": SIX_DOF_MJCF, "frame": "tool", "frame_type": "site",
+                "joints": list(self.joint_list), "home": self.default_home()}
+
+
+class FakeGripper(ifc.GripperNode):
+    """Parallel gripper whose fingers follow the goal; starts fully open."""
+
+    class Config(ifc.GripperNode.Config):
+        rate_hz: float = Field(100.0, gt=0)
+        max_step_m: float = Field(0.05, gt=0, description="largest opening change per cycle (m)")
+
+    def open(self) -> None:
+        self.opening = self.width
+
+    def read_width(self) -> dict[str, Any]:
+        return {"position": float(self.opening)}
+
+    def write_width(self, width: float, force: float) -> None:
+        self.opening = float(width)

@@ -1,0 +1,51 @@
+"""`run_deploy`: a policy on a station, on the one control loop (`rio.policy.deploy.PolicyController`).
+
+The station is resolved here, its policy component taken out of the nodes the station starts (the
+controller starts the policy node itself, so it can wait for the model to load), and an optional teleop
+device swapped in for a policy commanded by one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any
+
+from rio.loop.control_loop import Tick
+from rio.loop.summary import RunSummary
+from rio.policy.async_inference import AsyncConfig
+from rio.policy.deploy import POLICY_ROLE, PolicyController
+
+
+def _without_policy(st: Any) -> Any:
+    return dataclasses.replace(st, components={r: c for r, c in st.components.items() if r != POLICY_ROLE})
+
+
+def run_deploy(station: Any, policy: str | None = None, *, instruction: str | None = None,
+               record: str | None = None, duration: float | None = None, middleware: str | None = None,
+               rate_hz: float | None = None, config: AsyncConfig | None = None,
+               on_tick: Callable[[Tick], None] | None = None, log: Callable[[str], None] | None = print,
+               ready_timeout: float = 600.0, profile: str | None = None, registry: Any = None,
+               device: str | None = None, device_config: dict | None = None) -> RunSummary:
+    """Run `policy` (a `--policy` SPEC; default: the station's policy component) on `station`
+    (registered name, .toml path or `Station`) until `duration` seconds pass or a stop signal.
+    Each tick's `info` holds the schedule's `sample` (None while holding) and the `chunk` that landed.
+    `device` (+ `device_config`): the station's `teleop` component, replaced or added, for a policy that
+    reads a device (`onnx.locomotion`'s `command_from`)."""
+    from rio.policy.resolve import resolve_policy
+    from rio.station.load import load_station
+    from rio.workflows.run import run_workflow
+    from rio.workflows.teleop import prepare_station
+
+    if device is not None or device_config:
+        station = prepare_station(station, device, device_config)
+    st = load_station(station, registry=registry)
+    name, node_cls, policy_kwargs = resolve_policy(policy, st, registry)
+
+    def make(session: Any) -> PolicyController:
+        return PolicyController.start(session, name, node_cls, policy_kwargs, config or AsyncConfig(),
+                                      ready_timeout=ready_timeout)
+
+    return run_workflow(_without_policy(st), make, middleware=middleware, rate_hz=rate_hz, duration=duration,
+                        instruction=instruction, record=record, on_tick=on_tick, profile=profile,
+                        registry=registry, log=log)

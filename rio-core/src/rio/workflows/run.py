@@ -1,0 +1,95 @@
+"""`run_workflow`: start a station, build a controller on it, run the one `ControlLoop`, stop it all.
+
+Every workflow (teleop, leader-follower, deploy, replay, `rio run --controller`) starts the same
+way and must end the same way whatever happens — a signal, a controller error, a node dying — so the
+order is written here once: stop signals are caught from the first moment (a SIGTERM during start-up
+still ends through the normal path), the profile wraps the nodes so their processes inherit it, the
+recorder closes before the station stops.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from rio.errors import RioError
+from rio.loop.control_loop import ControlLoop, Tick
+from rio.loop.signals import StopSignals
+from rio.loop.summary import RunSummary
+
+
+@dataclass
+class Session:
+    """What a controller factory gets: the connected env, the station's client factories (to connect
+    teleop devices and other nodes), an exit stack for what it opens, the station and its middleware."""
+
+    env: Any
+    clients: dict[str, Any]
+    stack: contextlib.ExitStack
+    station: Any
+    log: Callable[[str], None]
+    profile: Any = None
+
+    def started(self, manager: Any) -> None:
+        """Tell the run about nodes a controller started itself (`ServerManager`): with `--profile`, their
+        processes get a row in the stats table."""
+        if self.profile is not None:
+            self.profile.watch_nodes(manager.pids())
+
+    @property
+    def middleware(self) -> Any:
+        return next(iter(self.clients.values())).mw
+
+
+def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, middleware: str | None = None,
+                 rate_hz: float | None = None, duration: float | None = None, instruction: str | None = None,
+                 record: str | None = None, recorder: Any = None, on_tick: Callable[[Tick], None] | None = None,
+                 profile: str | None = None, registry: Any = None, log: Callable[[str], None] | None = print
+                 ) -> RunSummary:
+    """Run the controller `make_controller(session)` builds on `station` (name, .toml path or `Station`).
+    `record`: a dataset directory to record this run into as one episode; `recorder`: an open Recorder
+    instead (a multi-episode session). `profile`: a directory for the trace, timeline and stats."""
+    from rio.runtime.manager import ServerManager
+    from rio.station.build import make_station
+    from rio.station.load import load_station
+
+    say = log or (lambda _m: None)
+    with StopSignals() as stop, contextlib.ExitStack() as outer:
+        st = load_station(station, registry=registry)
+        prof = None
+        if profile:
+            from rio.profiling import Profile
+
+            prof = outer.enter_context(Profile(profile))
+        servers, clients, env = make_station(st, middleware=middleware, registry=registry)
+        if env is None:
+            raise RioError(f"station '{st.name}' has no arm or humanoid to drive (roles: {sorted(st.roles())})")
+        freq = float(rate_hz or st.rate_hz)
+        remote = {m: len(sec.nodes) for m, sec in st.machines.items()}
+        elsewhere = "".join(f", {n} on {m}" for m, n in remote.items())
+        say(f"starting station '{st.name}' ({len(servers)} nodes here{elsewhere}, over "
+            f"{next(iter(clients.values())).mw.name}) ...")
+        with ServerManager(servers, station=st.name) as manager, contextlib.ExitStack() as stack:
+            session = Session(env, clients, stack, st, say, prof)
+            session.started(manager)
+            stack.enter_context(env)
+            env.instruction = instruction
+            controller = make_controller(session)
+            if record:
+                from rio.recording import Recorder
+
+                recorder = stack.enter_context(Recorder(record, fps=freq, env=env, instruction=instruction,
+                                                        metadata={"source": f"rio {controller.name}"}))
+            loop = ControlLoop(env, controller, rate_hz=freq, duration=duration, recorder=recorder, on_tick=on_tick,
+                               stop=stop, trace=prof.trace if prof is not None else None, log=say)
+            summary = loop.run()
+        if record:
+            summary.lines.append(f"recorded to {record}")
+    if prof is not None:
+        summary.lines += prof.summary_lines()
+    if stop.received and not summary.signal:  # arrived while the station was stopping
+        summary.signal = stop.received
+    return summary
+

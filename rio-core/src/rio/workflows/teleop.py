@@ -1,0 +1,113 @@
+"""`run_teleop`: teleoperate any station — one arm or two, joint or end-effector action spaces,
+simulated or real, any middleware — on the one control loop (`rio.loop.control_loop`).
+
+A twist device (keyboard, spacemouse, scripted) drives each arm's tool (`rio.teleop.twist`); a
+leader arm is mirrored joint by joint (`rio.teleop.leader_follower`); a hand tracker's wrists and
+fingers are retargeted onto arms, a humanoid's wrists and dexterous hands (`rio.teleop.hands`).
+Either way the run ends on the device's done button, after `duration` seconds, or on a stop signal,
+and returns a `RunSummary`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from rio.errors import RioError
+from rio.loop.control_loop import Tick
+from rio.loop.summary import RunSummary
+
+
+def resolve_device(name: str, registry: Any = None) -> str:
+    """'scripted' -> 'teleop.scripted' when that is a registered teleop driver; names with a dot as given."""
+    if "." in name:
+        return name
+    from rio.plugins import get_registry
+
+    reg = registry or get_registry()
+    teleops = {s.name for s in reg.specs("rio_drivers") if s.kind == "teleop"}
+    return f"teleop.{name}" if f"teleop.{name}" in teleops else name
+
+
+def _device_is(station: Any, flag: str) -> bool:
+    from rio.plugins import get_registry
+
+    comp = station.components.get("teleop")
+    if comp is None:
+        return False
+    return bool(getattr(get_registry().find("rio_drivers", comp.driver, "teleop").load(), flag, False))
+
+
+def drives_leader_arm(station: Any) -> bool:
+    """True when the station's teleop device is a leader arm (`TeleopNode.leader_arm`)."""
+    return _device_is(station, "leader_arm")
+
+
+def tracks_hands(station: Any) -> bool:
+    """True when the station's teleop device is a hand tracker (`TeleopNode.hand_tracker`)."""
+    return _device_is(station, "hand_tracker")
+
+
+def prepare_station(station: Any, device: str | None = None, device_config: dict | None = None):
+    """The station, with its `teleop` component replaced by `device` (plus `device_config`)."""
+    from rio.station.load import load_station, parse_station, read_station_text
+    from rio.station.model import Station
+    from rio.toml import parse_toml
+
+    if device is None and not device_config:
+        return load_station(station)
+    if isinstance(station, Station):
+        raise RioError("pass the station's name or path (not a Station) to replace its teleop device")
+    text, source = read_station_text(station)
+    data = parse_toml(text, source)
+    comps = data.setdefault("components", {})
+    old = comps.get("teleop", {})
+    driver = resolve_device(device) if device else old.get("driver")
+    if driver is None:
+        raise RioError(f"{source}: no teleop component; pass a device (--teleop keyboard or --teleop scripted)")
+    keep = old if driver == old.get("driver") else {}
+    comps["teleop"] = {**keep, **(device_config or {}), "driver": driver}
+    return parse_station(data, source=source)
+
+
+def run_teleop(station: Any, device: str | None = None, *, instruction: str | None = None, viz: bool | str = False,
+               duration: float | None = None, middleware: str | None = None, rate_hz: float | None = None,
+               mode: str | None = None, hand: str = "right", scale: float = 1.0, max_pos_speed: float = 0.15,
+               max_rot_speed: float = 1.0, filter_hz: float | None = 8.0, device_config: dict | None = None,
+               align_speed: float = 0.5, record: str | None = None, recorder: Any = None, profile: str | None = None,
+               on_tick: Callable[[Tick], None] | None = None,
+               log: Callable[[str], None] | None = print) -> RunSummary:
+    """Teleoperate `station` (registered name or .toml path) with `device` (default: the station's
+    own `teleop` component). `viz=True` streams to rerun (a string: save to that .rrd file).
+    `record`: a dataset directory to record the run into; `recorder`: an open Recorder instead.
+    `mode`: translation (twist devices' default), translation_rotation (hand trackers' default), ...;
+    hand trackers: `hand` drives a single arm, `scale` multiplies wrist motion."""
+    from rio.teleop.hands import HandTeleop
+    from rio.teleop.leader_follower import LeaderFollower
+    from rio.teleop.twist import DEVICE_ROLES, TwistTeleop
+    from rio.workflows.run import run_workflow
+
+    st = prepare_station(station, device, device_config)
+    if "teleop" not in st.components:
+        raise RioError(f"station '{st.name}' has no teleop component; pass a device (--teleop keyboard or scripted)")
+
+    def make(session: Any) -> Any:
+        if drives_leader_arm(st):  # absolute joints from a leader arm: mirrored, not integrated as a twist
+            return LeaderFollower.connect(session, align_speed=align_speed)
+        if tracks_hands(st):  # absolute wrist poses and finger keypoints: retargeted
+            tracker = session.stack.enter_context(session.clients["teleop"]())
+            return HandTeleop(tracker, name=st.components["teleop"].driver, hand=hand,
+                              mode=mode or "translation_rotation", max_pos_speed=max_pos_speed,
+                              max_rot_speed=max_rot_speed, scale=scale)
+        devices = {r: session.stack.enter_context(session.clients[r]()) for r in DEVICE_ROLES if r in session.clients}
+        visual = None
+        if viz:
+            from rio.viz import make_viz
+
+            visual = make_viz(st.name, viz if isinstance(viz, str) else None, warn=session.log)
+        return TwistTeleop(devices, device=st.components["teleop"].driver, mode=mode or "translation",
+                           max_pos_speed=max_pos_speed, max_rot_speed=max_rot_speed, filter_hz=filter_hz,
+                           visual=visual)
+
+    return run_workflow(st, make, middleware=middleware, rate_hz=rate_hz, duration=duration, instruction=instruction,
+                        record=record, recorder=recorder, on_tick=on_tick, profile=profile, log=log)
