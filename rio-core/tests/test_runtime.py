@@ -116,9 +116,14 @@ def test_duplicate_server_names_rejected():
         ServerManager("thread", [serve(Counter, name="x"), serve(Counter, name="x")])
 
 
-def test_config_refused_by_setup_is_reported_with_the_node_name():
+@pytest.mark.parametrize("mw", ["thread", "shm"])
+def test_config_refused_by_setup_is_reported_with_the_node_name(mw):
+    """A node is built once, where it runs: a config its `setup()` refuses stops the station's start, and the
+    error names the node (in the manager's process for a thread, from the node's process for shm)."""
+    served = serve(FakeArm, name="arm", dof=3, home=[0.0, 0.0])  # valid fields: accepted by the caller
     with pytest.raises(rio.RioError, match=r"node 'arm' \(FakeArm\): ValueError: home has 2 entries"):
-        serve(FakeArm, name="arm", dof=3, home=[0.0, 0.0])
+        with ServerManager(mw, [served]):
+            pass
 
 
 def test_bad_node_config_fails_in_caller():

@@ -8,7 +8,7 @@ defaults, descriptions and constraints live only there: the station file's table
         class Config(ArmNode.Config):
             port: str = Field(description="serial port")
 
-        def setup(self):            # cheap, runs in servers and clients alike
+        def setup(self):            # runs once, where the component runs
             self.port = self.config.port
 
 A component is built from a config object or from fields (`AcmeArm(port="/dev/ttyUSB0")`, what
@@ -45,8 +45,8 @@ def validate_config(model: type[BaseModel], config: Any = None, fields: Mapping[
 
 class Configurable:
     """Mixin: `Cls(config=None, /, **fields)` validates into `self.config` (an instance of `Cls.Config`),
-    then calls `setup()`, where a component derives what it needs from its config (cheaply: clients and
-    tools build components too). Components override `setup()`, never `__init__`."""
+    then calls `setup()`, where a component derives what it needs from its config (cheaply: tools such as
+    `rio drivers show` build components too). Components override `setup()`, never `__init__`."""
 
     Config = Config
     config: Any

@@ -3,10 +3,10 @@
 Nothing here imports LeRobot, so it is tested and usable without it.
 
 Features are known before anything starts (LeRobot asks for them before `connect()`): the station
-file is validated and built with `rio.station.build.make_station`, which only builds each node's
-object locally (its `setup()`: no hardware, no processes, exactly what connecting a client does),
-and the embodiment is assembled over those local objects to read its action layout, the arms' joint
-names and the cameras' frame sizes.
+file is validated with `rio.station.build.make_station` (which starts nothing), each node's object is
+built here from its validated config (its `setup()`: no hardware, no processes), and the embodiment
+is assembled over those local objects to read its action layout, the arms' joint names and the
+cameras' frame sizes.
 
 Naming (one name per value of RIO's flat action, in its order; the observation's state uses the
 same names for RIO's `proprio`, which is in action space, same order and units):
@@ -300,7 +300,7 @@ def about(station: str, error: Exception) -> str:
 def offline_embodiment(station: str, env: Any) -> Any:
     """The station's embodiment over local node objects (built as a client builds them: no server)."""
     try:
-        local = {role: f.cls(**f.kwargs) for role, f in env.robot_clients.items()}
+        local = {role: f.cls(f.config) for role, f in env.robot_clients.items()}
         for role, node in local.items():
             node.name = role
         return env.embodiment_cls(local, env.config)
@@ -314,7 +314,7 @@ def camera_shapes(station: str, env: Any) -> dict[str, tuple[int, int, int]]:
     out = {}
     for name, f in env.camera_clients.items():
         try:
-            example = f.cls(**f.kwargs).example_data or {}
+            example = f.cls(f.config).example_data or {}
         except Exception as e:
             raise BridgeError(f"rio station '{station}': camera '{name}': {type(e).__name__}: {e}") from e
         rgb = example.get("rgb")

@@ -35,6 +35,8 @@ from .scenes import SCENES, get_scene, scene_key
 
 
 class SimWorld(Node):
+    client_state = ("objects",)
+
     class Config(NodeConfig):
         scene: str = Field("so100", description=f"packaged scene: {', '.join(SCENES)}")
         world: str = Field("sim", description="name the station's sim nodes use to find this world")

@@ -123,7 +123,6 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
         bench_cmd,
         cameras_cmd,
         datasets_cmd,
-        deploy_cmd,
         doctor_cmd,
         drivers_cmd,
         export_cmd,
@@ -131,13 +130,11 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
         new_cmd,
         plugins_cmd,
         ports_cmd,
-        replay_cmd,
-        run_cmd,
         serve_cmd,
         stations_cmd,
-        teleop_cmd,
         top_cmd,
     )
+    from rio.plugins.registry import Registry, get_registry
 
     app = typer.Typer(name="rio", help="RIO: real-time robot I/O for robot learning.", cls=RioGroup,
                       no_args_is_help=True, add_completion=True, rich_markup_mode="rich",
@@ -159,17 +156,13 @@ def build_app(load_plugins: bool = True) -> typer.Typer:
     app.command("doctor")(doctor_cmd.doctor)
     app.add_typer(datasets_cmd.app, name="datasets")
     app.command("export")(export_cmd.export)
-    app.command("replay")(replay_cmd.replay)
-    app.command("teleop")(teleop_cmd.teleop)
-    app.command("deploy")(deploy_cmd.deploy)
-    app.command("run")(run_cmd.run)
     app.command("serve")(serve_cmd.serve)
     app.command("top")(top_cmd.top)
     app.add_typer(keys_cmd.app, name="keys")
     app.command("ports")(ports_cmd.ports)
     app.command("find-port")(ports_cmd.find_port)
+    registry = get_registry() if load_plugins else Registry(load_entry_points=False)
+    registry.add_workflows(app)  # teleop, deploy, replay, run and those of plugins: the rio_workflows hook
     if load_plugins:
-        from rio.plugins import get_registry
-
-        get_registry().extend_cli(app)
+        registry.extend_cli(app)
     return app

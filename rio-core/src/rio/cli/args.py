@@ -90,10 +90,10 @@ def known_station(value: P) -> P:
     not_empty(value)
     if value is not None:
         from rio.errors import RioError
-        from rio.station.load import read_station_text
+        from rio.station.load import find_station
 
         try:
-            read_station_text(str(value))
+            find_station(str(value))
         except RioError as e:
             raise typer.BadParameter(str(e)) from None
     return value

@@ -71,12 +71,12 @@ def teleop(
     """Teleoperate a station's arm(s): a twist device in end-effector space, a leader arm joint by joint.
     Prints a summary when it ends."""
     from rio.cli.run_cmd import finish
-    from rio.workflows.teleop import run_teleop
+    from rio.workflows.teleop import prepare_station, run_teleop
 
-    device_config = key_values(teleop_set, "--teleop-set")
+    st = prepare_station(station, device, key_values(teleop_set, "--teleop-set"))  # the one load of the run
 
     def run(recorder=None):
-        return run_teleop(station, device, device_config=device_config, instruction=instruction, viz=viz,
+        return run_teleop(st, instruction=instruction, viz=viz,
                           duration=duration, middleware=middleware, rate_hz=rate, mode=mode, hand=hand, scale=scale,
                           max_pos_speed=max_pos_speed, max_rot_speed=max_rot_speed, align_speed=align_speed,
                           recorder=recorder, profile=profile, log=lambda m: typer.echo(m, err=True))
@@ -84,11 +84,11 @@ def teleop(
     if record is None:
         finish(run(), json_out)
         return
-    finish(_record_episodes(run, record, episodes, on_end, station, instruction, rate, json_out), json_out,
+    finish(_record_episodes(run, record, episodes, on_end, st, instruction, rate, json_out), json_out,
            printed=True)
 
 
-def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, instruction: str | None,
+def _record_episodes(run, root: str, episodes: int, on_end: str, st, instruction: str | None,
                      rate: float | None, json_out: bool):
     """One teleop run per episode; after each, keep / discard / re-record: the device's keep or discard
     button when the run ended on one, else a key in a terminal, or the --on-end choice for headless
@@ -97,10 +97,8 @@ def _record_episodes(run, root: str, episodes: int, on_end: str, station: str, i
     import sys
 
     from rio.recording import Recorder, station_depth
-    from rio.workflows.teleop import prepare_station
 
     ask = on_end == "ask" or (on_end == "auto" and sys.stdin.isatty())
-    st = prepare_station(station)
     with Recorder(root, fps=rate or st.rate_hz, station=st.name, instruction=instruction, cameras=st.has_cameras,
                   depth=station_depth(st), episodes=episodes) as rec:
         while not rec.done:

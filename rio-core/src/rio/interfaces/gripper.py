@@ -23,6 +23,8 @@ from rio.runtime.node import client_side
 
 
 class GripperNode(CommandedNode):
+    client_state = ("width",)
+
     class Config(CommandedNode.Config):
         rate_hz: float = Field(50.0, gt=0, description="loop rate (Hz)")
         max_width: float = Field(0.08, gt=0, description="full opening (m)")

@@ -43,6 +43,8 @@ def as_vector(name: str, value: Any, n: int) -> np.ndarray:
 
 
 class JointNode(CommandedNode):
+    client_state = ("joint_list", "dof")
+
     class Config(CommandedNode.Config):
         joint_names: list[str] | None = Field(None, min_length=1, description="joints this node drives, in command "
                                                                               "order (default: the driver's)")

@@ -1,5 +1,5 @@
-"""The core's own plugin: the built-in middlewares, embodiments and fake devices, registered through
-the same hooks a third-party plugin uses (so nothing in core is special-cased)."""
+"""The core's own plugin: the built-in middlewares, embodiments, fake devices and workflows, registered
+through the same hooks a third-party plugin uses (so nothing in core is special-cased)."""
 
 from __future__ import annotations
 
@@ -21,6 +21,17 @@ def rio_middlewares() -> list[Spec]:
              "eclipse-zenoh 1.x; multi-machine through routers; key expressions rio/<station>/<node>/*"),
         Spec("portal", "middleware", "rio.middleware.portal:PortalMiddleware",
              "danijar's portal RPC wire format, as in the RIO paper (our own client and server)"),
+    ]
+
+
+@hookimpl
+def rio_workflows() -> list[Spec]:
+    return [
+        Spec("teleop", "workflow", "rio.cli.teleop_cmd:teleop",
+             "teleoperate a station's arms, hands or humanoid (twist devices, leader arms, hand trackers)"),
+        Spec("deploy", "workflow", "rio.cli.deploy_cmd:deploy", "run a policy on a station"),
+        Spec("replay", "workflow", "rio.cli.replay_cmd:replay", "play a recorded episode back on a station"),
+        Spec("run", "workflow", "rio.cli.run_cmd:run", "your own controller (module:Class) on a station"),
     ]
 
 

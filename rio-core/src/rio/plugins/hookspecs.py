@@ -24,7 +24,7 @@ hookimpl = pluggy.HookimplMarker("rio")
 @hookspec
 def rio_middlewares() -> list[Spec]:
     """Middlewares (kind 'middleware'); target is a `rio.middleware.Middleware` subclass whose
-    `Options` model validates the station file's `[middleware]` table."""
+    `Config` model validates the station file's `[middleware]` table."""
 
 
 @hookspec
@@ -53,6 +53,14 @@ def rio_embodiments() -> list[Spec]:
 def rio_stations() -> list[Spec]:
     """Packaged station files (kind 'station'); target is an absolute path of a .toml file or a
     package resource 'package:relative/path.toml' (read with importlib.resources)."""
+
+
+@hookspec
+def rio_workflows() -> list[Spec]:
+    """Workflows (kind 'workflow'): each becomes the command `rio <name>`. Target is the command's function
+    ('package.module:function', its parameters annotated for typer, its docstring the command's help), which
+    runs a controller on the one control loop through `rio.workflows.run_workflow`. RIO's own teleop,
+    deploy, replay and run are registered this way by the core's plugin."""
 
 
 @hookspec

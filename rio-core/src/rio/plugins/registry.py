@@ -214,6 +214,24 @@ class Registry:
                 out.append((dist, path))
         return out
 
+    def add_workflows(self, app: Any) -> None:
+        """Mount every workflow (`rio_workflows`) as a command of the `rio` typer app; one whose command
+        cannot be imported, or whose name a command already has, is reported and skipped."""
+        taken = {c.name for c in app.registered_commands} | {g.name for g in app.registered_groups}
+        for spec in self.specs("rio_workflows"):
+            if spec.name in taken:
+                self.report(Problem(spec.plugin, f"workflow '{spec.name}': `rio {spec.name}` is a command already; "
+                                                 "skipped"))
+                continue
+            try:
+                command = spec.load()
+            except Exception as e:
+                self.report(Problem(spec.plugin, f"workflow '{spec.name}': cannot import {spec.target}: "
+                                                 f"{type(e).__name__}: {e}"))
+                continue
+            app.command(spec.name)(command)
+            taken.add(spec.name)
+
     def extend_cli(self, app: Any) -> None:
         """Let each plugin add subcommands; a plugin whose hook fails is reported and skipped."""
         for impl in self._impls("rio_cli"):

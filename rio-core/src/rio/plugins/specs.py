@@ -16,7 +16,7 @@ from typing import Any
 DRIVER_KINDS = ("arm", "gripper", "hand", "humanoid", "camera", "teleop", "sensor")
 KINDS = (
     *DRIVER_KINDS, "policy",
-    "middleware", "dataset_format", "embodiment", "station", "command",
+    "middleware", "dataset_format", "embodiment", "station", "command", "workflow",
 )
 
 #: Which kinds each spec-returning hook may register.
@@ -27,6 +27,7 @@ HOOK_KINDS: dict[str, tuple[str, ...]] = {
     "rio_dataset_formats": ("dataset_format",),
     "rio_embodiments": ("embodiment",),
     "rio_stations": ("station",),
+    "rio_workflows": ("workflow",),
 }
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$")

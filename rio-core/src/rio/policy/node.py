@@ -59,6 +59,14 @@ def node_config(policy_class: type[Policy], name: str) -> type[NodeConfig]:
     return cast("type[NodeConfig]", create_model(name, __base__=(policy_class.Config, PolicyNodeConfig)))
 
 
+def observation_layout(config: Any) -> ObsLayout | None:
+    """The layout of the observations a policy node takes, from its config (None: none given yet)."""
+    if not config.observation:
+        return None
+    layout = ObsLayout.from_dict(config.observation)
+    return layout.copying() if config.frames == "copy" else layout
+
+
 class PolicyNode(Node):
     policy_class: ClassVar[type[Policy]] = Policy
     #: The policy's config plus `PolicyNodeConfig`; made for each subclass from its `policy_class`.
@@ -73,13 +81,13 @@ class PolicyNode(Node):
         if "Config" not in cls.__dict__:
             cls.Config = node_config(cls.policy_class, f"{cls.__name__}Config")
 
+    #: The record a client fills in place for each request (thread, shm), made on the first request.
+    _request_rec: np.ndarray | None = None
+
     def setup(self) -> None:
         fields = self.config.model_dump(exclude=set(PolicyNodeConfig.model_fields))
         self.policy = self.policy_class(fields)
-        observation = self.config.observation
-        self.layout = ObsLayout.from_dict(observation) if observation else None
-        if self.layout is not None and self.config.frames == "copy":
-            self.layout = self.layout.copying()
+        self.layout = observation_layout(self.config)
         cfg = self.policy.config
         dim = self.layout.action_dim if self.layout is not None else 1
         self.example_data: dict[str, Any] = {
@@ -87,7 +95,6 @@ class PolicyNode(Node):
             "offset": 0.0, "t_recv": 0.0, "t_start": 0.0, "t_end": 0.0}
         self.example_request = self.layout.example_request() if self.layout is not None else {"seq": np.int64(0)}
         self._meta: PolicyMetadata | None = None
-        self._request_rec: np.ndarray | None = None
         self._frames: CameraFrames | None = None
         #: Requests answered with an empty chunk because a referenced frame was gone (server side).
         self.frame_misses = 0
@@ -168,6 +175,8 @@ class PolicyNode(Node):
         Where the queue takes whole records (thread, shm) one reused record is filled in place."""
         from rio import clock
 
+        if "layout" not in self.__dict__:  # a client: made without setup(), from the same config
+            self.layout = observation_layout(self.config)
         if self.layout is None:
             raise InvalidRequest(self.name, None, "this policy node has no observation layout (pass "
                                                   "observation=ObsLayout.of(obs).to_dict())")

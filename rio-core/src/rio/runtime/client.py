@@ -1,7 +1,8 @@
 """Client proxy: what user code holds for a node (`arm.get_state()`, `arm.send_request(...)`).
 
-It is an instance of the node class built with the same config (to learn layouts and client-side
-methods) whose buffers are the middleware's client-side objects. Only `__api__` names are exposed;
+It holds the client side's instance of the node class (made from the server's description of the node,
+`rio.runtime.description`: its config, layouts and `client_state`, without `setup()`), whose client-side
+methods run here on the middleware's client-side buffers. Only `__api__` names are exposed;
 client-side ones run here, the others become remote calls. Every access first checks that the
 server is alive, so a dead node is an error, never a silently stale value.
 """

@@ -28,15 +28,16 @@ import tempfile
 import threading
 import time
 import uuid
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
 from pydantic import ValidationError
 
 from rio import clock
-from rio.config import error_lines
+from rio.config import error_lines, validate_config
 from rio.errors import ConfigError, NodeDiedError, RioError, shows_traceback
 from rio.machine import host
+from rio.runtime import description as D
 from rio.runtime.client import NodeClient
 from rio.runtime.node import Node
 from rio.runtime.ring_ref import ring_reference
@@ -62,37 +63,61 @@ def _middleware(mw: str | Middleware, station: str, options: dict | None = None)
     return get_middleware(mw)(station=station, **(options or {}))
 
 
-def _build_node(cls: type[Node], name: str | None, config: dict[str, Any]) -> Node:
+def _node_class(cls: Any) -> type[Node]:
     if not (isinstance(cls, type) and issubclass(cls, Node)):
         raise ConfigError(f"{cls!r} is not a rio.Node subclass")
-    who = f"node '{name or cls.__name__.lower()}' ({cls.__name__})"
+    return cls
+
+
+def _validated(cls: type[Node], name: str, config: Any, fields: dict[str, Any]) -> Any:
+    """`cls.Config` validated from a config object and/or fields (no node is built)."""
     try:
-        node = cls(**config)
+        return validate_config(cls.Config, config, fields)
     except ValidationError as e:
-        raise ConfigError(f"{who} config:\n  " + "\n  ".join(error_lines(e, "", cls.Config))) from None
+        raise ConfigError(f"node '{name}' ({cls.__name__}) config:\n  "
+                          + "\n  ".join(error_lines(e, "", cls.Config))) from None
+
+
+def _build_node(cls: type[Node], name: str, config: Any) -> Node:
+    """The node itself, built once where it runs (its server's process or thread): `setup()` runs here."""
+    try:
+        node = cls(config)
+    except ValidationError as e:
+        raise ConfigError(f"node '{name}' ({cls.__name__}) config:\n  "
+                          + "\n  ".join(error_lines(e, "", cls.Config))) from None
     except Exception as e:  # setup() refused the config (an unknown model, a mismatched length, ...)
-        raise ConfigError(f"{who}: {type(e).__name__}: {e}") from e
-    node.name = name or node.name
+        raise ConfigError(f"node '{name}' ({cls.__name__}): {type(e).__name__}: {e}") from e
+    node.name = name
     return node
 
 
 @dataclass
 class ServedNode:
-    """What to serve; started by `ServerManager`."""
+    """What to serve, started by `ServerManager`: the node's class, name and validated config (the
+    node itself is built where it runs)."""
 
     cls: type[Node]
     name: str
-    config: dict[str, Any] = field(default_factory=dict)
+    config: Any = None
     mw: str | Middleware | None = None
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.config, self.cls.Config):  # fields (or none), as a hand-made ServedNode has
+            self.config = _validated(self.cls, self.name, None, dict(self.config or {}))
 
-def serve(cls: type[Node], mw: str | Middleware | None = None, *, name: str | None = None, **config: Any) -> ServedNode:
-    node = _build_node(cls, name, config)  # fail early on a bad config, in the caller's process
-    return ServedNode(cls, node.name, config, mw)
+
+def serve(cls: type[Node], mw: str | Middleware | None = None, *, name: str | None = None, config: Any = None,
+          **fields: Any) -> ServedNode:
+    """What `ServerManager` serves: `cls` built from `config` (a validated `cls.Config`, as a station's
+    component carries) and/or `fields`. The config is checked now, in the caller's process; the node is
+    built and set up once, where it runs."""
+    cls = _node_class(cls)
+    name = name or cls.__name__.lower()
+    return ServedNode(cls, name, _validated(cls, name, config, fields), mw)
 
 
 def connect(cls: type[N], mw: str | Middleware, *, name: str | None = None, station: str = "rio",
-            address: dict[str, Any] | None = None, **config: Any) -> N:
+            address: dict[str, Any] | None = None, config: Any = None, **fields: Any) -> N:
     """Client for a running node of class `cls`. The address is found automatically for nodes served by
     a ServerManager in this process; pass `address` for a server elsewhere.
 
@@ -102,14 +127,25 @@ def connect(cls: type[N], mw: str | Middleware, *, name: str | None = None, stat
     other attribute of the class, even one a type checker accepts, raises AttributeError at run time.
     It is a context manager (`with connect(Arm, "shm") as arm:`) and has `close()`, `check_alive()`
     and `name`.
+
+    The client's node is made from the description its server put in the address (`rio.runtime.description`):
+    it is not built and its `setup()` does not run here, except for a node whose address carries none (one
+    served on another machine of a station), which is built here to learn its layouts.
     """
-    node = _build_node(cls, name, config)
+    cls = _node_class(cls)
+    name = name or cls.__name__.lower()
+    cfg = _validated(cls, name, config, fields)
     mwo = _middleware(mw, station)
-    addr = address or _ADDRESSES.get((mwo.name, mwo.station, node.name))
+    addr = address or _ADDRESSES.get((mwo.name, mwo.station, name))
     if addr is None:
-        raise NodeDiedError(node.name, f"no '{mwo.name}' server for it is running in station '{mwo.station}' "
-                                       "(start it with ServerManager, or pass address=)")
-    layouts = NodeLayouts.of(node)
+        raise NodeDiedError(name, f"no '{mwo.name}' server for it is running in station '{mwo.station}' "
+                                  "(start it with ServerManager, or pass address=)")
+    if D.KEY in addr:
+        node = D.client_node(cls, name, cfg, addr[D.KEY])
+        layouts = D.layouts_of(addr[D.KEY], name)
+    else:
+        node = _build_node(cls, name, cfg)
+        layouts = NodeLayouts.of(node)
     transport = mwo.make_client(node, layouts, addr)
     # the proxy stands in for the node: typed as its class (see the docstring), not as NodeClient
     return cast(N, NodeClient(node, transport, ring_reference(mwo, layouts, addr)))
@@ -117,7 +153,9 @@ def connect(cls: type[N], mw: str | Middleware, *, name: str | None = None, stat
 
 # -- child process ----------------------------------------------------------------------------------
 def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middleware], station: str,
-                mw_options: dict, resources: dict, conn: Any, parent_pid: int) -> None:
+                mw_options: dict, conn: Any, parent_pid: int) -> None:
+    """A node's process: build the node (once), tell the manager its layouts, take the resources the manager
+    made for them (shared memory that must outlive this process), serve until told to stop."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     host.exit_with_parent(parent_pid)
     clock.set_timer_slack()
@@ -137,11 +175,19 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
         signal.signal(signal.SIGTERM, lambda *_: node.exit_event.set())
         mw = mw_cls(station=station, **mw_options)
         layouts = NodeLayouts.of(node)
-        transport = mw.make_server(node, layouts, resources)
+        described = D.describe(node, layouts)
+        report("layouts", node=described)
+        try:
+            answer = conn.recv_bytes()
+        except (EOFError, OSError):  # the manager is gone
+            return
+        if answer == b"stop":
+            return
+        transport = mw.make_server(node, layouts, json.loads(answer))
         node.ring_buffer, node.request_queue = transport.ring_buffer, transport.request_queue
         runner = NodeRunner(node)
         address = transport.start(Dispatcher(node, runner.lock))
-        address["pid"], address["machine"] = os.getpid(), machine_id()
+        address["pid"], address["machine"], address[D.KEY] = os.getpid(), machine_id(), described
 
         def control() -> None:
             try:
@@ -182,21 +228,22 @@ def _log_node_error(name: str, e: BaseException, after_start: bool) -> None:
 _AFTER_CONNECT_S = 15.0
 
 
-def _connect_timeout(node: Node) -> float:
-    return float(getattr(node.config, "connect_timeout_s", 0.0) or 0.0)
+def _connect_timeout(config: Any) -> float:
+    return float(getattr(config, "connect_timeout_s", 0.0) or 0.0)
 
 
 class _ThreadHandle:
     def __init__(self, spec: ServedNode, mw: Middleware):
         self.name, self.mw = spec.name, mw
         self.node = _build_node(spec.cls, spec.name, spec.config)
-        self.connect_timeout_s = _connect_timeout(self.node)
+        self.connect_timeout_s = _connect_timeout(spec.config)
         self.layouts = NodeLayouts.of(self.node)
         self.transport = mw.make_server(self.node, self.layouts, {})
         self.node.ring_buffer = self.transport.ring_buffer
         self.node.request_queue = self.transport.request_queue
         self.runner = NodeRunner(self.node)
         self.address = self.transport.start(Dispatcher(self.node, self.runner.lock))
+        self.address[D.KEY] = D.describe(self.node, self.layouts)
         self.ready = threading.Event()
         self.error: str | None = None
         self.thread = threading.Thread(target=self._run, name=f"rio-{spec.name}", daemon=True)
@@ -225,26 +272,30 @@ class _ThreadHandle:
 
 
 class _ProcessHandle:
+    """A node in a spawned process. The node is built there, once; it reports its layouts, for which the
+    manager makes the resources that must outlive the process (`Middleware.prepare`) and sends them back."""
+
     def __init__(self, spec: ServedNode, mw: Middleware, run_dir: str):
-        self.name, self.mw = spec.name, mw
-        node = _build_node(spec.cls, spec.name, spec.config)
-        self.connect_timeout_s = _connect_timeout(node)
-        self.layouts = NodeLayouts.of(node)
-        self.resources = mw.prepare(self.layouts, run_dir)
-        try:
-            ctx = mp.get_context("spawn")
-            self.conn, child_conn = ctx.Pipe(duplex=True)
-            self.proc = ctx.Process(
-                target=_child_main, name=f"rio-{spec.name}", daemon=False,
-                args=(spec.cls, spec.name, spec.config, type(mw), mw.station,
-                      mw.config.model_dump(), self.resources, child_conn, os.getpid()),
-            )
-            self.proc.start()
-        except BaseException:  # not a handle yet, so the manager cannot release what `prepare` made
-            mw.release(self.resources)
-            raise
+        self.name, self.mw, self.run_dir = spec.name, mw, run_dir
+        self.connect_timeout_s = _connect_timeout(spec.config)
+        self.layouts: NodeLayouts | None = None
+        self.resources: dict[str, Any] | None = None
+        ctx = mp.get_context("spawn")
+        self.conn, child_conn = ctx.Pipe(duplex=True)
+        # the config travels as data (a station's policy config is a model made at run time: not picklable)
+        self.proc = ctx.Process(
+            target=_child_main, name=f"rio-{spec.name}", daemon=False,
+            args=(spec.cls, spec.name, spec.config.model_dump(), type(mw), mw.station, mw.config.model_dump(),
+                  child_conn, os.getpid()),
+        )
+        self.proc.start()
         child_conn.close()
         self.address: dict[str, Any] | None = None
+
+    def _prepare(self, described: dict[str, Any]) -> None:
+        self.layouts = D.layouts_of(described, self.name)
+        self.resources = self.mw.prepare(self.layouts, self.run_dir)
+        self.conn.send_bytes(json.dumps(self.resources).encode())
 
     def poll_ready(self) -> bool:
         if self.address is not None:
@@ -254,6 +305,9 @@ class _ProcessHandle:
                 msg = json.loads(self.conn.recv_bytes())
             except EOFError:
                 msg = {"kind": "error", "type": "exit", "message": "exited before ready"}
+            if msg["kind"] == "layouts":
+                self._prepare(msg["node"])
+                return False
             if msg["kind"] == "ready":
                 self.address = msg["address"]
                 return True
@@ -279,7 +333,8 @@ class _ProcessHandle:
                 self.proc.join(1.0)
             self.conn.close()
         finally:  # whatever went wrong above, the segments must not outlive the run
-            self.mw.release(self.resources)
+            if self.resources is not None:
+                self.mw.release(self.resources)
 
 
 class ServerManager:

@@ -76,6 +76,9 @@ class Node(Configurable):
     worker: ClassVar[Literal["pub", "req"] | None] = None
     buffer_capacity: ClassVar[int] = 64
     request_capacity: ClassVar[int] = 64
+    #: Attributes `setup()` derives that client-side methods read (JSON values: numbers, strings, lists).
+    #: The server sends them with its address (`rio.runtime.description`), so a client never runs `setup()`.
+    client_state: ClassVar[tuple[str, ...]] = ()
 
     example_data: Mapping[str, Any] | None = None
     example_request: Mapping[str, Any] | None = None
@@ -104,7 +107,8 @@ class Node(Configurable):
 
     # -- hardware logic (override) ------------------------------------------------------------------
     def setup(self) -> None:
-        """Declare layouts from `self.config`. Runs in servers and clients: no hardware, no heavy imports."""
+        """Declare layouts from `self.config`. Runs once, where the node is served (a client gets the layouts
+        and `client_state` from the server): no hardware yet, that is `open()`'s."""
 
     def open(self) -> None:
         """Acquire the device. Runs in the server before the node reports ready."""

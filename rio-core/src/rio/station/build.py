@@ -34,14 +34,13 @@ class ClientFactory(Generic[N]):
     NodeClient proxy (a context manager) typed as the role's node class. `address`: where a node served
     on another machine is reached (None: a node this process serves)."""
 
-    def __init__(self, role: str, cls: type[N], mw: Middleware, kwargs: dict[str, Any],
-                 address: dict[str, Any] | None = None):
-        self.role, self.cls, self.mw, self.kwargs, self.address = role, cls, mw, kwargs, address
+    def __init__(self, role: str, cls: type[N], mw: Middleware, config: Any, address: dict[str, Any] | None = None):
+        self.role, self.cls, self.mw, self.config, self.address = role, cls, mw, config, address
 
     def __call__(self) -> N:
         from rio.runtime.manager import connect
 
-        return connect(self.cls, self.mw, name=self.role, address=self.address, **self.kwargs)
+        return connect(self.cls, self.mw, name=self.role, address=self.address, config=self.config)
 
     def __repr__(self) -> str:
         where = f" on {self.address}" if self.address else ""
@@ -134,7 +133,7 @@ def make_station(station: str | os.PathLike | Station, *, middleware: str | None
         where = st.machine_of(role)
         if where != machine and machine is not None:
             continue  # another machine's node: `rio serve` of this machine has nothing to do with it
-        cls, kwargs = load_node_class(st, role), comp.kwargs()
+        cls = load_node_class(st, role)
         node_mw, address = mw, None
         if where is not None:
             options, address = _placed(st, mw, role, where)
@@ -143,11 +142,11 @@ def make_station(station: str | os.PathLike | Station, *, middleware: str | None
                 _check_identity(st, node_mw, machine)
         if address is None:
             try:
-                servers[role] = serve(cls, node_mw, name=role, **kwargs)
-            except ConfigError as e:  # the node's setup() refused a validated config
+                servers[role] = serve(cls, node_mw, name=role, config=comp.config)
+            except ConfigError as e:  # the node's class refused a validated config
                 raise ConfigError(f"{st.source}: components.{role}: driver '{comp.driver}' rejected its config: "
                                   f"{e}") from e
-        clients[role] = ClientFactory(role, cls, node_mw, kwargs, address)
+        clients[role] = ClientFactory(role, cls, node_mw, comp.config, address)
     env = None
     if emb_cls is not None and machine is None:
         robot = {r: clients[r] for r in sorted(emb_cls.roles() & st.roles())}

@@ -27,19 +27,28 @@ def _looks_like_path(ref: str) -> bool:
     return ref.endswith(".toml") or os.sep in ref or "/" in ref or os.path.exists(ref)
 
 
-def read_station_text(ref: str | os.PathLike, registry: Registry | None = None) -> tuple[str, str]:
-    """(text, source) of a station given as a path or as a name registered by a plugin."""
+def find_station(ref: str | os.PathLike, registry: Registry | None = None) -> Path | str:
+    """Where a station given as a path or as a name registered by a plugin is: the file's path, or the
+    plugin's target ('package:relative/path.toml' or an absolute path). Nothing is read."""
     if isinstance(ref, os.PathLike) or _looks_like_path(str(ref)):
         path = Path(ref)
         if not path.is_file():
             raise ConfigError(f"station file not found: {path}")
-        return read_text(path), str(path)
+        return path
     reg = registry or get_registry()
     stations = {s.name: s for s in reg.specs("rio_stations")}
     if ref not in stations:
         raise ConfigError(unknown("station", str(ref), stations) + reg.plugin_hint("station", str(ref))
                           + " (or give the path of a .toml file)")
-    return read_station_resource(stations[ref].target)
+    return stations[ref].target
+
+
+def read_station_text(ref: str | os.PathLike, registry: Registry | None = None) -> tuple[str, str]:
+    """(text, source) of a station given as a path or as a name registered by a plugin."""
+    where = find_station(ref, registry)
+    if isinstance(where, Path):
+        return read_text(where), str(where)
+    return read_station_resource(where)
 
 
 def read_station_resource(target: str) -> tuple[str, str]:
@@ -71,16 +80,16 @@ def parse_station(data: dict[str, Any], *, source: str = "<dict>", registry: Reg
     try:
         top = StationFile.model_validate(data)
     except ValidationError as e:
-        raise _invalid(source, error_lines(e, "", StationFile)) from None
+        raise invalid(source, error_lines(e, "", StationFile)) from None
     errors: list[str] = []
     components: dict[str, Component] = {}
     for role, table in top.components.items():
-        comp = _component(role, table, reg, errors)
+        comp = resolve_component(role, table, reg, errors)
         if comp is not None:
             components[role] = comp
     _check_machines(top, errors)
     if errors:
-        raise _invalid(source, errors)
+        raise invalid(source, errors)
     mw = top.middleware.model_dump()
     emb = top.embodiment.model_dump()
     return Station(
@@ -109,11 +118,12 @@ def _check_machines(top: StationFile, errors: list[str]) -> None:
                 placed[role] = machine
 
 
-def _invalid(source: str, lines: list[str]) -> ConfigError:
+def invalid(source: str, lines: list[str]) -> ConfigError:
     return ConfigError(f"invalid station {source}:\n  " + "\n  ".join(lines))
 
 
-def _component(role: str, table: dict[str, Any], reg: Registry, errors: list[str]) -> Component | None:
+def resolve_component(role: str, table: dict[str, Any], reg: Registry, errors: list[str]) -> Component | None:
+    """One `[components.<role>]` table, validated by its driver's config; None after appending to `errors`."""
     where = f"components.{role}"
     kind = R.kind_of(role)
     if kind is None:

@@ -15,14 +15,14 @@ if TYPE_CHECKING:
 
 
 class MiddlewareSection(BaseModel):
-    """`[middleware]`: `name` plus that middleware's own options (checked by its `Options` model)."""
+    """`[middleware]`: `name` plus that middleware's own options (checked by its `Config` model)."""
 
     model_config = ConfigDict(extra="allow")
     name: str = "shm"
 
 
 class EmbodimentSection(BaseModel):
-    """`[embodiment]` (optional): `name` overrides inference; other keys go to its `Options` model."""
+    """`[embodiment]` (optional): `name` overrides inference; other keys go to its `Config` model."""
 
     model_config = ConfigDict(extra="allow")
     name: str | None = None

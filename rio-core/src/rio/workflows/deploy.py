@@ -7,7 +7,6 @@ device swapped in for a policy commanded by one.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable
 from typing import Any
 
@@ -15,10 +14,6 @@ from rio.loop.control_loop import Tick
 from rio.loop.summary import RunSummary
 from rio.policy.async_inference import AsyncConfig
 from rio.policy.deploy import POLICY_ROLE, PolicyController
-
-
-def _without_policy(st: Any) -> Any:
-    return dataclasses.replace(st, components={r: c for r, c in st.components.items() if r != POLICY_ROLE})
 
 
 def run_deploy(station: Any, policy: str | None = None, *, instruction: str | None = None,
@@ -33,19 +28,17 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
     `device` (+ `device_config`): the station's `teleop` component, replaced or added, for a policy that
     reads a device (`onnx.locomotion`'s `command_from`)."""
     from rio.policy.resolve import resolve_policy
-    from rio.station.load import load_station
+    from rio.station.edit import without_role
     from rio.workflows.run import run_workflow
     from rio.workflows.teleop import prepare_station
 
-    if device is not None or device_config:
-        station = prepare_station(station, device, device_config)
-    st = load_station(station, registry=registry)
+    st = prepare_station(station, device, device_config, registry=registry)
     name, node_cls, policy_kwargs = resolve_policy(policy, st, registry)
 
     def make(session: Any) -> PolicyController:
         return PolicyController.start(session, name, node_cls, policy_kwargs, config or AsyncConfig(),
                                       ready_timeout=ready_timeout)
 
-    return run_workflow(_without_policy(st), make, middleware=middleware, rate_hz=rate_hz, duration=duration,
+    return run_workflow(without_role(st, POLICY_ROLE), make, middleware=middleware, rate_hz=rate_hz, duration=duration,
                         instruction=instruction, record=record, on_tick=on_tick, profile=profile,
                         registry=registry, log=log)

@@ -16,58 +16,32 @@ from typing import Any
 from rio.errors import RioError
 from rio.loop.control_loop import Tick
 from rio.loop.summary import RunSummary
+from rio.station.model import Station
 
 
-def resolve_device(name: str, registry: Any = None) -> str:
-    """'scripted' -> 'teleop.scripted' when that is a registered teleop driver; names with a dot as given."""
-    if "." in name:
-        return name
-    from rio.plugins import get_registry
-
-    reg = registry or get_registry()
-    teleops = {s.name for s in reg.specs("rio_drivers") if s.kind == "teleop"}
-    return f"teleop.{name}" if f"teleop.{name}" in teleops else name
-
-
-def _device_is(station: Any, flag: str) -> bool:
-    from rio.plugins import get_registry
-
+def _device_is(station: Station, flag: str) -> bool:
     comp = station.components.get("teleop")
-    if comp is None:
-        return False
-    return bool(getattr(get_registry().find("rio_drivers", comp.driver, "teleop").load(), flag, False))
+    return comp is not None and bool(getattr(comp.node_class(), flag, False))
 
 
-def drives_leader_arm(station: Any) -> bool:
+def drives_leader_arm(station: Station) -> bool:
     """True when the station's teleop device is a leader arm (`TeleopNode.leader_arm`)."""
     return _device_is(station, "leader_arm")
 
 
-def tracks_hands(station: Any) -> bool:
+def tracks_hands(station: Station) -> bool:
     """True when the station's teleop device is a hand tracker (`TeleopNode.hand_tracker`)."""
     return _device_is(station, "hand_tracker")
 
 
-def prepare_station(station: Any, device: str | None = None, device_config: dict | None = None):
-    """The station, with its `teleop` component replaced by `device` (plus `device_config`)."""
-    from rio.station.load import load_station, parse_station, read_station_text
-    from rio.station.model import Station
-    from rio.toml import parse_toml
+def prepare_station(station: Any, device: str | None = None, device_config: dict | None = None,
+                    registry: Any = None) -> Station:
+    """The station (name, path or `Station`), validated once, with its `teleop` component replaced by `device`
+    and/or configured by `device_config` (`rio.station.edit.with_teleop`)."""
+    from rio.station.edit import with_teleop
+    from rio.station.load import load_station
 
-    if device is None and not device_config:
-        return load_station(station)
-    if isinstance(station, Station):
-        raise RioError("pass the station's name or path (not a Station) to replace its teleop device")
-    text, source = read_station_text(station)
-    data = parse_toml(text, source)
-    comps = data.setdefault("components", {})
-    old = comps.get("teleop", {})
-    driver = resolve_device(device) if device else old.get("driver")
-    if driver is None:
-        raise RioError(f"{source}: no teleop component; pass a device (--teleop keyboard or --teleop scripted)")
-    keep = old if driver == old.get("driver") else {}
-    comps["teleop"] = {**keep, **(device_config or {}), "driver": driver}
-    return parse_station(data, source=source)
+    return with_teleop(load_station(station, registry=registry), device, device_config, registry=registry)
 
 
 def run_teleop(station: Any, device: str | None = None, *, instruction: str | None = None, viz: bool | str = False,

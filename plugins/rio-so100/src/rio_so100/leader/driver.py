@@ -24,6 +24,8 @@ _ZERO_TWIST = np.zeros(6)
 
 
 class So100Leader(ServoDriver, TeleopNode):
+    client_state = ("joint_list",)
+
     class Config(ServoConfig, TeleopNode.Config):
         joints: list[str] = Field(default_factory=lambda: list(ARM_JOINTS), description="arm joints, in order")
         gripper: str | None = Field(GRIPPER, description="the jaw joint (its opening is published as `gripper`), "

@@ -32,6 +32,8 @@ _ZERO_TWIST = np.zeros(6)
 
 
 class GelloLeader(TeleopNode):
+    client_state = ("joint_list",)
+
     class Config(TeleopNode.Config):
         port: str = Field(description='the U2D2\'s serial port (best a /dev/serial/by-id/usb-FTDI_... path), or '
                                       '"virtual" for an emulated leader')
@@ -53,6 +55,7 @@ class GelloLeader(TeleopNode):
     def setup(self) -> None:
         super().setup()
         self.layout = get_layout(self.config.layout)
+        self.joint_list = list(self.layout.joint_names())
         n = self.layout.dof
         self.example_data = {**self.example_data, "joint_pos": np.zeros(n), "joint_vel": np.zeros(n)}
         self._no_buttons = np.zeros(self.config.buttons, bool)
@@ -114,11 +117,11 @@ class GelloLeader(TeleopNode):
 
     @client_side
     def joint_names(self) -> list[str]:
-        return self.layout.joint_names()
+        return list(self.joint_list)
 
     @client_side
     def num_joints(self) -> int:
-        return self.layout.dof
+        return len(self.joint_list)
 
     @remote
     def known_pose(self) -> list[float]:
