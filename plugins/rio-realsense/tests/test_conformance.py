@@ -6,7 +6,10 @@ from __future__ import annotations
 
 import pytest
 from rio.conformance.drivers import CameraConformance
+from rio.testing import skip_tests_without
+from rio_realsense.doctor import LIBUSB
 
+skip_tests_without(LIBUSB)  # first: without libusb, importing pyrealsense2 raises ImportError (not a skip)
 pytest.importorskip("pyrealsense2")
 
 NOT_CONNECTED = {"source": "device", "serial": "000000000000"}

@@ -13,7 +13,8 @@ import os
 import numpy as np
 import pytest
 from rio import clock
-from rio.testing import lifecycle
+from rio.testing import lifecycle, skip_tests_without
+from rio_realsense.doctor import LIBUSB
 
 pytestmark = pytest.mark.hardware
 
@@ -26,6 +27,7 @@ SIZE = tuple(int(x) for x in os.environ.get("RIO_REALSENSE_SIZE", "640x480").spl
 def serial() -> str:
     if not SERIAL:
         pytest.skip("set RIO_REALSENSE_SERIAL to a connected camera's serial (`rio cameras list`)")
+    skip_tests_without(LIBUSB)
     pytest.importorskip("pyrealsense2")
     return SERIAL
 

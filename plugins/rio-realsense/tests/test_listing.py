@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import pytest
 from rio.cameras import CameraDevice, list_cameras
+from rio.testing import skip_tests_without
+from rio_realsense.doctor import LIBUSB
 
+skip_tests_without(LIBUSB)  # first: without libusb, importing pyrealsense2 raises ImportError (not a skip)
 rs = pytest.importorskip("pyrealsense2")
 
 from rio_realsense.listing import list_devices  # noqa: E402

@@ -12,7 +12,8 @@ import pytest
 from pydantic import ValidationError
 from rio.plugins import Registry
 from rio.station.load import load_station
-from rio_realsense.doctor import libusb_problem, udev_problem
+from rio.testing import skip_tests_without
+from rio_realsense.doctor import LIBUSB, libusb_problem, udev_problem
 from rio_realsense.driver import RealSenseCamera
 
 
@@ -74,6 +75,7 @@ def test_doctor_says_when_udev_rules_are_missing(tmp_path):
 
 
 def test_the_packaged_station_shows_the_software_camera():
+    skip_tests_without(LIBUSB)
     pytest.importorskip("pyrealsense2")
     from rio import ServerManager
     from rio.station import make_station

@@ -10,8 +10,10 @@ import uuid
 
 import pytest
 from rio import ServerManager, connect, serve
-from rio.testing import lifecycle, wait_until
+from rio.testing import lifecycle, skip_tests_without, wait_until
+from rio_realsense.doctor import LIBUSB
 
+skip_tests_without(LIBUSB)  # first: without libusb, importing pyrealsense2 raises ImportError (not a skip)
 pytest.importorskip("pyrealsense2")
 
 from rio_realsense.driver import RealSenseCamera  # noqa: E402

@@ -10,8 +10,10 @@ import time
 import numpy as np
 import pytest
 from rio import clock
-from rio.testing import lifecycle
+from rio.testing import lifecycle, skip_tests_without
+from rio_realsense.doctor import LIBUSB
 
+skip_tests_without(LIBUSB)  # first: without libusb, importing pyrealsense2 raises ImportError (not a skip)
 pytest.importorskip("pyrealsense2")
 
 from rio_realsense import scene  # noqa: E402
