@@ -13,7 +13,12 @@ from typing import Any
 
 import numpy as np
 
+from ..requirements import SystemNeed
 from .base import IKSolver, require
+
+#: The OpenMP runtime pinocchio's wheel links (not in a minimal Debian): without it `import pinocchio`
+#: raises ImportError.
+LIBGOMP = SystemNeed("libgomp1", library="libgomp.so.1", purpose="pinocchio, which links it")
 
 
 class PinocchioSolver(IKSolver):
