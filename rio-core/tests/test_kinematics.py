@@ -12,7 +12,11 @@ import time
 import numpy as np
 import pytest
 
+from rio.kinematics.pin_solver import LIBGOMP
+from rio.testing import skip_tests_without
+
 pytest.importorskip("mink")
+skip_tests_without(LIBGOMP)  # first: without libgomp, importing pinocchio raises ImportError (not a skip)
 pytest.importorskip("pinocchio")
 
 from rio.control import euler_to_quat, pose_error  # noqa: E402

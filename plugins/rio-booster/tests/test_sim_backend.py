@@ -17,7 +17,7 @@ from rio_booster.t1 import home_pose, joint_names
 from rio import clock
 from rio.conformance.driving import Loop, build_node, resolve_driver
 from rio.interfaces.damping import FALL
-from rio.testing import block_import, lifecycle
+from rio.testing import block_import, lifecycle, skip_tests_without
 
 HAVE_SIM = importlib.util.find_spec("mujoco") is not None and importlib.util.find_spec("rio_sim") is not None
 WHY = "the sim backend needs MuJoCo and rio-sim (pip install 'rio-booster[sim]')"
@@ -158,7 +158,7 @@ def test_teleop_moves_both_hands_by_the_trackers_motion_through_the_driver(teleo
     from rio.kinematics import MultiFrameIK
     from rio.station.load import load_station
 
-    summary, ticks, _, head = teleop_run
+    summary, ticks, _, _ = teleop_run
     move = np.asarray(load_station("t1-sim").components["teleop"].config.move)
     first, last = ticks[0].step.observation, ticks[-1].step.observation
     assert np.abs(first.joint_pos - home_pose()).max() < HOLD_TOL_RAD, summary.format()
@@ -171,6 +171,14 @@ def test_teleop_moves_both_hands_by_the_trackers_motion_through_the_driver(teleo
         assert np.allclose(moved, move, atol=0.01), (frame, moved, summary.format())
     still = [i for i, n in enumerate(NAMES) if any(k in n for k in STILL)]
     assert np.abs(last.joint_pos[still] - first.joint_pos[still]).max() < HOLD_TOL_RAD
+
+
+@needs_sim
+def test_the_head_camera_renders_the_emulated_robots_world(teleop_run):
+    from rio_sim.gl import OFFSCREEN_GL
+
+    skip_tests_without(OFFSCREEN_GL)  # without OpenGL the camera publishes flat placeholder frames
+    head = teleop_run[3]
     assert head.ndim == 3 and head.std() > 5, head.shape  # the emulator is the camera's world: it renders it
 
 

@@ -5,9 +5,12 @@ not connected: no serial matches on this machine, so `open()` fails naming the s
 from __future__ import annotations
 
 import pytest
+from rio_realsense.doctor import LIBUSB
 
 from rio.conformance.drivers import CameraConformance
+from rio.testing import skip_tests_without
 
+skip_tests_without(LIBUSB)  # first: without libusb, importing pyrealsense2 raises ImportError (not a skip)
 pytest.importorskip("pyrealsense2")
 
 NOT_CONNECTED = {"source": "device", "serial": "000000000000"}

@@ -12,9 +12,10 @@ import os
 
 import numpy as np
 import pytest
+from rio_realsense.doctor import LIBUSB
 
 from rio import clock
-from rio.testing import lifecycle
+from rio.testing import lifecycle, skip_tests_without
 
 pytestmark = pytest.mark.hardware
 
@@ -27,6 +28,7 @@ SIZE = tuple(int(x) for x in os.environ.get("RIO_REALSENSE_SIZE", "640x480").spl
 def serial() -> str:
     if not SERIAL:
         pytest.skip("set RIO_REALSENSE_SERIAL to a connected camera's serial (`rio cameras list`)")
+    skip_tests_without(LIBUSB)
     pytest.importorskip("pyrealsense2")
     return SERIAL
 

@@ -4,9 +4,12 @@ its driver, serial, model, firmware and modes from its sensors' stream profiles.
 from __future__ import annotations
 
 import pytest
+from rio_realsense.doctor import LIBUSB
 
 from rio.plugins.cameras import CameraDevice, list_cameras
+from rio.testing import skip_tests_without
 
+skip_tests_without(LIBUSB)  # first: without libusb, importing pyrealsense2 raises ImportError (not a skip)
 rs = pytest.importorskip("pyrealsense2")
 
 from rio_realsense.listing import list_devices  # noqa: E402

@@ -10,11 +10,12 @@ import sys
 import numpy as np
 import pytest
 from pydantic import ValidationError
-from rio_realsense.doctor import libusb_problem, udev_problem
+from rio_realsense.doctor import LIBUSB, libusb_problem, udev_problem
 from rio_realsense.driver import RealSenseCamera
 
 from rio.plugins import Registry
 from rio.station.load import load_station
+from rio.testing import skip_tests_without
 
 
 def test_drivers_station_lister_and_requirements_are_registered():
@@ -75,6 +76,7 @@ def test_doctor_says_when_udev_rules_are_missing(tmp_path):
 
 
 def test_the_packaged_station_shows_the_software_camera():
+    skip_tests_without(LIBUSB)
     pytest.importorskip("pyrealsense2")
     from rio import ServerManager
     from rio.station import make_station

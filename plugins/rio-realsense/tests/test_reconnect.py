@@ -9,10 +9,12 @@ import logging
 import uuid
 
 import pytest
+from rio_realsense.doctor import LIBUSB
 
 from rio import ServerManager, connect, serve
-from rio.testing import lifecycle, wait_until
+from rio.testing import lifecycle, skip_tests_without, wait_until
 
+skip_tests_without(LIBUSB)  # first: without libusb, importing pyrealsense2 raises ImportError (not a skip)
 pytest.importorskip("pyrealsense2")
 
 from rio_realsense.driver import RealSenseCamera  # noqa: E402

@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from rio_realsense.doctor import LIBUSB
 
-from rio.testing import fake_eef_station
+from rio.testing import fake_eef_station, skip_tests_without
 
-pytest.importorskip("pyrealsense2", reason="pyrealsense2 needs the system's libusb-1.0")
+skip_tests_without(LIBUSB)  # first: without libusb, importing pyrealsense2 raises ImportError (not a skip)
+pytest.importorskip("pyrealsense2")
 av = pytest.importorskip("av")
 
 STATION = fake_eef_station("three-realsense", 'driver = "teleop.scripted"', gripper=False, rate_hz=15)

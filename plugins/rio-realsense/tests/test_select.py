@@ -8,7 +8,11 @@ be the real thing, but `software_device.add_to(context)` does not make them appe
 from __future__ import annotations
 
 import pytest
+from rio_realsense.doctor import LIBUSB
 
+from rio.testing import skip_tests_without
+
+skip_tests_without(LIBUSB)  # first: without libusb, importing pyrealsense2 raises ImportError (not a skip)
 rs = pytest.importorskip("pyrealsense2")
 
 from rio_realsense.errors import RealSenseError  # noqa: E402

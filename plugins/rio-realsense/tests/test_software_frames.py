@@ -9,10 +9,12 @@ import time
 
 import numpy as np
 import pytest
+from rio_realsense.doctor import LIBUSB
 
 from rio import clock
-from rio.testing import lifecycle
+from rio.testing import lifecycle, skip_tests_without
 
+skip_tests_without(LIBUSB)  # first: without libusb, importing pyrealsense2 raises ImportError (not a skip)
 pytest.importorskip("pyrealsense2")
 
 from rio_realsense import scene  # noqa: E402

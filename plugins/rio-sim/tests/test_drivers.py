@@ -11,14 +11,16 @@ import time
 
 import numpy as np
 import pytest
+from rio_sim.gl import GL_PACKAGES, OFFSCREEN_GL
 from rio_sim.robots import get_robot
 
 from rio.control import pose_error
 from rio.errors import RioError
 from rio.kinematics import solver_from_description
+from rio.machine.hide_libraries import C_COMPILER, hide_libraries_env
 from rio.runtime.manager import ServerManager
 from rio.station import make_station
-from rio.testing import wait_until
+from rio.testing import skip_tests_without, wait_until
 
 STATION = """
 name = "{name}"
@@ -107,6 +109,7 @@ def test_gripper_closes_and_opens(station):
 
 
 def test_cameras_render_the_shared_world(station):
+    skip_tests_without(OFFSCREEN_GL)
     wrist, front, arm = station["wrist"], station["front"], station["arm"]
     s = wrist.get_state()
     assert s["rgb"].shape == (72, 96, 3) and s["rgb"].dtype == np.uint8 and bool(s["rendered"])
@@ -146,6 +149,32 @@ def test_gl_problem_is_detected_and_explained():
     env = {**os.environ, "MUJOCO_GL": "osmesa"}  # no OSMesa here: a backend that cannot start
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert "no OpenGL" in out.stdout and "MUJOCO_GL=osmesa" in out.stdout and "apt-get install" in out.stdout
+
+
+_BARE = """
+import os
+import rio_sim  # picks the backend
+import mujoco  # with MUJOCO_GL=egl and no libEGL, this raised (PyOpenGL's EGL platform finds no library)
+from rio_sim.gl import gl_problem
+print(os.environ.get("MUJOCO_GL"))
+print(gl_problem())
+"""
+
+
+def test_without_libegl_mujoco_imports_and_rendering_says_what_to_install(tmp_path):
+    """A bare Debian has no libEGL (package libegl1): rio-sim leaves MuJoCo's default backend there, so the
+    physics runs, and the probe notices that GLFW without a display made no context (it only warns)."""
+    if not sys.platform.startswith("linux"):
+        pytest.skip("rio-sim picks EGL on Linux only")
+    skip_tests_without(C_COMPILER)
+    env = hide_libraries_env(["libEGL.so.1"], tmp_path, env={k: v for k, v in os.environ.items() if k != "MUJOCO_GL"})
+    env.pop("DISPLAY", None)
+    env.pop("WAYLAND_DISPLAY", None)
+    out = subprocess.run([sys.executable, "-c", _BARE], env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-3000:]
+    backend, problem = out.stdout.splitlines()[-2:]
+    assert backend == "None", out.stdout
+    assert problem.startswith("no OpenGL for offscreen rendering (MUJOCO_GL=default: ") and GL_PACKAGES in problem
 
 
 def test_cameras_without_gl_publish_placeholders_or_refuse(tmp_path, monkeypatch):
@@ -189,6 +218,7 @@ with ServerManager(servers), clients["front_camera"]() as a, clients["wrist_came
 
 def test_cameras_render_headless_even_if_mujoco_was_imported_first():
     """Regression: two cameras opening at once on the wrong backend hung the process."""
+    skip_tests_without(OFFSCREEN_GL)
     out = subprocess.run([sys.executable, "-c", _MUJOCO_FIRST], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split() == ["True", "True", "True"]

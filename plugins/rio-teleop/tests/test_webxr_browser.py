@@ -21,6 +21,8 @@ pytest.importorskip("aiohttp")
 
 from rio_teleop.webxr import harness  # noqa: E402
 
+from rio.testing import skip_tests_without  # noqa: E402
+
 P0 = np.array([0.1, 1.2, -0.3])  # where the controller starts (meters, WebXR local-floor)
 TOL = 0.003
 
@@ -34,8 +36,8 @@ def _xr(robot_dx=0.0, robot_dy=0.0, robot_dz=0.0) -> list[float]:
 def browser():
     from playwright.sync_api import Error, sync_playwright
 
-    if harness.chromium_path() is None:
-        pytest.skip("no Chromium here (apt install chromium, or set RIO_CHROMIUM)")
+    skip_tests_without(harness.CHROMIUM)
+    skip_tests_without(harness.PLAYWRIGHT_DRIVER)  # else sync_playwright() fails: "Connection closed while reading"
     with sync_playwright() as pw:
         try:
             b = harness.launch_chromium(pw)

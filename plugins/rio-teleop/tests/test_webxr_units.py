@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from rio_teleop.webxr import protocol
 from rio_teleop.webxr.certs import ensure_certificate
-from rio_teleop.webxr.harness import hands_message, synthetic_hand
+from rio_teleop.webxr.harness import CHROMIUM, hands_message, synthetic_hand
 from rio_teleop.webxr.harness import input_message as msg
 from rio_teleop.webxr.mapping import ClutchMapper, HandMapper
 
@@ -353,3 +353,12 @@ def test_webxr_hands_is_registered():
 
     spec = {s.name: s for s in drivers()}["teleop.webxr_hands"]
     assert spec.kind == "teleop" and spec.load().hand_tracker
+
+
+def test_the_browser_tests_need_chromium_and_say_which_package(tmp_path, monkeypatch):
+    browser = tmp_path / "chromium"
+    monkeypatch.setenv("RIO_CHROMIUM", str(browser))
+    assert CHROMIUM.missing() == ("needs Debian package chromium (apt install chromium) for the WebXR page in a real "
+                                  f"headless browser: RIO_CHROMIUM={browser} does not exist")
+    browser.write_text("")
+    assert CHROMIUM.missing() is None

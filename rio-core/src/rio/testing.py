@@ -17,6 +17,8 @@ import numpy as np
 from pydantic import Field
 
 from rio import clock
+from rio.machine.system_needs import SystemNeed
+from rio.plugins.requirements import module_present
 from rio.runtime.node import Node, NodeConfig, remote
 
 
@@ -67,17 +69,33 @@ def cycle_gripper(grip: Any, widths: Any, tol: float, seconds: float = 1.0, time
         assert wait_until(lambda g=goal: abs(grip.read_state()["position"] - g) < tol, timeout=timeout)
 
 
-def skip_tests_without(module: str, why: str, items: Any, under: str) -> None:
-    """For a plugin's conftest `pytest_collection_modifyitems`: where `module` (a vendor SDK without
-    wheels for this platform) is not installed, skip the tests whose path contains `under`, saying
-    why, instead of failing on the import."""
-    import importlib.util
+def skip_tests_without(need: str | SystemNeed, why: str = "", items: Any = None, under: str = "") -> None:
+    """Skip the tests that cannot run here for want of `need`, saying why, instead of failing or erroring
+    on it. `need` is a Python module (a vendor SDK without wheels for this platform) or a
+    `rio.machine.system_needs.SystemNeed` (a library or program from a Debian package: the reason names the
+    package to install).
 
+    From a plugin conftest's `pytest_collection_modifyitems`, pass `items` and `under`: the tests whose
+    path contains `under` are skipped. Without them it skips now: called at the top of a test module
+    (before the import that would fail, e.g. a wheel whose extension loads the library) it skips the
+    whole module, called in a test or fixture it skips that test. `pytest.importorskip` is no substitute:
+    it skips only a module that is not installed, and a missing system library makes an installed one
+    raise ImportError, which errors the collection."""
     import pytest
 
-    if importlib.util.find_spec(module) is not None:
+    __tracebackhide__ = True  # a skip's location is the caller's line (the test module), not this one
+
+    if isinstance(need, SystemNeed):
+        reason = need.missing()
+    else:
+        reason = None if module_present(need) else f"{need} is not installed"
+    if reason is None:
         return
-    skip = pytest.mark.skip(reason=f"{module} is not installed ({why})")
+    if why:
+        reason = f"{reason} ({why})"
+    if items is None:
+        pytest.skip(reason, allow_module_level=True)
+    skip = pytest.mark.skip(reason=reason)
     for item in items:
         if under in str(item.path):
             item.add_marker(skip)

@@ -8,23 +8,21 @@ import glob
 import os
 import sys
 
+from rio.machine.system_needs import SystemNeed
+
 RULES_DIRS = ("/etc/udev/rules.d", "/lib/udev/rules.d", "/usr/lib/udev/rules.d", "/run/udev/rules.d")
 INTEL_VENDOR = "8086"
 
 
+#: The library pyrealsense2's extension links (Linux): without it `import pyrealsense2` raises ImportError.
+LIBUSB = SystemNeed("libusb-1.0-0", library="libusb-1.0.so.0", purpose="pyrealsense2, which links it")
+
+
 def libusb_problem() -> str | None:
     """None when libusb-1.0 can be loaded (or this is not Linux), else what to install."""
-    if not sys.platform.startswith("linux"):
+    if LIBUSB.problem() is None:
         return None
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("usb-1.0") or "libusb-1.0.so.0"
-    try:
-        ctypes.CDLL(name)
-    except OSError:
-        return "libusb-1.0 is not installed (pyrealsense2 needs it): sudo apt install libusb-1.0-0"
-    return None
+    return f"libusb-1.0 is not installed (pyrealsense2 needs it): sudo apt install {LIBUSB.package}"
 
 
 def realsense_rules(dirs: tuple[str, ...] = RULES_DIRS) -> list[str]:

@@ -30,7 +30,7 @@ from __future__ import annotations
 from .gl import default_backend as _default_backend
 from .session import session_id as _session_id
 
-_default_backend()  # MUJOCO_GL=egl on Linux unless set: headless rendering, no display needed
+_default_backend()  # MUJOCO_GL=egl on Linux with libEGL, unless set: headless rendering, no display needed
 _session_id()       # before any node process is spawned, so they all inherit it
 
 __all__: list[str] = []

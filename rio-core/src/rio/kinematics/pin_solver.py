@@ -14,6 +14,11 @@ from typing import Any
 import numpy as np
 
 from rio.kinematics.base import IKSolver, require
+from rio.machine.system_needs import SystemNeed
+
+#: The OpenMP runtime pinocchio's wheel links (not in a minimal Debian): without it `import pinocchio`
+#: raises ImportError.
+LIBGOMP = SystemNeed("libgomp1", library="libgomp.so.1", purpose="pinocchio, which links it")
 
 
 class PinocchioSolver(IKSolver):

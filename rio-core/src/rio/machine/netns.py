@@ -10,21 +10,26 @@ and `cut()` takes that link down as an unplugged cable would. Needs Linux and ro
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+
+from rio.machine.system_needs import SystemNeed
+
+#: The `ip` command that makes the namespaces (not in a minimal Debian, such as a container image).
+IPROUTE2 = SystemNeed("iproute2", program="ip")
 
 
 def available() -> str | None:
     """None when namespaces can be made here, else why not (a reason for a skip)."""
     if not sys.platform.startswith("linux"):
         return "network namespaces are Linux only"
+    missing = IPROUTE2.missing()
+    if missing is not None:
+        return missing
     if os.geteuid() != 0:
         return "creating network namespaces needs root"
-    if shutil.which("ip") is None:
-        return "the `ip` command (iproute2) is not installed"
     probe = f"rio-probe-{os.getpid()}"
     r = subprocess.run(["ip", "netns", "add", probe], capture_output=True, text=True)
     if r.returncode != 0:

@@ -4,6 +4,9 @@ A plugin knows which optional modules and system setup its components need; the 
 plugin declares them as `Requirement`s and `rio doctor` only evaluates them. Evaluating is safe on a
 broken machine: a module is located with `importlib.util.find_spec` (never imported, so a slow or
 crashing vendor SDK is not run just to be listed), and a check that raises is reported, not propagated.
+
+What no wheel can bring (a shared library or a program from a Debian package) is a
+`rio.machine.system_needs.SystemNeed`.
 """
 
 from __future__ import annotations

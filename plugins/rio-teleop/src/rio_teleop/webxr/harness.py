@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from rio.machine.system_needs import SystemNeed
+
 STATION = """\
 name = "webxr-harness"
 description = "fake arm + fake gripper driven by {driver}"
@@ -73,6 +75,19 @@ def chromium_path() -> str | None:
             return c
     found = shutil.which("chromium")
     return found
+
+
+def _no_chromium() -> str | None:
+    env = os.environ.get("RIO_CHROMIUM")
+    if chromium_path() is not None:
+        return None
+    return f"RIO_CHROMIUM={env} does not exist" if env else "no Chromium found (or set RIO_CHROMIUM to one)"
+
+
+#: What the page tests in a real browser need from the system: Chromium itself, and libatomic, which
+#: playwright's bundled driver (a node executable) links and Debian's chromium does not bring.
+CHROMIUM = SystemNeed("chromium", probe=_no_chromium, purpose="the WebXR page in a real headless browser")
+PLAYWRIGHT_DRIVER = SystemNeed("libatomic1", library="libatomic.so.1", purpose="playwright's driver (node)")
 
 
 def launch_chromium(playwright: Any) -> Any:
