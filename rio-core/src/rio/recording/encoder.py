@@ -4,6 +4,7 @@ push frames (never blocking), and close or abort an episode's streams."""
 from __future__ import annotations
 
 import itertools
+import os
 import socket
 import subprocess
 import sys
@@ -28,17 +29,27 @@ class EncoderProcess:
         # A fresh interpreter (`python -m`), not fork (the caller may own middleware threads) and not
         # multiprocessing's spawn (which re-imports the caller's __main__, breaking plain scripts).
         ours, theirs = socket.socketpair()
+        # Blocking, whatever `socket.setdefaulttimeout()` this process was given (the xArm SDK sets 1 s for the
+        # whole process when it connects): a socket made under a default timeout is non-blocking, the encoder
+        # inherits its end so, and its first read with nothing pending fails with EAGAIN, which it took for
+        # the recorder's exit (multiprocessing.Pipe sets its ends blocking for the same reason).
+        ours.setblocking(True)
+        theirs.setblocking(True)
         self.proc = subprocess.Popen([sys.executable, "-m", "rio.recording.encoder_main", str(theirs.fileno()),
                                       str(nice)], pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL)
         theirs.close()
-        self.conn = Connection(ours.detach())
+        # Commands go through `conn`, frame-ring descriptors through `_sock`: two descriptors of our end, each
+        # closed once by its owner. Not multiprocessing's send_handle: it wraps the command descriptor in a new
+        # socket object per call, which a default timeout makes non-blocking, and the flag is our end's, shared.
+        self._sock = ours
+        self.conn = Connection(os.dup(ours.fileno()))
         self.rings: dict[str, FrameRing] = {}
         self.errors: dict[str, str] = {}
         self._tokens = itertools.count()
 
     # -- streams ------------------------------------------------------------------------------------
     def ensure_ring(self, key: str, shape: tuple[int, ...], dtype: np.dtype, slots: int) -> FrameRing:
-        from multiprocessing.reduction import send_handle
+        from multiprocessing.reduction import sendfds
 
         ring = self.rings.get(key)
         if ring is not None and ring.shape == tuple(shape) and ring.dtype == np.dtype(dtype):
@@ -47,7 +58,7 @@ class EncoderProcess:
             self.wait_idle(key)
         ring = FrameRing(shape, np.dtype(dtype).str, slots)
         self._send(("ring", key, tuple(shape), np.dtype(dtype).str, slots))
-        send_handle(self.conn, ring.fd, self.proc.pid)
+        sendfds(self._sock, [ring.fd])  # what the encoder's recv_handle reads
         old = self.rings.pop(key, None)
         if old is not None:
             old.close()
@@ -168,6 +179,7 @@ class EncoderProcess:
                 self.proc.kill()
                 self.proc.wait()
         self.conn.close()
+        self._sock.close()
         for r in self.rings.values():
             r.close()
         self.rings.clear()

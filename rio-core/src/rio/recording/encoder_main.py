@@ -69,9 +69,12 @@ def encoder_main(conn: Any, nice: int = 10) -> None:
     while True:
         try:
             msg = conn.recv()
-        except (EOFError, OSError):  # the recorder is gone: end every stream on a whole fragment
+        except (EOFError, ConnectionError):  # the recorder is gone: end every stream on a whole fragment
             finish(list(writers), sync=True)
             return
+        except OSError as e:  # not the recorder's exit (EAGAIN: a non-blocking socket): say so, not exit 0
+            finish(list(writers), sync=True)
+            raise SystemExit(f"rio encoder: cannot read the recorder's commands: {e}") from None
         op = msg[0]
         if op == "frame":
             _, key, slot, depth_scale = msg
@@ -119,4 +122,8 @@ if __name__ == "__main__":
     import sys
     from multiprocessing.connection import Connection
 
-    encoder_main(Connection(int(sys.argv[1])), int(sys.argv[2]) if len(sys.argv) > 2 else 10)
+    fd = int(sys.argv[1])
+    # Reads wait for the next command, however the socket was made (a process-wide socket timeout in the
+    # recorder makes new sockets non-blocking: see EncoderProcess).
+    os.set_blocking(fd, True)
+    encoder_main(Connection(fd), int(sys.argv[2]) if len(sys.argv) > 2 else 10)
