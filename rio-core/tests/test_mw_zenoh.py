@@ -89,7 +89,7 @@ def test_bad_requests_rejected_and_node_keeps_serving(echo):
         c.send_request(q=np.zeros(5), client=0, seq=0)
     assert ei.value.field == "q"
     # The server re-checks what crosses the network, and says so: bypass the client's validation.
-    layout = c._node.layouts()[1]
+    layout = c._transport.request_queue.layout  # the record the server expects
     rec = layout.encode({"q": np.zeros(6), "client": 0, "seq": 0}, fill_timestamp=0.0)
     rec["q"][2] = np.nan
     with pytest.raises(rio.InvalidRequest, match="NaN") as ei:

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from rio.cli.teleop_cmd import _record_episodes
+from rio.station.load import load_station
 from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, episode_verdict
 from rio.teleop.feedback import DeviceFeedback
 from rio.testing import fake_eef_station
@@ -58,7 +59,7 @@ def test_record_keeps_and_discards_as_the_device_says(station, tmp_path):
                           recorder=recorder, duration=20, log=None)
 
     root = tmp_path / "data"
-    _record_episodes(run, str(root), 2, "keep", str(station), None, None, json_out=True)
+    _record_episodes(run, str(root), 2, "keep", load_station(str(station)), None, None, json_out=True)
     assert len(runs) == 3
     kept = sorted(p.name for p in root.iterdir() if p.name.startswith("episode"))
     assert len(kept) == 2

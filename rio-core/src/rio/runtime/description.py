@@ -44,7 +44,27 @@ def describe(node: Node, layouts: NodeLayouts) -> dict[str, Any]:
         state[attr] = value.tolist() if isinstance(value, np.ndarray) else value
     return {"data": _layout(layouts.data), "request": _layout(layouts.request),
             "buffer_capacity": layouts.buffer_capacity, "request_capacity": layouts.request_capacity,
-            "state": state}
+            "state": state, "config": node.config.model_dump(mode="json")}
+
+
+def client_config(cls: type[Node], name: str, config: Any, fields: dict[str, Any], description: dict[str, Any]) -> Any:
+    """The config a client's node gets: the server's own when the caller gives none; else the caller's, which
+    must agree with the server's on every field the caller sets (a client asking for another node than the
+    one running is an error naming the fields, not a silently different node)."""
+    from rio.config import validate_config
+    from rio.errors import ConfigError
+
+    served = description.get("config", {})
+    if config is None and not fields:
+        return cls.Config.model_validate(served)
+    cfg = validate_config(cls.Config, config, fields)
+    given = set(fields) | (set(config.model_fields_set) if hasattr(config, "model_fields_set") else set(config or {}))
+    mine = cfg.model_dump(mode="json")
+    differ = sorted(k for k in given if k in served and mine.get(k) != served[k])
+    if differ:
+        said = ", ".join(f"{k}={mine[k]!r} (it runs with {served[k]!r})" for k in differ)
+        raise ConfigError(f"node '{name}': this client asks for {said}; connect with the server's config, or none")
+    return cfg
 
 
 def _rebuilt(fields: list[list[Any]] | None, owner: str, what: str) -> Layout | None:

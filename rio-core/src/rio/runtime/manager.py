@@ -132,19 +132,24 @@ def connect(cls: type[N], mw: str | Middleware, *, name: str | None = None, stat
     it is not built and its `setup()` does not run here, except for a node whose address carries none (one
     served on another machine of a station), which is built here to learn its layouts.
     """
-    cls = _node_class(cls)
-    name = name or cls.__name__.lower()
-    cfg = _validated(cls, name, config, fields)
+    node_cls: type[Node] = _node_class(cls)
+    name = name or node_cls.__name__.lower()
     mwo = _middleware(mw, station)
     addr = address or _ADDRESSES.get((mwo.name, mwo.station, name))
     if addr is None:
         raise NodeDiedError(name, f"no '{mwo.name}' server for it is running in station '{mwo.station}' "
                                   "(start it with ServerManager, or pass address=)")
+    node: Node
     if D.KEY in addr:
-        node = D.client_node(cls, name, cfg, addr[D.KEY])
+        try:
+            cfg = D.client_config(node_cls, name, config, fields, addr[D.KEY])
+        except ValidationError as e:
+            raise ConfigError(f"node '{name}' ({node_cls.__name__}) config:\n  "
+                              + "\n  ".join(error_lines(e, "", node_cls.Config))) from None
+        node = D.client_node(node_cls, name, cfg, addr[D.KEY])
         layouts = D.layouts_of(addr[D.KEY], name)
     else:
-        node = _build_node(cls, name, cfg)
+        node = _build_node(node_cls, name, _validated(node_cls, name, config, fields))
         layouts = NodeLayouts.of(node)
     transport = mwo.make_client(node, layouts, addr)
     # the proxy stands in for the node: typed as its class (see the docstring), not as NodeClient
@@ -426,6 +431,8 @@ class ServerManager:
         pids = self.pids()
 
         def ring(h: _ThreadHandle | _ProcessHandle) -> dict[str, Any] | None:
+            if h.layouts is None:  # a process that has not reported its layouts yet
+                return None
             try:
                 return ring_reference(h.mw, h.layouts, h.address or {})
             except Exception:  # a middleware whose address lacks what a reference needs: process only
