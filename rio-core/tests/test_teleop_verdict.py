@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from rio.cli.teleop_cmd import _record_episodes
-from rio.station.load import load_station
 from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, episode_verdict
+from rio.station.load import load_station
 from rio.teleop.feedback import DeviceFeedback
 from rio.testing import fake_eef_station
 from rio.workflows.teleop import run_teleop
