@@ -169,7 +169,8 @@ def _task_line(success: bool, task: dict[str, Any]) -> str:
                else f"FAILED after {task.get('time_s', 0.0):.1f} s{limit}"
                + (f" (it had succeeded at {first:.1f} s)" if first is not None else ""))
     seeds = ", ".join(f"{k} {task[k]}" for k in ("seed", "episode", "episode_seed") if task.get(k) is not None)
-    return f"task {task.get('kind', '')}: {verdict}".replace("task : ", "task: ") + (f"; {seeds}" if seeds else "")
+    kind = f" {task['kind']}" if task.get("kind") else ""
+    return f"task{kind}: {verdict}" + (f"; {seeds}" if seeds else "")
 
 
 def _moved(o: ObjectMotion) -> bool:

@@ -79,14 +79,15 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
             session.started(manager)
             stack.enter_context(env)
             env.instruction = instruction
+            env.seed, env.episode = seed, episode or 0  # a controller may reset the env as it starts (deploy)
             controller = make_controller(session)
             if record:
                 from rio.recording import Recorder
 
                 recorder = stack.enter_context(Recorder(record, fps=freq, env=env, instruction=instruction,
                                                         metadata={"source": f"rio {controller.name}"}))
-            env.seed = seed
-            env.episode = episode if episode is not None else recorder.next_index() if recorder is not None else 0
+            if episode is None and recorder is not None:
+                env.episode = recorder.next_index()
             loop = ControlLoop(env, controller, rate_hz=freq, duration=duration, recorder=recorder, on_tick=on_tick,
                                stop=stop, trace=prof.trace if prof is not None else None, log=say)
             summary = loop.run()
