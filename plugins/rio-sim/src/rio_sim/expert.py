@@ -48,6 +48,8 @@ class WorldReader:
         self.data = mujoco.MjData(model)
         pairs = {arm: (cube, pad) for arm, cube, pad in scene.pick_place}
         self.arms = list(arms) if arms else [a for a, _, _ in scene.pick_place]
+        if not self.arms:
+            raise ValueError(f"scene '{scene.name}' has no pick-and-place objects for the expert to move")
         unknown = [a for a in self.arms if a not in pairs]
         if unknown:
             raise ValueError(f"arms: scene '{scene.name}' has no pick-and-place for {unknown}; "
