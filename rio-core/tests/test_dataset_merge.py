@@ -273,8 +273,9 @@ def test_export_to_lerobot_v3_carries_masks_and_tags(merged, tmp_path, capsys):
         a, b = row["dataset_from_index"], row["dataset_to_index"]
         assert b - a == len(ep) == row["length"]
         part = data.slice(a, b - a)
+        native = ep.column("action")  # exported: the command issued after each observation (the next row's)
         np.testing.assert_array_equal(np.asarray(part.column("action").to_pylist(), np.float32),
-                                      ep.column("action").astype(np.float32))
+                                      np.concatenate([native[1:], native[-1:]]).astype(np.float32))
         masks = np.asarray(part.column("mask.action").to_pylist())
         assert masks.shape == (len(ep), 14) and (masks == M.mask(ep, "action")).all()
         assert (np.asarray(part.column("mask.observation.state").to_pylist()) == M.mask(ep, "obs.proprio")).all()

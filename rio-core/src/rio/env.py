@@ -13,6 +13,11 @@ there instead of receiving a copy in each request (`rio.policy.frames`).
 Sensors (`<name>_sensor` roles: a force-torque sensor, the sim world's ground truth) belong to no
 morphology, so they are not in the `Observation`: each step carries their latest numeric values in
 `meta["sensors"][name]`, which the recorder stores as `meta.sensors.<name>.<key>` columns.
+
+A sensor may run a task (a sim world with a `[task]`): it offers `start_episode(seed, episode)`, which
+`reset()` calls to put the world at that episode's start (a seeded draw) and which returns what to record
+of it, and its samples carry `success`, `task_time` and `time_up`. The env keeps what it saw of them over
+the episode (`task_over()` for the control loop, `task_result()` for the summary and the episode's metadata).
 """
 
 from __future__ import annotations
@@ -43,6 +48,10 @@ class Env:
         self.sensors: dict[str, Any] = {}
         self.instruction: str | None = None
         self.timestep = 0
+        #: The episode `reset()` starts on a task sensor: its number and the run's seed (None: the task's own).
+        self.episode: int = 0
+        self.seed: int | None = None
+        self._task: dict[str, dict[str, Any]] = {}
         self.t_start: float | None = None
         self._stack: contextlib.ExitStack | None = None
 
@@ -78,10 +87,60 @@ class Env:
     def set_start_time(self, t_start: float) -> None:
         self.t_start = float(t_start)
 
-    def reset(self) -> Step:
-        self._robot().reset()
+    def reset(self, seed: int | None = None, episode: int | None = None) -> Step:
+        """Start an episode: every task sensor starts episode `episode` (default `self.episode`) of a run
+        seeded `seed` (default `self.seed`; None: the task's own seed), then the embodiment resets. Returns
+        the state after both, with the task sensors' samples taken after their start."""
+        robot = self._robot()
+        seed = self.seed if seed is None else seed
+        episode = self.episode if episode is None else int(episode)
+        self._task = {}
+        for name, client in self.sensors.items():
+            if "start_episode" not in dir(client):
+                continue
+            info = client.start_episode(seed, episode)
+            if info is not None:
+                self._task[name] = {"info": dict(info), "first_success_s": None, "last": {}}
+                _wait_newer(client, clock.now())
+        robot.reset()
         self.timestep = 0
         return self.get_state()
+
+    # -- the task's episode -------------------------------------------------------------------------
+    def task_over(self) -> str | None:
+        """Why the episode must end by the task's word (its time limit passed), from the samples the steps
+        read; None while it goes on or without a task."""
+        for t in self._task.values():
+            if bool(t["last"].get("time_up", False)):
+                return f"the task's time limit ({t['info'].get('time_limit_s', 0):g} s) passed"
+        return None
+
+    def task_result(self) -> dict[str, Any] | None:
+        """The episode's task, judged now (each task sensor read once more): `success` (every task
+        succeeded), `time_s` (the episode's task time), `first_success_s` (the task time success was first
+        seen at a step, None if never), with what the sensor said of the episode's start (seed, episode,
+        episode_seed, start poses, time limit). None without a task."""
+        if not self._task:
+            return None
+        for name in self._task:
+            self._note_task(name, self.sensors[name].get_state())
+        out: dict[str, Any] = {}
+        if len(self._task) == 1:
+            out.update(next(iter(self._task.values()))["info"])
+        else:
+            out["sensors"] = {n: t["info"] for n, t in self._task.items()}
+        times = [float(t["last"].get("task_time", 0.0)) for t in self._task.values()]
+        firsts = [t["first_success_s"] for t in self._task.values()]
+        out.update(success=all(bool(t["last"].get("success", False)) for t in self._task.values()),
+                   time_s=round(max(times), 3),
+                   first_success_s=None if None in firsts else round(max(firsts), 3))
+        return out
+
+    def _note_task(self, name: str, sample: dict[str, Any]) -> None:
+        t = self._task[name]
+        t["last"] = {k: sample[k] for k in ("success", "task_time", "time_up") if k in sample}
+        if t["first_success_s"] is None and bool(sample.get("success", False)):
+            t["first_success_s"] = float(sample.get("task_time", 0.0))
 
     def step(self, action: Any, t_cmd_target: float | None = None) -> Step:
         """Send `action` (flat vector, see `robot.describe_action()`) to be reached at `t_cmd_target`
@@ -106,6 +165,8 @@ class Env:
         stamps.update({f"{n}_camera": c.meta["timestamp"] for n, c in obs.cameras.items()})
         if self.sensors:
             meta["sensors"] = {name: self._sensor(name, client, stamps) for name, client in self.sensors.items()}
+            for name in self._task:
+                self._note_task(name, meta["sensors"][name])
         meta.update(t_obs=t_obs, timestamps=stamps, station=self.station)
         if self.t_start is not None:
             meta["t_start"] = self.t_start
@@ -125,3 +186,11 @@ class Env:
         if source is not None:  # a policy node on this machine reads the frame from there (rio.policy.frames)
             cam.meta["source"] = source
         return cam
+
+
+def _wait_newer(client: Any, t: float, timeout_s: float = 1.0) -> None:
+    """Wait (at most `timeout_s`) for `client` to publish a sample stamped after `t`: the first state
+    after a remote call is then the call's doing."""
+    deadline = t + timeout_s
+    while float(client.get_state()["timestamp"]) <= t and clock.now() < deadline:
+        clock.precise_wait(clock.now() + 0.002)

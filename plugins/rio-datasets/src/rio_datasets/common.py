@@ -1,5 +1,17 @@
 """What every exporter needs from a native dataset: the episodes asked for, one rate, the
-low-dimensional columns under stable names, and the camera streams (one frame per step)."""
+low-dimensional columns under stable names, and the camera streams (one frame per step).
+
+Two things an exporter writes differently from the native record, so a trainer can use its files as they are:
+
+- actions: a native step holds the command sent just before its observation was read (the control loop
+  sends, then reads: `env.step`), i.e. the command decided on the *previous* observation. Trainers pair an
+  observation with the command issued after it, so exported `action[t]` is native `action[t + 1]` (the last
+  step keeps its own: the robot holds its last command). `native_actions` undoes it on import, exactly
+  when the export recorded the episode's first native action (`rio_attrs`: `first_action`);
+- the environment state: the columns the episode's metadata names as such (`environment_state`, written by
+  the recorder: a simulator's object poses), flattened into one `environment_state` vector per step with
+  one name per element (`cube.x`, ..., `cube.qz`, ...), aligned with the observation (read at the same step).
+"""
 
 from __future__ import annotations
 
@@ -33,13 +45,66 @@ def common_fps(eps: list[Episode]) -> float:
     return rates.pop()
 
 
+#: The exported field of the environment state (`observation.environment_state` in LeRobot).
+ENVIRONMENT_STATE = "environment_state"
+#: How exported actions pair with observations (`rio_attrs`), see the module docstring.
+ACTIONS_AFTER_OBSERVATIONS = "action[t] is the command issued after observation[t]"
+
+
 def lowdim(ep: Episode) -> dict[str, np.ndarray]:
-    """{"action", "proprio", "proprio_eef", ..., "t"}: the numeric columns, (T, ...) each."""
+    """{"action", "proprio", "proprio_eef", ..., "environment_state", "t"}: the numeric columns, (T, ...)
+    each, actions paired with the observation they followed (`actions_after_observations`)."""
     out = ep.observation_columns()
     if "action" in ep.schema.names:
-        out["action"] = ep.column("action")
+        out["action"] = actions_after_observations(ep.column("action"))
+    env = environment_state(ep)
+    if env is not None:
+        out[ENVIRONMENT_STATE] = env[0]
     out["t"] = ep.column("t")
     return out
+
+
+def actions_after_observations(action: np.ndarray) -> np.ndarray:
+    """Native actions (each sent just before its step's observation) -> the command issued after each
+    observation: row t takes row t + 1's, the last keeps its own."""
+    out = np.array(action, copy=True)
+    out[:-1] = action[1:]
+    return out
+
+
+def native_actions(exported: np.ndarray, first: Any = None) -> np.ndarray:
+    """The inverse: row t takes exported row t - 1; row 0 is `first` (the native episode's first action,
+    as `rio_attrs` stored it), else exported row 0 (a dataset from elsewhere: its first command)."""
+    out = np.array(exported, copy=True)
+    out[1:] = exported[:-1]
+    if first is not None:
+        out[0] = np.array([np.nan if v is None else v for v in first], dtype=np.float64)
+    return out
+
+
+def environment_layout(ep: Episode) -> dict[str, dict[str, Any]]:
+    """{native column: {"names": element names, "shape": per-step shape}} of the episode's environment state."""
+    spec = ep.meta.get(ENVIRONMENT_STATE) or {}
+    shapes = {n: list(shape) for n, _, shape in ep.schema.fields}
+    out = {}
+    for col, names in spec.items():
+        if col not in shapes:
+            raise ExportError(f"episode {ep.index}: its environment state names column '{col}', "
+                              "which it did not record")
+        if int(np.prod(shapes[col])) != len(names):
+            raise ExportError(f"episode {ep.index}: '{col}' holds {int(np.prod(shapes[col]))} values per step but "
+                              f"{len(names)} names")
+        out[col] = {"names": list(names), "shape": shapes[col]}
+    return out
+
+
+def environment_state(ep: Episode) -> tuple[np.ndarray, list[str]] | None:
+    """The episode's environment state as one (T, E) float64 array and its E element names; None without."""
+    layout = environment_layout(ep)
+    if not layout:
+        return None
+    x = np.concatenate([ep.column(col).reshape(len(ep), -1).astype(np.float64) for col in layout], axis=1)
+    return x, [n for spec in layout.values() for n in spec["names"]]
 
 
 def image_streams(ep: Episode, depth: bool = True) -> list[tuple[str, str]]:
@@ -52,6 +117,13 @@ def rio_attrs(ep: Episode) -> dict[str, Any]:
     keys = ("fps", "instruction", "station", "embodiment", "action_names", "action_parts", "observation_class")
     out = {k: ep.meta.get(k) for k in keys if ep.meta.get(k) is not None}
     out["index"] = ep.index
+    if "action" in ep.schema.names:
+        first = ep.column("action")[0].reshape(-1)
+        out["actions"] = ACTIONS_AFTER_OBSERVATIONS
+        out["first_action"] = [float(v) if np.isfinite(v) else None for v in first]
+    layout = environment_layout(ep)
+    if layout:
+        out[ENVIRONMENT_STATE] = layout
     out["streams"] = {k: {f: v.get(f) for f in ("camera", "kind", "height", "width", "rate", "depth_unit_m")}
                       for k, v in ep.streams.items()}
     return out

@@ -4,15 +4,19 @@ ALOHA (act, lerobot's aloha converters): one file per episode, OUT/episode_<k>.h
     /action                       (T, A)
     /observations/qpos            (T, S)   proprio
     /observations/<field>         (T, ...) other observation fields (proprio_eef, ...)
+    /observations/environment_state (T, E) the environment state (a simulator's object poses); attrs `names`
     /observations/images/<cam>    (T, H, W, 3) uint8
     /observations/depth/<cam>     (T, H, W) uint16 (depth_unit_m units)
     attrs: sim=False, fps, rio (JSON)
 
 robomimic: one file, OUT.hdf5
-    /data/demo_<k>/actions, /obs/<field> (proprio as `state`), /obs/<cam>_image, /obs/<cam>_depth,
-    /rewards, /dones;  attrs num_samples;  /data attrs total, env_args (JSON);  /mask/train
+    /data/demo_<k>/actions, /obs/<field> (proprio as `state`, the environment state as `object`, robomimic's
+    name for it; attrs `names`), /obs/<cam>_image, /obs/<cam>_depth, /rewards, /dones;  attrs num_samples;
+    /data attrs total, env_args (JSON);  /mask/train
 
-Images are gzip-compressed chunks of one frame (lossless); state keeps its dtype (exact).
+Row t holds the observation fields and the environment state read at step t and the action issued after
+that observation (`common`: native actions shifted by one). Images are gzip-compressed chunks of one frame
+(lossless); state keeps its dtype (exact).
 """
 
 from __future__ import annotations
@@ -28,8 +32,21 @@ from rio.config import Config
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
 
-from .common import ExportError, check_same_layout, common_fps, image_streams, lowdim, rio_attrs, select
-from .native_writer import episode_steps, open_recorder
+from .common import (
+    ENVIRONMENT_STATE,
+    ExportError,
+    check_same_layout,
+    common_fps,
+    environment_state,
+    image_streams,
+    lowdim,
+    rio_attrs,
+    select,
+)
+from .native_writer import episode_steps, name_environment_state, open_recorder
+
+#: The environment state's dataset in each style.
+ENV_KEY = {"aloha": "environment_state", "robomimic": "object"}
 
 
 def _frames(ep: Any, cam: str, kind: str) -> np.ndarray:
@@ -58,6 +75,11 @@ class Hdf5Format(DatasetFormat):
             top.create_dataset("action" if aloha else "actions", data=action)
         for field, x in cols.items():
             name = ("qpos" if aloha else "state") if field == "proprio" else field
+            if field == ENVIRONMENT_STATE:
+                name = ENV_KEY["aloha" if aloha else "robomimic"]
+                env = environment_state(ep)
+                obs.create_dataset(name, data=x).attrs["names"] = json.dumps(env[1] if env is not None else [])
+                continue
             obs.create_dataset(name, data=x)
         obs.create_dataset("timestamp", data=t - t[0])
         for cam, kind in image_streams(ep, depth=self.config.depth):
@@ -141,6 +163,8 @@ class Hdf5Format(DatasetFormat):
                     if act in top:
                         low["action"] = top[act][()]
                     images: dict[tuple[str, str], Any] = {}
+                    env_key = ENV_KEY["aloha" if aloha else "robomimic"]
+                    env_names = json.loads(obs[env_key].attrs.get("names", "[]")) if env_key in obs else None
                     for name, item in obs.items():
                         if isinstance(item, h5py.Group):  # aloha images/ and depth/
                             for cam, d in item.items():
@@ -148,12 +172,18 @@ class Hdf5Format(DatasetFormat):
                         elif name.endswith(("_image", "_depth")):
                             cam, kind = name.rsplit("_", 1)
                             images[(cam, "rgb" if kind == "image" else "depth")] = iter(item[()])
+                        elif name == env_key:
+                            low[ENVIRONMENT_STATE] = item[()]
                         elif name != "timestamp":
                             low["proprio" if name in ("qpos", "state") else name] = item[()]
                     units = {s["camera"]: s.get("depth_unit_m") or 0.001 for s in meta.get("streams", {}).values()}
                     t = obs["timestamp"][()] if "timestamp" in obs else None
+                    if ENVIRONMENT_STATE in low:
+                        env = low[ENVIRONMENT_STATE]
+                        name_environment_state(rec, meta, env.reshape(len(env), -1).shape[1], env_names or None)
                     for step in episode_steps(low, images, fps, meta.get("instruction"),
-                                              meta.get("observation_class"), units, t):
+                                              meta.get("observation_class"), units, t, rio_meta=meta,
+                                              env_names=env_names or None):
                         rec.add(step)
                     rec.keep({"imported_from": str(src)})
                     n = len(next(iter(low.values())))

@@ -3,6 +3,10 @@
 Export re-encodes each camera at the dataset's rate with exactly one video frame per step (the
 frame that step saw), so video and parquet timestamps agree to the microsecond however the
 cameras' real rates drifted during recording: lerobot's tolerance checks cannot fail.
+
+Frame t holds `observation.state` (the proprio), the other observation fields, the environment state
+(`observation.environment_state`, float32, one name per element: `cube.x`, ..., `cube.qz`, ...) all read at
+step t, and `action`: the command issued after that observation (`common`: native actions shifted by one).
 """
 
 from __future__ import annotations
@@ -24,8 +28,18 @@ from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
 
 from . import lerobot_paths as LL
-from .common import ExportError, check_same_layout, common_fps, image_streams, lowdim, rio_attrs, select
-from .native_writer import episode_steps, open_recorder
+from .common import (
+    ENVIRONMENT_STATE,
+    ExportError,
+    check_same_layout,
+    common_fps,
+    environment_state,
+    image_streams,
+    lowdim,
+    rio_attrs,
+    select,
+)
+from .native_writer import episode_steps, name_environment_state, open_recorder
 
 EEF_NAMES = ["x", "y", "z", "qw", "qx", "qy", "qz"]
 
@@ -106,9 +120,15 @@ def _mask(ep: Any, col: str, size: int) -> np.ndarray:
     return np.ones(size, bool) if not isinstance(f, dict) else np.asarray(f["mask"], bool).reshape(-1)
 
 
-def _names(field: str, n: int, action_names: list[str] | None) -> list[str]:
+#: The LeRobot feature of the environment state.
+ENVIRONMENT_FEATURE = f"observation.{ENVIRONMENT_STATE}"
+
+
+def _names(field: str, n: int, action_names: list[str] | None, env_names: list[str] | None = None) -> list[str]:
     if field in ("proprio", "action") and action_names and len(action_names) == n:
         return list(action_names)
+    if field == ENVIRONMENT_STATE and env_names and len(env_names) == n:
+        return list(env_names)
     if field.endswith("eef") and n == 7:
         return list(EEF_NAMES)
     return [f"{field}_{i}" for i in range(n)]
@@ -136,15 +156,20 @@ class LeRobotFormat(DatasetFormat):
         cols = lowdim(ep)
         names = ep.meta.get("action_names")
         mapping = {"observation.state": "proprio", "action": "action"}
+        env = environment_state(ep)
+        if env is not None:  # the environment state is a standard LeRobot feature: exported either way
+            mapping[ENVIRONMENT_FEATURE] = ENVIRONMENT_STATE
         if o.extra_observations:
-            mapping.update({f"observation.{k}": k for k in cols if k not in ("proprio", "action", "t")})
+            mapping.update({f"observation.{k}": k for k in cols
+                            if k not in ("proprio", "action", "t", ENVIRONMENT_STATE)})
         feats = {}
         for key, col in mapping.items():
             if col not in cols:
                 raise ExportError(f"episode {ep.index} has no '{col}' column; "
                                   "LeRobot needs observation.state and action")
             n = int(np.prod(cols[col].shape[1:])) if cols[col].ndim > 1 else 1
-            feats[key] = {"dtype": "float32", "shape": [n], "names": _names(col, n, names)}
+            feats[key] = {"dtype": "float32", "shape": [n],
+                          "names": _names(col, n, names, env[1] if env is not None else None)}
         return feats, mapping
 
     def export(self, dataset: Dataset, out: Path, *, episodes: list[int] | None = None,
@@ -329,6 +354,9 @@ class LeRobotFormat(DatasetFormat):
         fps = float(info["fps"])
         rio = json.loads((src / "meta" / "rio.json").read_text()) if (src / "meta" / "rio.json").exists() else {}
         mapping = rio.get("mapping") or {"observation.state": "proprio", "action": "action"}
+        env_feature = info["features"].get(ENVIRONMENT_FEATURE)
+        if env_feature is not None:  # a LeRobot dataset from elsewhere has one too
+            mapping = {**mapping, ENVIRONMENT_FEATURE: ENVIRONMENT_STATE}
         rio_eps = rio.get("episodes", [])
         tasks = LL.read_tasks(src / LL.TASKS_PATH)
         ep_table = pa.concat_tables([pq.read_table(p) for p in sorted((src / "meta" / "episodes").glob("*/*.parquet"))])
@@ -355,7 +383,12 @@ class LeRobotFormat(DatasetFormat):
                 meta = rio_eps[e_i] if e_i < len(rio_eps) else {}
                 task_idx = part.column("task_index").to_pylist()
                 instruction = tasks[task_idx[0]] if task_idx else None
-                for step in episode_steps(low, images, fps, instruction or None, meta.get("observation_class")):
+                env_names = (env_feature or {}).get("names")
+                if ENVIRONMENT_STATE in low:
+                    env = low[ENVIRONMENT_STATE]
+                    name_environment_state(rec, meta, env.reshape(len(env), -1).shape[1], env_names)
+                for step in episode_steps(low, images, fps, instruction or None, meta.get("observation_class"),
+                                          rio_meta=meta, env_names=env_names):
                     step.instruction = tasks[task_idx[step.timestep]] or None
                     rec.add(step)
                 rec.keep({"imported_from": str(src), "lerobot_episode_index": r["episode_index"]})

@@ -4,10 +4,15 @@
       data/action            (N, A)        every step of every episode, concatenated
       data/state             (N, S)        proprio (the policy's action space)
       data/<field>           (N, ...)      other observation fields (proprio_eef, gripper_position, ...)
+      data/environment_state (N, E)        the environment state (a simulator's object poses), float64;
+                                           its attrs `names`: one per element (cube.x, ..., cube.qz, ...)
       data/timestamp         (N,)          seconds since the episode start
       data/<camera>_rgb      (N, H, W, 3)  uint8, one chunk per frame
       data/<camera>_depth    (N, H, W)     uint16 in depth_unit_m units (lossless)
       meta/episode_ends      (E,)          cumulative step counts (episode k = [ends[k-1], ends[k]))
+
+Row i holds the observation fields and the environment state read at step i and `action`, the command
+issued after that observation (`common`: native actions shifted by one).
 
 Written as Zarr format 2 (what diffusion_policy's and UMI's zarr<3 ReplayBuffer open); root
 attributes hold `rio` (fps, instructions, layout) so an import restores the episodes exactly.
@@ -25,8 +30,18 @@ from rio.config import Config
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
 
-from .common import ExportError, check_same_layout, common_fps, image_streams, lowdim, rio_attrs, select
-from .native_writer import episode_steps, open_recorder
+from .common import (
+    ENVIRONMENT_STATE,
+    ExportError,
+    check_same_layout,
+    common_fps,
+    environment_state,
+    image_streams,
+    lowdim,
+    rio_attrs,
+    select,
+)
+from .native_writer import episode_steps, name_environment_state, open_recorder
 
 
 def _zarr():
@@ -100,6 +115,9 @@ class ZarrFormat(DatasetFormat):
             done += n
             if progress:
                 progress(done, total, f"episode {ep.index}")
+        env = environment_state(eps[0])
+        if env is not None:
+            arrays[ENVIRONMENT_STATE].attrs["names"] = env[1]
         meta.create_array("episode_ends", shape=(len(ends),), dtype=np.int64, chunks=(max(len(ends), 1),))[:] = ends
         root.attrs["rio"] = {"fps": fps, "episodes": [rio_attrs(e) for e in eps],
                              "fields": {_name(f): f for f in lowdim(eps[0]) if f != "t"}}
@@ -126,8 +144,12 @@ class ZarrFormat(DatasetFormat):
                 units = {s["camera"]: s.get("depth_unit_m") or 0.001 for s in m.get("streams", {}).values()}
                 images = {(c, kind): _rows(data[f"{c}_{kind}"], start, end) for c, kind in cams}
                 t = np.asarray(data["timestamp"][start:end]) if "timestamp" in names else None
+                env_names = data[ENVIRONMENT_STATE].attrs.get("names") if ENVIRONMENT_STATE in names else None
+                if ENVIRONMENT_STATE in low:
+                    name_environment_state(rec, m, low[ENVIRONMENT_STATE].reshape(end - start, -1).shape[1],
+                                           env_names)
                 for step in episode_steps(low, images, fps, m.get("instruction"), m.get("observation_class"),
-                                          units, t):
+                                          units, t, rio_meta=m, env_names=env_names):
                     rec.add(step)
                 rec.keep({"imported_from": str(src)})
                 start = end

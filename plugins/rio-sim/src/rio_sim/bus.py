@@ -14,7 +14,10 @@ them (threads of one process or a process each):
   so writers never contend; the world picks a slot up when its stamp changes and its check matches,
   and interpolates towards the target in physics time;
 - servo gains, one slot per actuator, written the same way by the actuator's owner: `kp`, `kd` of a
-  position servo (a humanoid's joint PD, configured on its node), applied by the world at once.
+  position servo (a humanoid's joint PD, configured on its node), applied by the world at once;
+- the episode, in the header, written by the world when a task starts one (`rio_sim.task`): a counter,
+  its start in simulated time and its time limit, so a node that plays the task (the scripted expert)
+  knows how long it has.
 
 The block's name joins the user id, a session id that `rio_sim` puts in the environment of the
 process that builds the station (inherited by the node processes it spawns), and the world's name,
@@ -42,6 +45,8 @@ _MAGIC = 0x52494F53494D  # "RIOSIM"
 _VERSION = 3
 # int64 header fields (the state's check is a uint64)
 _H_MAGIC, _H_VERSION, _H_PID, _H_READY, _H_CLOSED, _H_SEQ, _H_NQ, _H_NV, _H_NU, _H_CHECK = range(10)
+# the episode: a counter (bumped last), then its start and time limit (float64 in int64 slots)
+_H_EPISODE, _H_EPISODE_T0, _H_TIME_LIMIT = range(10, 13)
 _NHDR = 16
 _NAME_BYTES = 128
 #: How long a reader waits for a write in progress before calling the writer dead (a preempted writer on
@@ -222,6 +227,20 @@ class WorldBus:
                     break
                 host.yield_cpu()
         raise RioError(f"sim world state stayed locked for {_LOCKED_S} s (a writer died mid-write?)")
+
+    # -- episode --------------------------------------------------------------------------------
+    def write_episode(self, t0_sim: float, time_limit_s: float) -> int:
+        """A new episode started at simulated time `t0_sim`, lasting at most `time_limit_s` (0: no limit).
+        Returns its number (1, 2, ... on this bus)."""
+        f = self.hdr.view(np.float64)
+        f[_H_EPISODE_T0], f[_H_TIME_LIMIT] = float(t0_sim), float(time_limit_s)
+        self.hdr[_H_EPISODE] += 1  # last: a reader seeing the new number sees its times
+        return int(self.hdr[_H_EPISODE])
+
+    def read_episode(self) -> tuple[int, float, float]:
+        """(number, start in simulated time, time limit) of the current episode; number 0: none started."""
+        f = self.hdr.view(np.float64)
+        return int(self.hdr[_H_EPISODE]), float(f[_H_EPISODE_T0]), float(f[_H_TIME_LIMIT])
 
     # -- commands -------------------------------------------------------------------------------
     @staticmethod

@@ -23,6 +23,9 @@ def rio_drivers() -> list[Spec]:
              "simulated parallel gripper"),
         Spec("sim.camera", "camera", f"{_S}.camera:SimCamera",
              "simulated camera: RGB and depth by offscreen rendering"),
+        Spec("teleop.expert", "teleop", f"{_S}.expert:SimExpert",
+             "scripted expert for a sim station's pick-and-place task (reads the world's true state): "
+             "demonstrations from every start, ended with keep or discard"),
         Spec("sim.g1", "humanoid", f"{_S}.humanoid:SimG1",
              "simulated Unitree G1 (29 DoF): joint PD servos, pelvis IMU, wrist IK model; on a stand or free"),
         Spec("sim.t1", "humanoid", f"{_S}.humanoid:SimT1",
@@ -33,8 +36,8 @@ def rio_drivers() -> list[Spec]:
 
 
 _STATIONS = {
-    "sim-so100": "SO-100 arm + gripper, wrist and front cameras, cube to pick (MuJoCo)",
-    "sim-bimanual": "two SO-100 arms + grippers, wrist and front cameras (MuJoCo)",
+    "sim-so100": "SO-100 arm + gripper, wrist and front cameras; task: the cube onto the pad, random starts (MuJoCo)",
+    "sim-bimanual": "two SO-100 arms + grippers, wrist and front cameras; task: each cube onto its pad (MuJoCo)",
     "sim-xarm7": "xArm7 + gripper, wrist and front (RGB-D) cameras, end-effector actions (MuJoCo)",
     "sim-g1": "Unitree G1 + Dex3-1 hands on a stand at a table, head camera, scripted hand tracking (MuJoCo)",
     "sim-t1": "Booster T1 on a stand at a table, head camera, scripted hand tracking (MuJoCo)",

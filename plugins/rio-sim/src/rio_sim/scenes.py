@@ -11,7 +11,13 @@ with its base free instead of welded.
 
 Objects sit where the packaged teleop script (`teleop.scripted`, preset "pick_place") expects them:
 a cube `PICK_OFFSET` from each arm's home tool position and a flat target pad at `PLACE_OFFSET`, so
-one script picks and places on every packaged scene, whatever the arm.
+one script picks and places on every packaged scene, whatever the arm. A scene names those pairs
+(`Scene.pick_place`: arm, cube, pad), which a task (`rio_sim.task`) moves at every episode start and
+judges at the end.
+
+The pad is a free body too, but weightless (gravity compensated) and without collisions: it stays
+where it is put, and since its pose is part of the state every node reads from the world bus, a pad
+moved at an episode start is where the cameras render it and where the world publishes it.
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ from .robots import get_robot
 PICK_OFFSET = (0.0, 0.06, -0.085)
 PLACE_OFFSET = (0.0, -0.06, -0.08)
 CUBE = 0.025  # edge (m)
+PAD = 0.06    # edge of the square place pad (m)
 TABLE_HEIGHT = 0.75
 
 
@@ -68,7 +75,8 @@ class SceneObject:
     pos: tuple[float, float, float]
     rgba: tuple[float, float, float, float]
     mass: float = 0.03
-    free: bool = True         # False: a fixed, non-colliding marker (a place pad)
+    free: bool = True         # a free joint: its pose is state (published, settable); False: fixed
+    solid: bool = True        # False: a weightless marker that never collides (a place pad)
 
 
 @dataclass(frozen=True)
@@ -89,6 +97,8 @@ class Scene:
     table: tuple[float, float] = (0.45, 0.6)   # half extents x, y
     table_center: tuple[float, float] = (0.15, 0.0)
     humanoid: HumanoidMount | None = None
+    #: (arm, object, target): the arm that picks `object` and puts it on the pad `target`
+    pick_place: tuple[tuple[str, str, str], ...] = ()
 
     def arm(self, name: str) -> ArmMount:
         for a in self.arms:
@@ -105,6 +115,12 @@ class Scene:
     def free_objects(self) -> list[SceneObject]:
         return [o for o in self.objects if o.free]
 
+    def object(self, name: str) -> SceneObject:
+        for o in self.objects:
+            if o.name == name:
+                return o
+        raise KeyError(f"scene '{self.name}' has no object '{name}'; objects: {[o.name for o in self.objects]}")
+
 
 def _pick_place_objects(arm: ArmMount, tag: str, colors: tuple) -> list[SceneObject]:
     home = np.asarray(get_robot(arm.robot).home_tool)
@@ -112,8 +128,12 @@ def _pick_place_objects(arm: ArmMount, tag: str, colors: tuple) -> list[SceneObj
     pad = arm.to_world(home + PLACE_OFFSET)
     return [
         SceneObject(f"cube{tag}", "box", (CUBE / 2,) * 3, (cube[0], cube[1], CUBE / 2), colors[0]),
-        SceneObject(f"pad{tag}", "box", (0.03, 0.03, 0.001), (pad[0], pad[1], 0.001), colors[1], free=False),
+        SceneObject(f"pad{tag}", "box", (PAD / 2, PAD / 2, 0.001), (pad[0], pad[1], 0.001), colors[1], solid=False),
     ]
+
+
+def _pairs(arms: tuple[ArmMount, ...], tags: tuple[str, ...]) -> tuple[tuple[str, str, str], ...]:
+    return tuple((a.name, f"cube{t}", f"pad{t}") for a, t in zip(arms, tags, strict=True))
 
 
 def _look(pos, lookat, fovy=55.0, name="front") -> SceneCamera:
@@ -127,7 +147,7 @@ def _so100() -> Scene:
              SceneObject("block", "box", (0.02, 0.012, 0.012), (0.13, 0.16, 0.012), (0.95, 0.8, 0.2, 1))]
     return Scene("so100", "SO-100 on a table: a red cube to pick, a blue pad to place it on, a can and a block",
                  (arm,), tuple(objs), (_look((0.55, 0.0, 0.35), (0.18, 0.0, 0.02)),),
-                 table=(0.35, 0.4), table_center=(0.15, 0.0))
+                 table=(0.35, 0.4), table_center=(0.15, 0.0), pick_place=_pairs((arm,), ("",)))
 
 
 def _bimanual() -> Scene:
@@ -136,7 +156,7 @@ def _bimanual() -> Scene:
     objs += _pick_place_objects(right, "_right", ((0.95, 0.6, 0.1, 1), (0.3, 0.8, 0.4, 1)))
     return Scene("so100_bimanual", "two SO-100 side by side, a cube and a pad in front of each",
                  (left, right), tuple(objs), (_look((0.6, 0.0, 0.45), (0.18, 0.0, 0.0), 60),),
-                 table=(0.35, 0.5), table_center=(0.15, 0.0))
+                 table=(0.35, 0.5), table_center=(0.15, 0.0), pick_place=_pairs((left, right), ("_left", "_right")))
 
 
 def _one_arm(robot: str, label: str, can: tuple[float, float, float, float, float], camera: tuple,
@@ -149,7 +169,7 @@ def _one_arm(robot: str, label: str, can: tuple[float, float, float, float, floa
     r, h, x, y, mass = can
     objs += [SceneObject("can", "cylinder", (r, h), (x, y, h), (0.2, 0.7, 0.3, 1), mass=mass)]
     return Scene(robot, f"{label} on a table: a red cube to pick, a blue pad, a can", (arm,), tuple(objs),
-                 (_look(*camera, 55),), table=table, table_center=table_center)
+                 (_look(*camera, 55),), table=table, table_center=table_center, pick_place=_pairs((arm,), ("",)))
 
 
 def _xarm7() -> Scene:
@@ -186,7 +206,7 @@ def _g1() -> Scene:
     """The G1's wrists are 0.08-0.12 m above this table at home, 0.25 m in front of the pelvis: the cube
     is a short reach forward and down for the right hand, the pad for the left."""
     objs = (SceneObject("cube", "box", (CUBE / 2,) * 3, (0.33, -0.12, CUBE / 2), (0.85, 0.2, 0.2, 1)),
-            SceneObject("pad", "box", (0.03, 0.03, 0.001), (0.33, 0.12, 0.001), (0.2, 0.4, 0.9, 1), free=False))
+            SceneObject("pad", "box", (PAD / 2, PAD / 2, 0.001), (0.33, 0.12, 0.001), (0.2, 0.4, 0.9, 1), solid=False))
     return Scene("g1", "Unitree G1 (29 DoF, Dex3-1 hands) on a stand at a table: a red cube, a blue pad", (),
                  objs, (_look((1.3, -0.6, 0.55), (0.2, 0.0, 0.1), 50),), table=(0.25, 0.5),
                  table_center=(0.45, 0.0), humanoid=HumanoidMount())
@@ -197,7 +217,7 @@ def _t1() -> Scene:
     front of the trunk, its elbows just below the top, so the table starts 0.28 m in front of the trunk,
     clear of the forearms. The cube is a reach forward and down for the right hand, the pad for the left."""
     objs = (SceneObject("cube", "box", (CUBE / 2,) * 3, (0.4, -0.12, CUBE / 2), (0.85, 0.2, 0.2, 1)),
-            SceneObject("pad", "box", (0.03, 0.03, 0.001), (0.4, 0.12, 0.001), (0.2, 0.4, 0.9, 1), free=False))
+            SceneObject("pad", "box", (PAD / 2, PAD / 2, 0.001), (0.4, 0.12, 0.001), (0.2, 0.4, 0.9, 1), solid=False))
     return Scene("t1", "Booster T1 (23 DoF) on a stand at a table: a red cube, a blue pad", (), objs,
                  (_look((1.3, -0.6, 0.55), (0.3, 0.0, 0.05), 50),), table=(0.25, 0.5), table_center=(0.53, 0.0),
                  humanoid=HumanoidMount(name="t1", hands=False, robot="t1"))
@@ -273,8 +293,12 @@ def build_spec(scene: Scene, max_render: tuple[int, int] = (1280, 960)):
                   rgba=list(obj.rgba))
         if obj.free:
             body.add_freejoint(name=obj.name)
+        if obj.free and obj.solid:
             body.add_geom(**kw, mass=obj.mass, contype=1, conaffinity=3, condim=4, friction=[1.2, 0.02, 0.001],
                           solref=[0.004, 1.0])
+        elif obj.free:  # a marker that moves only when put somewhere: weightless, touching nothing
+            body.gravcomp = 1.0
+            body.add_geom(**kw, mass=obj.mass, contype=0, conaffinity=0)
         else:
             body.add_geom(**kw, contype=0, conaffinity=0)
     for cam in scene.cameras:

@@ -23,6 +23,15 @@ def running_world(scene: str = "xarm7", world: str = "sim") -> Iterator[Any]:
         yield client
 
 
+def without_task(station: Any) -> Any:
+    """Sim `station` (name, path or `Station`) with its world's task taken out: the objects stay where the
+    scene puts them, where the packaged script (`teleop.scripted`, preset pick_place) picks and places."""
+    from rio.station.edit import with_component
+    from rio.station.load import load_station
+
+    return with_component(load_station(station), "world_sensor", fields={"task": None})
+
+
 def check_cube_on_pad(summary: Any, robot: str, tolerance_m: float = 0.015) -> None:
     """The world's cube (scene object "cube") was lifted, carried to the pad of `robot`'s scene and put
     down on the table, according to a teleop run's `summary` (its objects are the world's ground truth)."""

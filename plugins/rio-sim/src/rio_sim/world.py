@@ -14,6 +14,12 @@ variant (every node follows: they compile what the bus names).
 If the machine cannot keep up, at most `max_steps_per_tick` physics steps run per tick and the rest
 of the lag is dropped: simulated time then runs slower than wall time (`rtf` < 1) instead of the
 physics spiralling behind.
+
+With a `task` (`rio_sim.task`) the world also runs episodes: `start_episode(seed, episode)` (what
+`Env.reset` calls on every sensor that offers it) puts the objects at that episode's drawn start, and
+every sample carries `success` (`rio_sim.success`: every cube on its pad, released), `task_time` (simulated
+seconds since the episode started) and `time_up` (the task's time limit has passed). The station opens
+at episode 0's start.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ import copy
 from typing import Any
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from rio import clock
 from rio.control.interpolators import LinearInterpolator
@@ -32,6 +38,7 @@ from .bus import WorldBus
 from .indices import arm_indices, joint_indices
 from .robots import get_robot
 from .scenes import SCENES, get_scene, scene_key
+from .task import TaskConfig, check_task, sample_start
 
 
 class SimWorld(Node):
@@ -45,6 +52,14 @@ class SimWorld(Node):
         mounted: bool = Field(True, description="humanoid scenes: the pelvis welded to a stand at standing height "
                                                 "(upper-body work without a balance controller); false: a free-"
                                                 "floating base, which falls without a locomotion policy")
+        task: TaskConfig | None = Field(None, description="episodes with randomized starts, success and a time "
+                                                          "limit (see rio_sim.task)")
+
+        @model_validator(mode="after")
+        def _task_fits_scene(self):
+            if self.task is not None:
+                check_task(self.task, get_scene(self.scene))
+            return self
 
     def setup(self) -> None:
         c = self.config
@@ -53,7 +68,12 @@ class SimWorld(Node):
         self.objects = [o.name for o in self.scene.free_objects]
         n = max(len(self.objects), 1)
         self.example_data = {"sim_time": 0.0, "rtf": 1.0, "object_poses": np.zeros((n, 7))}
+        self.task = c.task
+        if self.task is not None:
+            self.example_data.update(success=False, task_time=0.0, time_up=False)
         self.model = self.data = self.bus = None
+        self.judge = None
+        self._t_episode = 0.0
 
     @client_side
     def object_names(self) -> list[str]:
@@ -74,6 +94,11 @@ class SimWorld(Node):
         self._home()
         self.bus = WorldBus.create(self.world, self.scene_name, m.nq, m.nv, m.nu)
         self._seen, self._gains_seen = self.bus.cmd_stamp.copy(), self.bus.gain_stamp.copy()
+        if self.task is not None:
+            from .success import PickPlaceJudge
+
+            self.judge = PickPlaceJudge(m, self.scene)
+            self._start(self.task.seed, 0)
         self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
         self.bus.mark_ready()
 
@@ -146,23 +171,56 @@ class SimWorld(Node):
         poses = np.zeros((max(len(self.objects), 1), 7))
         for i, adr in enumerate(self._obj_qadr):
             poses[i] = d.qpos[adr:adr + 7]
-        return {"sim_time": float(d.time), "rtf": float(self._rtf), "object_poses": poses}
+        out = {"sim_time": float(d.time), "rtf": float(self._rtf), "object_poses": poses}
+        if self.task is not None:
+            t = float(d.time) - self._t_episode
+            out.update(success=self.judge(d), task_time=t, time_up=t >= self.task.time_limit_s)
+        return out
 
     # -- remote API -----------------------------------------------------------------------------
     @remote
     def reset(self) -> None:
-        """Put objects, arms and a humanoid back where the scene starts them (they jump home)."""
+        """Put objects, arms and a humanoid back where the scene starts them (they jump home); a task's
+        clock restarts (its objects stay at the scene's places: `start_episode` draws a start)."""
         self._home()
+        if self.task is not None:
+            self._t_episode = float(self.data.time)
+            self.bus.write_episode(self._t_episode, self.task.time_limit_s)
         self._seen = self.bus.cmd_stamp.copy()
         self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
 
     @remote
     def set_object_pose(self, name: str, pose: list[float]) -> None:
         """Teleport a free object to `[x, y, z, qw, qx, qy, qz]` (world frame) at rest."""
+        self._place(name, pose)
+        self._mj.mj_forward(self.model, self.data)
+
+    def _place(self, name: str, pose: Any) -> None:
         if name not in self.objects:
             raise KeyError(f"no free object '{name}'; objects: {self.objects}")
         m, d = self.model, self.data
         j = m.joint(name)
         d.qpos[j.qposadr[0]:j.qposadr[0] + 7] = np.asarray(pose, dtype=np.float64)
         d.qvel[j.dofadr[0]:j.dofadr[0] + 6] = 0.0
-        self._mj.mj_forward(m, d)
+
+    @remote
+    def start_episode(self, seed: int | None = None, episode: int = 0) -> dict[str, Any] | None:
+        """Start episode `episode` of a run seeded `seed` (None: the task's own `seed`): the task's objects
+        jump to that episode's drawn start, at rest, and its clock restarts. Returns what to record of it
+        (`rio_sim.task.EpisodeStart.to_json`, with the task's kind and time limit); None without a task
+        (nothing moves). The arms stay where they are: a workflow starts each episode on a station just
+        started, its arms at home."""
+        if self.task is None:
+            return None
+        start = self._start(self.task.seed if seed is None else int(seed), int(episode))
+        self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
+        return {"kind": self.task.kind, "time_limit_s": self.task.time_limit_s, **start.to_json()}
+
+    def _start(self, seed: int, episode: int) -> Any:
+        start = sample_start(self.task, self.scene, seed, episode)
+        for name, pose in start.poses.items():
+            self._place(name, pose)
+        self._mj.mj_forward(self.model, self.data)
+        self._t_episode = float(self.data.time)
+        self.bus.write_episode(self._t_episode, self.task.time_limit_s)
+        return start

@@ -15,6 +15,7 @@ from rio.cli.run_cmd import (
     ProfileOption,
     RateOption,
     RecordOption,
+    SeedOption,
     StationArgument,
     TeleopOption,
     TeleopSetOption,
@@ -30,6 +31,7 @@ def deploy(
     instruction: Annotated[str | None, typer.Option(
         "--instruction", "-i", help="Task text given to the policy.")] = None,
     record: RecordOption = None,
+    seed: SeedOption = None,
     duration: DurationOption = None,
     rate: RateOption = None,
     threshold: Annotated[float, typer.Option(
@@ -62,5 +64,5 @@ def deploy(
     summary = run_deploy(station, policy, instruction=instruction, record=record, duration=duration,
                          middleware=middleware, rate_hz=rate, config=config, profile=profile,
                          device=device, device_config=key_values(teleop_set, "--teleop-set"),
-                         log=lambda m: typer.echo(m, err=True))
+                         log=lambda m: typer.echo(m, err=True), seed=seed)
     finish(summary, json_out)

@@ -32,6 +32,9 @@ RecordOption = Annotated[str | None, typer.Option(
     "--record", callback=output_dir, help="Record the run as an episode of the dataset DIR (created if absent).")]
 MiddlewareOption = Annotated[str | None, typer.Option(
     "--middleware", "-m", callback=not_empty, help="Override the station's middleware.")]
+SeedOption = Annotated[int | None, typer.Option(
+    "--seed", min=0, help="On a station with a task (a sim world's \\[task]): the run's seed; episode k starts from "
+                          "the draw of (seed, k), k the recorded episode's index (default: the task's own seed).")]
 TeleopOption = Annotated[str | None, typer.Option(
     "--teleop", "-t", callback=not_empty,
     help="Teleop device: keyboard, scripted, or any registered teleop driver (default: the station's own).")]

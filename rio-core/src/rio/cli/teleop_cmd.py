@@ -15,6 +15,7 @@ from rio.cli.run_cmd import (
     ProfileOption,
     RateOption,
     RecordOption,
+    SeedOption,
     StationArgument,
     TeleopOption,
     TeleopSetOption,
@@ -57,6 +58,7 @@ def teleop(
     rate: RateOption = None,
     middleware: MiddlewareOption = None,
     record: RecordOption = None,
+    seed: SeedOption = None,
     episodes: Annotated[int, typer.Option("--episodes", min=1, help="With --record: episodes to keep.")] = 1,
     on_end: Annotated[str, typer.Option("--on-end", callback=one_of("auto", "ask", "keep", "discard"),
                                         help="With --record, after each run: ask (keys k/d/r in a terminal), keep "
@@ -79,7 +81,7 @@ def teleop(
         return run_teleop(st, instruction=instruction, viz=viz,
                           duration=duration, middleware=middleware, rate_hz=rate, mode=mode, hand=hand, scale=scale,
                           max_pos_speed=max_pos_speed, max_rot_speed=max_rot_speed, align_speed=align_speed,
-                          recorder=recorder, profile=profile, log=lambda m: typer.echo(m, err=True))
+                          recorder=recorder, profile=profile, log=lambda m: typer.echo(m, err=True), seed=seed)
 
     if record is None:
         finish(run(), json_out)

@@ -6,8 +6,9 @@ after this cycle ends (`t_target`), so drivers interpolate smoothly between comm
 what every workflow needs and used to write for itself: pacing, wake-up lateness and overrun
 accounting (a loop that fell a whole period behind re-anchors instead of bursting), the episode
 boundary (`env.reset()` before, settling after), recording each step, ending on the controller's
-word, a duration or a signal (`rio.loop.signals`), tracking commanded against measured
-(`rio.loop.tracking`), profiling spans, and the end `RunSummary`.
+word, a duration, the task's time limit (`env.task_over()`) or a signal (`rio.loop.signals`), tracking
+commanded against measured (`rio.loop.tracking`), profiling spans, and the end `RunSummary` (with the
+task's verdict, `env.task_result()`, also given to the recorder as the episode's metadata).
 
 A controller is a small object (see `Controller`); everything else is optional, looked up by name:
 
@@ -155,6 +156,7 @@ class ControlLoop:
     def _loop(self, stop: StopSignals, wait: Callable[[float], Any], t_start: float, tracker: ArmTracker,
               objects: ObjectWatch, lateness: Reservoir) -> None:
         env, ctl, s, dt = self.env, self.controller, self.summary, self.dt
+        task_over = getattr(env, "task_over", None) or (lambda: None)
         grid = clock.Schedule(dt, t_start, phase=0.5)  # wake mid-cycle
         s.reason = "duration reached"
         try:
@@ -179,7 +181,7 @@ class ControlLoop:
                     if late > dt:  # fell a whole period behind: re-anchor, no burst
                         s.overruns += 1
                         grid.reanchor(clock.now())
-                reason = ctl.done()
+                reason = ctl.done() or task_over()
                 if reason:
                     s.reason = reason
                     break
@@ -235,6 +237,11 @@ class ControlLoop:
             rate = meter.rate()
             if rate is not None:
                 s.node_rates_hz[role] = round(rate, 1)
+        task = getattr(self.env, "task_result", lambda: None)()
+        if task is not None:
+            s.task, s.success = task, bool(task["success"])
+            if self.recorder is not None and "annotate" in dir(self.recorder):
+                self.recorder.annotate(task=task)
         p50, p99 = lateness.percentile(50), lateness.percentile(99)
         if p50 is not None and p99 is not None:
             s.lateness_us = {"p50": round(p50 * 1e6, 1), "p99": round(p99 * 1e6, 1),

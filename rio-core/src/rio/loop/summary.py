@@ -9,7 +9,10 @@ means the same thing everywhere:
   that time (joints in rad, tool position in m; max / mean / final), and the path the tool travelled
   next to the path it was commanded to travel. Comparing only the final pose with the final target
   reports success for an arm that never moved, when the target never moved either;
-- per-node publishing rates over the run, and ground-truth object motion where a simulator tells it.
+- per-node publishing rates over the run, and ground-truth object motion where a simulator tells it;
+- the task's verdict where a sensor runs one (a sim world with a task): `success` (None without a task)
+  and `task` (the episode's seed and start, its task time, when success was first seen), from
+  `Env.task_result()`; the same dict goes into the recorded episode's metadata.
 
 A run in which an arm was commanded to move but did not follow sets `followed = False`: the summary
 says so in a warning line and the command-line workflows exit with status 3 (docs/controllers.md).
@@ -85,6 +88,10 @@ class RunSummary:
     objects: list[ObjectMotion] = field(default_factory=list)
     #: samples per second each node published during the run
     node_rates_hz: dict[str, float] = field(default_factory=dict)
+    #: whether the episode's task succeeded at the end of the run; None: the station runs no task
+    success: bool | None = None
+    #: the task's episode: seed, episode, episode_seed, start poses, time_s, first_success_s, time_limit_s
+    task: dict[str, Any] = field(default_factory=dict)
     #: the signal that ended the run (SIGINT, SIGTERM, SIGHUP), if one did
     signal: str | None = None
     #: what the workflow adds: deploy's inference stats, replay's episode, leader-follower alignment...
@@ -118,6 +125,8 @@ class RunSummary:
                 f"lifted up to {(o.max_z - o.start[2]) * 100:.1f} cm" for o in moved]
         if self.objects and not moved:
             out.append("  no object moved")
+        if self.success is not None:
+            out.append("  " + _task_line(self.success, self.task))
         if self.node_rates_hz:
             out.append("  node rates: " + ", ".join(f"{n} {hz:.0f} Hz" for n, hz in self.node_rates_hz.items()))
         out += ["  " + line for line in self.lines]
@@ -151,6 +160,17 @@ def _arm_line(a: ArmTracking) -> str:
     if not a.followed:
         parts.append("DID NOT FOLLOW its commands;")
     return " ".join(parts).rstrip(";")
+
+
+def _task_line(success: bool, task: dict[str, Any]) -> str:
+    limit = f" of {task['time_limit_s']:g} s" if task.get("time_limit_s") else ""
+    first = task.get("first_success_s")
+    verdict = (f"SUCCESS (first at {first:.1f} s{limit})" if success and first is not None else "SUCCESS" if success
+               else f"FAILED after {task.get('time_s', 0.0):.1f} s{limit}"
+               + (f" (it had succeeded at {first:.1f} s)" if first is not None else ""))
+    seeds = ", ".join(f"{k} {task[k]}" for k in ("seed", "episode", "episode_seed") if task.get(k) is not None)
+    kind = f" {task['kind']}" if task.get("kind") else ""
+    return f"task{kind}: {verdict}" + (f"; {seeds}" if seeds else "")
 
 
 def _moved(o: ObjectMotion) -> bool:

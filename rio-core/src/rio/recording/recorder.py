@@ -37,6 +37,8 @@ from rio.recording.video import VideoOptions, video_problem
 
 #: free space below which no episode starts and one in progress is ended (kept while it still can be)
 MIN_FREE_BYTES = 64 << 20
+#: The elements of a recorded pose (position in m, then the unit quaternion w, x, y, z).
+POSE_NAMES = ("x", "y", "z", "qw", "qx", "qy", "qz")
 
 
 class RecordingError(RioError):
@@ -143,8 +145,15 @@ class Recorder:
         self.last_close_s: float | None = None
 
     def describe_env(self, env: Any) -> None:
-        """Take station, embodiment and action names from an Env (before the first `add`)."""
+        """Take station, embodiment and action names from an Env (before the first `add`), and the names of
+        its environment state: the object poses of every sensor that names its objects (a simulator's
+        world: `object_names()`, rows of its `object_poses`), as `environment_state`, {column: element
+        names} (`cube.x`, ..., `cube.qz`), which exporters turn into `observation.environment_state`."""
         self.info["station"] = self.info.get("station") or getattr(env, "station", None)
+        state = {f"meta.sensors.{name}.object_poses": [f"{o}.{c}" for o in client.object_names() for c in POSE_NAMES]
+                 for name, client in (getattr(env, "sensors", None) or {}).items() if "object_names" in dir(client)}
+        if state:
+            self.info["environment_state"] = state
         robot = getattr(env, "robot", None)
         if robot is not None:
             self.info["embodiment"] = robot.name
@@ -284,6 +293,13 @@ class Recorder:
         if not path.name.endswith(L.PARTIAL_SUFFIX):  # the disk filled after it was sealed: only the index is behind
             return f"was kept as {L.episode_dir_name(w.index)}; `rio datasets repair {self.root}` updates the index"
         return f"was left as {path.name}: free some space, then run `rio datasets repair {self.root}`"
+
+    def annotate(self, **metadata: Any) -> None:
+        """Add to the metadata of the episode in progress (kept in its episode.json under `metadata`: the
+        control loop adds the task's verdict here); nothing without one."""
+        with self._mutex:
+            if self.writer is not None:
+                self._episode_metadata.update(metadata)
 
     def keep(self, metadata: dict | None = None, *, ended_by: str = "keep") -> dict[str, Any] | None:
         """Finish the episode in progress: durable, renamed into place, indexed. Returns its

@@ -6,6 +6,10 @@ target and builds the embodiment's action (IK for joint-space arms). It is done 
 (with `BUTTON_KEEP` / `BUTTON_DISCARD`: the episode's verdict, in the summary), or when a device with
 a known length (a script) has run its course. One device (`teleop`) drives every
 arm, each in its own base frame; a `teleop2` device, when the station has one, drives `arm2`.
+
+A device that moves several arms apart (the sim's scripted expert) also publishes `twists` (n, 6) and
+`grippers` (n,): row i drives the i-th arm the device drives, in role order (arm, arm2), integrated and
+filtered exactly as `twist`; `twist` and `gripper` stay its first row, for controllers that read one.
 """
 
 from __future__ import annotations
@@ -20,6 +24,8 @@ from rio.teleop.bindings import ArmBinding, bind_arms, build_action
 from rio.teleop.feedback import DeviceFeedback
 
 DEVICE_ROLES = ("teleop", "teleop2")
+#: The rates a device publishes that the loop integrates: one twist, or one per arm.
+_RATES = ("twist", "twists")
 
 
 class DevicePoll:
@@ -37,29 +43,37 @@ class DevicePoll:
         self.client, self.k = client, int(min(history, getattr(client, "buffer_capacity", 64) or 64))
         s = client.get_state()
         self.t_last = float(s["timestamp"])
-        self.twist_last = np.asarray(s["twist"], dtype=np.float64).copy()
+        self.rates = [key for key in _RATES if key in s]
+        self.last = {key: np.asarray(s[key], dtype=np.float64).copy() for key in self.rates}
         self.held_s = 0.0  # time the held twist was already integrated over, past t_last
 
     def __call__(self, h: float) -> dict:
         s = self.client.get_state(k=self.k)
         ts = np.asarray(s["timestamp"], dtype=np.float64)
-        tw = np.asarray(s["twist"], dtype=np.float64)
         new = ts > self.t_last
         latest = {key: np.asarray(v)[-1] for key, v in s.items()}
+        out: dict[str, Any] = {}
         if new.any():
-            t_prev, tw_prev, delta = self.t_last, self.twist_last, np.zeros(6)
-            for t_i, tw_i in zip(ts[new], tw[new], strict=True):
-                delta += 0.5 * (tw_prev + tw_i) * (t_i - t_prev)
-                t_prev, tw_prev = t_i, tw_i
-            span = t_prev - self.t_last
-            self.t_last, self.twist_last = t_prev, tw_prev
-            twist = delta / span if span > 0 else tw_prev
+            span = float(ts[new][-1] - self.t_last)
+            for key in self.rates:
+                rate = np.asarray(s[key], dtype=np.float64)[new]
+                t_prev, prev, delta = self.t_last, self.last[key], np.zeros_like(self.last[key])
+                for t_i, r_i in zip(ts[new], rate, strict=True):
+                    delta += 0.5 * (prev + r_i) * (t_i - t_prev)
+                    t_prev, prev = t_i, r_i
+                self.last[key] = prev
+                out[key] = delta / span if span > 0 else prev.copy()
+            self.t_last = float(ts[new][-1])
             buttons = np.any(np.asarray(s["buttons"], dtype=bool)[new], axis=0)
             h, self.held_s = max(span - self.held_s, 0.0), 0.0
         else:  # no new sample (a device slower than the loop): hold its last twist
-            twist, buttons = self.twist_last.copy(), np.asarray(latest["buttons"], dtype=bool)
+            out.update({key: self.last[key].copy() for key in self.rates})
+            buttons = np.asarray(latest["buttons"], dtype=bool)
             self.held_s += h
-        return {"twist": twist, "h": h, "gripper": float(latest["gripper"]), "buttons": buttons, "raw": latest}
+        out.update(h=h, gripper=float(latest["gripper"]), buttons=buttons, raw=latest)
+        if "grippers" in latest:
+            out["grippers"] = np.asarray(latest["grippers"], dtype=np.float64)
+        return out
 
 
 class TwistTeleop:
@@ -72,7 +86,7 @@ class TwistTeleop:
                  visual: Any = None):
         self.devices, self.device, self.visual = devices, device, visual
         self.max_pos_speed, self.max_rot_speed = max_pos_speed, max_rot_speed
-        self.filters = {r: LowPassFilter(filter_hz) if filter_hz else None for r in devices}
+        self.filters = {(r, key): LowPassFilter(filter_hz) for r in devices for key in _RATES} if filter_hz else {}
         self.edges = {r: ButtonEdges() for r in devices}
         self.switch = ModeSwitch(TeleopMode.parse(mode))
         self.end = EpisodeEnd()
@@ -93,6 +107,8 @@ class TwistTeleop:
                 b.reset_target()
         self.drive = {b.role: ("teleop2" if b.role == "arm2" and "teleop2" in self.devices else "teleop")
                       for b in self.arms}
+        self.row = {b.role: [b2.role for b2 in self.arms if self.drive[b2.role] == self.drive[b.role]].index(b.role)
+                    for b in self.arms}  # which of its device's `twists` rows drives the arm
         self.polls = {r: DevicePoll(dev) for r, dev in self.devices.items()}
         self.feedback = DeviceFeedback(self.devices, log=loop.say)
         for dev in self.devices.values():  # optional device API, looked up by name
@@ -115,15 +131,19 @@ class TwistTeleop:
             self.end.update(p["buttons"])
             if r == "teleop":
                 self.switch.update(bool(pressed.size > BUTTON_MODE and pressed[BUTTON_MODE]), tick.t)
-            lowpass = self.filters[r]
-            if lowpass is not None:  # on the span it is integrated over (see LowPassFilter.over)
-                p["twist"] = lowpass.over(p["twist"], p["h"])
+            for key in _RATES:
+                lowpass = self.filters.get((r, key))
+                if lowpass is not None and key in p:  # on the span it is integrated over (see LowPassFilter.over)
+                    p[key] = lowpass.over(p[key], p["h"])
         for b in self.arms:
-            p = polled[self.drive[b.role]]
-            b.target = make_teleop_eef_cmd(b.target, p["twist"], p["h"], self.switch.mode, self.max_pos_speed,
+            p, i = polled[self.drive[b.role]], self.row[b.role]
+            twists, grippers = p.get("twists"), p.get("grippers")
+            twist = twists[i] if twists is not None and i < len(twists) else p["twist"]
+            b.target = make_teleop_eef_cmd(b.target, twist, p["h"], self.switch.mode, self.max_pos_speed,
                                            self.max_rot_speed)
             if b.gripper is not None:
-                b.gripper_cmd = p["gripper"] * b.max_width
+                grip = grippers[i] if grippers is not None and i < len(grippers) else p["gripper"]
+                b.gripper_cmd = float(grip) * b.max_width
         tick.info.update(devices={r: p["raw"] for r, p in polled.items()}, arms=self.arms, mode=self.switch.mode)
         if self.body is not None:
             return self.body.action(tick.env.robot)

@@ -21,12 +21,14 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
                rate_hz: float | None = None, config: AsyncConfig | None = None,
                on_tick: Callable[[Tick], None] | None = None, log: Callable[[str], None] | None = print,
                ready_timeout: float = 600.0, profile: str | None = None, registry: Any = None,
-               device: str | None = None, device_config: dict | None = None) -> RunSummary:
+               device: str | None = None, device_config: dict | None = None, seed: int | None = None,
+               episode: int | None = None) -> RunSummary:
     """Run `policy` (a `--policy` SPEC; default: the station's policy component) on `station`
     (registered name, .toml path or `Station`) until `duration` seconds pass or a stop signal.
     Each tick's `info` holds the schedule's `sample` (None while holding) and the `chunk` that landed.
     `device` (+ `device_config`): the station's `teleop` component, replaced or added, for a policy that
-    reads a device (`onnx.locomotion`'s `command_from`)."""
+    reads a device (`onnx.locomotion`'s `command_from`). `seed`, `episode`: the task's episode on a station
+    that runs one (`run_workflow`)."""
     from rio.policy.resolve import resolve_policy
     from rio.station.edit import without_role
     from rio.workflows.run import run_workflow
@@ -41,4 +43,4 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
 
     return run_workflow(without_role(st, POLICY_ROLE), make, middleware=middleware, rate_hz=rate_hz, duration=duration,
                         instruction=instruction, record=record, on_tick=on_tick, profile=profile,
-                        registry=registry, log=log)
+                        registry=registry, log=log, seed=seed, episode=episode)

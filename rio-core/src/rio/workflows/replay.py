@@ -1,5 +1,6 @@
 """`replay_episode`: play a recorded episode's actions back on any station of the same morphology, on the
-one control loop (`rio.recording.replay.EpisodeReplay`)."""
+one control loop (`rio.recording.replay.EpisodeReplay`). An episode recorded on a station with a task is
+replayed from the same start: its seed and episode number (episode.json's `metadata.task`) are passed on."""
 
 from __future__ import annotations
 
@@ -33,8 +34,9 @@ def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str 
         check_compatible(ep.meta, session.env, actions.shape[1])
         return EpisodeReplay(actions, t, ep.fps, speed=speed, approach_s=approach_s, episode=episode)
 
+    task = (ep.meta.get("metadata") or {}).get("task") or {}  # the recording's task episode: the same start
     summary = run_workflow(station, make, middleware=middleware, rate_hz=ep.fps * speed, on_tick=on_tick,
-                           profile=profile, log=log)
+                           profile=profile, log=log, seed=task.get("seed"), episode=task.get("episode"))
     if not valid.all():
         summary.warnings.append(f"{int((~valid).sum())} steps without an action skipped")
     return summary

@@ -46,11 +46,14 @@ class Session:
 def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, middleware: str | None = None,
                  rate_hz: float | None = None, duration: float | None = None, instruction: str | None = None,
                  record: str | None = None, recorder: Any = None, on_tick: Callable[[Tick], None] | None = None,
-                 profile: str | None = None, registry: Any = None, log: Callable[[str], None] | None = print
-                 ) -> RunSummary:
+                 profile: str | None = None, registry: Any = None, log: Callable[[str], None] | None = print,
+                 seed: int | None = None, episode: int | None = None) -> RunSummary:
     """Run the controller `make_controller(session)` builds on `station` (name, .toml path or `Station`).
     `record`: a dataset directory to record this run into as one episode; `recorder`: an open Recorder
-    instead (a multi-episode session). `profile`: a directory for the trace, timeline and stats."""
+    instead (a multi-episode session). `profile`: a directory for the trace, timeline and stats.
+    A station whose sensor runs a task (a sim world's `[task]`) starts episode `episode` of a run seeded
+    `seed` (`Env.reset`; None: the task's own seed); `episode` defaults to the index the recorded episode
+    will get (so each episode of a dataset has its own start), else 0."""
     from rio.runtime.manager import ServerManager
     from rio.station.build import make_station
     from rio.station.load import load_station
@@ -76,12 +79,15 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
             session.started(manager)
             stack.enter_context(env)
             env.instruction = instruction
+            env.seed, env.episode = seed, episode or 0  # a controller may reset the env as it starts (deploy)
             controller = make_controller(session)
             if record:
                 from rio.recording import Recorder
 
                 recorder = stack.enter_context(Recorder(record, fps=freq, env=env, instruction=instruction,
                                                         metadata={"source": f"rio {controller.name}"}))
+            if episode is None and recorder is not None:
+                env.episode = recorder.next_index()
             loop = ControlLoop(env, controller, rate_hz=freq, duration=duration, recorder=recorder, on_tick=on_tick,
                                stop=stop, trace=prof.trace if prof is not None else None, log=say)
             summary = loop.run()

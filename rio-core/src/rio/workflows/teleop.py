@@ -50,12 +50,15 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
                max_rot_speed: float = 1.0, filter_hz: float | None = 8.0, device_config: dict | None = None,
                align_speed: float = 0.5, record: str | None = None, recorder: Any = None, profile: str | None = None,
                on_tick: Callable[[Tick], None] | None = None,
-               log: Callable[[str], None] | None = print) -> RunSummary:
+               log: Callable[[str], None] | None = print, seed: int | None = None,
+               episode: int | None = None) -> RunSummary:
     """Teleoperate `station` (registered name or .toml path) with `device` (default: the station's
     own `teleop` component). `viz=True` streams to rerun (a string: save to that .rrd file).
     `record`: a dataset directory to record the run into; `recorder`: an open Recorder instead.
     `mode`: translation (twist devices' default), translation_rotation (hand trackers' default), ...;
-    hand trackers: `hand` drives a single arm, `scale` multiplies wrist motion."""
+    hand trackers: `hand` drives a single arm, `scale` multiplies wrist motion. `seed`, `episode`: the
+    task's episode on a station that runs one (`run_workflow`). A twist device may name the mode it drives
+    in (`default_mode`, the scripted expert: translation_rotation); `mode` overrides it."""
     from rio.teleop.hands import HandTeleop
     from rio.teleop.leader_follower import LeaderFollower
     from rio.teleop.twist import DEVICE_ROLES, TwistTeleop
@@ -79,9 +82,11 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
             from rio.viz import make_viz
 
             visual = make_viz(st.name, viz if isinstance(viz, str) else None, warn=session.log)
-        return TwistTeleop(devices, device=st.components["teleop"].driver, mode=mode or "translation",
+        default = getattr(st.components["teleop"].node_class(), "default_mode", None) or "translation"
+        return TwistTeleop(devices, device=st.components["teleop"].driver, mode=mode or default,
                            max_pos_speed=max_pos_speed, max_rot_speed=max_rot_speed, filter_hz=filter_hz,
                            visual=visual)
 
     return run_workflow(st, make, middleware=middleware, rate_hz=rate_hz, duration=duration, instruction=instruction,
-                        record=record, recorder=recorder, on_tick=on_tick, profile=profile, log=log)
+                        record=record, recorder=recorder, on_tick=on_tick, profile=profile, log=log, seed=seed,
+                        episode=episode)
