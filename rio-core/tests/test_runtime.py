@@ -184,3 +184,26 @@ def test_a_node_with_an_arrival_event_publishes_each_sample_as_it_arrives():
                 time.sleep(0.002)
             assert 25 in seen
             assert len(seen) >= 10  # paced at 1 Hz it would have published a handful
+
+
+def test_start_up_says_each_node_ready_and_who_is_awaited(monkeypatch):
+    """`rio teleop` used to print nothing for 45-90 s between "starting station" and "teleop running"."""
+    from rio.runtime import manager
+
+    monkeypatch.setattr(manager, "_NAG_S", 0.3)
+    said: list[str] = []
+    nodes = [serve(Counter, name="quick"), serve(SlowToConnect, name="slow", delay_s=1.0)]
+    with ServerManager("thread", nodes, progress=said.append):
+        pass
+    ready = [line for line in said if "ready (" in line]
+    assert [line.split()[0] for line in ready] == ["quick", "slow"], said
+    assert float(ready[1].split("(")[1].split(" s")[0]) >= 0.9  # the slow node's own time
+    assert any(line.strip().startswith("waiting for slow (") for line in said), said  # named while awaited
+    assert not any("quick" in line for line in said if "waiting" in line)
+
+
+def test_a_start_that_times_out_names_the_node_and_what_to_try():
+    with pytest.raises(rio.RioError) as e:
+        with ServerManager("thread", [serve(SlowToConnect, name="s", delay_s=2.0)], ready_timeout=0.3):
+            pass
+    assert "['s']" in str(e.value) and "--ready-timeout" in str(e.value) and "ready_timeout_s" in str(e.value)

@@ -14,6 +14,7 @@ from rio.cli.run_cmd import (
     MiddlewareOption,
     ProfileOption,
     RateOption,
+    ReadyTimeoutOption,
     RecordOption,
     SeedOption,
     StationArgument,
@@ -48,6 +49,7 @@ def deploy(
     lowpass: Annotated[float | None, typer.Option(
         "--lowpass", callback=positive, help="Low-pass cutoff on commands (Hz).")] = None,
     middleware: MiddlewareOption = None,
+    ready_timeout: ReadyTimeoutOption = None,
     device: TeleopOption = None,
     teleop_set: TeleopSetOption = None,
     json_out: JsonOption = False,
@@ -64,5 +66,5 @@ def deploy(
     summary = run_deploy(station, policy, instruction=instruction, record=record, duration=duration,
                          middleware=middleware, rate_hz=rate, config=config, profile=profile,
                          device=device, device_config=key_values(teleop_set, "--teleop-set"),
-                         log=lambda m: typer.echo(m, err=True), seed=seed)
+                         log=lambda m: typer.echo(m, err=True), seed=seed, ready_timeout=ready_timeout)
     finish(summary, json_out)

@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 
 from rio.cli.args import known_station, non_negative, not_empty, positive
-from rio.cli.run_cmd import JsonOption, MiddlewareOption, ProfileOption
+from rio.cli.run_cmd import JsonOption, MiddlewareOption, ProfileOption, ReadyTimeoutOption
 
 
 def replay(
@@ -25,6 +25,7 @@ def replay(
                                               help="Seconds to move to the first action.")] = 2.0,
     allow_damaged: Annotated[bool, typer.Option("--allow-damaged",
                                                 help="Replay an episode whose files fail their sha256.")] = False,
+    ready_timeout: ReadyTimeoutOption = None,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
 ) -> None:
@@ -37,5 +38,5 @@ def replay(
     with damaged_warnings():
         summary = replay_episode(Dataset(dataset, allow_damaged=allow_damaged), episode, station,
                                  middleware=middleware, speed=speed, approach_s=approach_s, profile=profile,
-                                 log=lambda m: typer.echo(m, err=True))
+                                 log=lambda m: typer.echo(m, err=True), ready_timeout=ready_timeout)
     finish(summary, json_out)

@@ -32,6 +32,9 @@ RecordOption = Annotated[str | None, typer.Option(
     "--record", callback=output_dir, help="Record the run as an episode of the dataset DIR (created if absent).")]
 MiddlewareOption = Annotated[str | None, typer.Option(
     "--middleware", "-m", callback=not_empty, help="Override the station's middleware.")]
+ReadyTimeoutOption = Annotated[float | None, typer.Option(
+    "--ready-timeout", callback=positive,
+    help="Seconds the station's nodes may take to start (default: the station's ready_timeout_s, 60 s).")]
 SeedOption = Annotated[int | None, typer.Option(
     "--seed", min=0, help="On a station with a task (a sim world's \\[task]): the run's seed; episode k starts from "
                           "the draw of (seed, k), k the recorded episode's index (default: the task's own seed).")]
@@ -98,6 +101,7 @@ def run(
                                                                                "step.")] = None,
     record: RecordOption = None,
     middleware: MiddlewareOption = None,
+    ready_timeout: ReadyTimeoutOption = None,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
 ) -> None:
@@ -114,5 +118,5 @@ def run(
 
     summary = run_workflow(station, make, middleware=middleware, rate_hz=rate,
                            duration=duration, instruction=instruction, record=record, profile=profile,
-                           log=lambda m: typer.echo(m, err=True))
+                           log=lambda m: typer.echo(m, err=True), ready_timeout=ready_timeout)
     finish(summary, json_out)

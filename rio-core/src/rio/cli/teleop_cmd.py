@@ -14,6 +14,7 @@ from rio.cli.run_cmd import (
     MiddlewareOption,
     ProfileOption,
     RateOption,
+    ReadyTimeoutOption,
     RecordOption,
     SeedOption,
     StationArgument,
@@ -57,6 +58,7 @@ def teleop(
                                                  help="Tool rotation speed limit (rad/s).")] = 1.0,
     rate: RateOption = None,
     middleware: MiddlewareOption = None,
+    ready_timeout: ReadyTimeoutOption = None,
     record: RecordOption = None,
     seed: SeedOption = None,
     episodes: Annotated[int, typer.Option("--episodes", min=1, help="With --record: episodes to keep.")] = 1,
@@ -81,7 +83,8 @@ def teleop(
         return run_teleop(st, instruction=instruction, viz=viz,
                           duration=duration, middleware=middleware, rate_hz=rate, mode=mode, hand=hand, scale=scale,
                           max_pos_speed=max_pos_speed, max_rot_speed=max_rot_speed, align_speed=align_speed,
-                          recorder=recorder, profile=profile, log=lambda m: typer.echo(m, err=True), seed=seed)
+                          recorder=recorder, profile=profile, log=lambda m: typer.echo(m, err=True), seed=seed,
+                          ready_timeout=ready_timeout)
 
     if record is None:
         finish(run(), json_out)

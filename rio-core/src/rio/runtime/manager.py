@@ -28,6 +28,7 @@ import tempfile
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
@@ -231,6 +232,8 @@ def _log_node_error(name: str, e: BaseException, after_start: bool) -> None:
 #: A node that says how long it waits for its device (`connect_timeout_s`) gets that long to be ready,
 #: plus this for what `open()` does after connecting.
 _AFTER_CONNECT_S = 15.0
+#: While nodes start, who is still awaited is said this often.
+_NAG_S = 5.0
 
 
 def _connect_timeout(config: Any) -> float:
@@ -352,7 +355,7 @@ class ServerManager:
 
     def __init__(self, mw_or_servers: Any, servers: Any = None, *, station: str = "rio",
                  mw_options: dict[str, Any] | None = None, ready_timeout: float = 60.0,
-                 stop_timeout: float = 5.0):
+                 stop_timeout: float = 5.0, progress: Callable[[str], None] | None = None):
         if servers is None:
             default_mw, servers = None, mw_or_servers
         else:
@@ -364,6 +367,8 @@ class ServerManager:
             raise ConfigError(f"two servers share the name(s) {dupes}; give each a distinct name=")
         self.station, self.default_mw, self.mw_options = station, default_mw, mw_options or {}
         self.ready_timeout, self.stop_timeout = ready_timeout, stop_timeout
+        #: Told each node's start ("arm ready (1.2 s)") and, every few seconds, who is still awaited.
+        self.progress = progress
         self.handles: list[_ThreadHandle | _ProcessHandle] = []
         #: Tags everything this manager creates (run directory, shared-memory names).
         self.run_id = uuid.uuid4().hex[:8]
@@ -407,12 +412,28 @@ class ServerManager:
     def _wait_ready(self) -> None:
         timeout = max([self.ready_timeout] + [h.connect_timeout_s + _AFTER_CONNECT_S for h in self.handles
                                               if h.connect_timeout_s > 0])
-        deadline = clock.now() + timeout
+        t0 = clock.now()
+        deadline, nag = t0 + timeout, t0 + _NAG_S
+        say = self.progress or (lambda _line: None)
         pending = list(self.handles)
         while pending:
-            pending = [h for h in pending if not h.poll_ready()]
-            if pending and clock.now() > deadline:
-                raise RioError(f"nodes not ready after {timeout:.0f} s: {[h.name for h in pending]}")
+            still = []
+            for h in pending:
+                if h.poll_ready():
+                    say(f"  {h.name} ready ({clock.now() - t0:.1f} s)")
+                else:
+                    still.append(h)
+            pending = still
+            now = clock.now()
+            if pending and now > deadline:
+                raise RioError(f"nodes not ready after {timeout:.0f} s: {[h.name for h in pending]}. A node that is "
+                               "only slow to start (a loaded machine, a first model compile, a device that boots) "
+                               "needs more time: "
+                               f"--ready-timeout {2 * timeout:.0f}, or ready_timeout_s in the station file; one that "
+                               "never starts: check its device and `rio doctor`")
+            if pending and now >= nag:
+                nag = now + _NAG_S
+                say(f"  waiting for {', '.join(h.name for h in pending)} ({now - t0:.0f} s of {timeout:.0f} s)")
             if pending:
                 clock.precise_wait(clock.now() + 0.002)
         for h in self.handles:

@@ -93,7 +93,8 @@ def parse_station(data: dict[str, Any], *, source: str = "<dict>", registry: Reg
     mw = top.middleware.model_dump()
     emb = top.embodiment.model_dump()
     return Station(
-        name=top.name, description=top.description, rate_hz=top.rate_hz, components=components,
+        name=top.name, description=top.description, rate_hz=top.rate_hz, ready_timeout_s=top.ready_timeout_s,
+        components=components,
         middleware=mw.pop("name"), middleware_options=mw,
         embodiment=emb.pop("name"), embodiment_options=emb, source=source, machines=top.machines,
     )

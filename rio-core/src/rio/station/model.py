@@ -54,6 +54,9 @@ class StationFile(BaseModel):
     description: str = ""
     #: Rate of the control loop (Hz); `Env.step` targets commands one period ahead by default.
     rate_hz: float = Field(30.0, gt=0)
+    #: How long its nodes may take to be ready before the start is given up (a node that says how long it
+    #: waits for its device, `connect_timeout_s`, gets that plus 15 s where longer). `--ready-timeout` overrides.
+    ready_timeout_s: float = Field(60.0, gt=0, le=3600)
     middleware: MiddlewareSection = Field(default_factory=MiddlewareSection)
     embodiment: EmbodimentSection = Field(default_factory=EmbodimentSection)
     components: dict[str, dict[str, Any]] = Field(min_length=1)
@@ -84,6 +87,7 @@ class Station:
     components: dict[str, Component]
     description: str = ""
     rate_hz: float = 30.0
+    ready_timeout_s: float = 60.0
     middleware: str = "shm"
     middleware_options: dict[str, Any] = field(default_factory=dict)
     embodiment: str | None = None

@@ -47,13 +47,15 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
                  rate_hz: float | None = None, duration: float | None = None, instruction: str | None = None,
                  record: str | None = None, recorder: Any = None, on_tick: Callable[[Tick], None] | None = None,
                  profile: str | None = None, registry: Any = None, log: Callable[[str], None] | None = print,
-                 seed: int | None = None, episode: int | None = None) -> RunSummary:
+                 seed: int | None = None, episode: int | None = None, ready_timeout: float | None = None
+                 ) -> RunSummary:
     """Run the controller `make_controller(session)` builds on `station` (name, .toml path or `Station`).
     `record`: a dataset directory to record this run into as one episode; `recorder`: an open Recorder
     instead (a multi-episode session). `profile`: a directory for the trace, timeline and stats.
     A station whose sensor runs a task (a sim world's `[task]`) starts episode `episode` of a run seeded
     `seed` (`Env.reset`; None: the task's own seed); `episode` defaults to the index the recorded episode
-    will get (so each episode of a dataset has its own start), else 0."""
+    will get (so each episode of a dataset has its own start), else 0. `ready_timeout`: seconds the station's
+    nodes may take to start (default: the station's `ready_timeout_s`)."""
     from rio.runtime.manager import ServerManager
     from rio.station.build import make_station
     from rio.station.load import load_station
@@ -74,7 +76,8 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
         elsewhere = "".join(f", {n} on {m}" for m, n in remote.items())
         say(f"starting station '{st.name}' ({len(servers)} nodes here{elsewhere}, over "
             f"{next(iter(clients.values())).mw.name}) ...")
-        with ServerManager(servers, station=st.name) as manager, contextlib.ExitStack() as stack:
+        with ServerManager(servers, station=st.name, ready_timeout=ready_timeout or st.ready_timeout_s,
+                           progress=say) as manager, contextlib.ExitStack() as stack:
             session = Session(env, clients, stack, st, say, prof)
             session.started(manager)
             stack.enter_context(env)
