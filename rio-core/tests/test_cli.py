@@ -168,3 +168,24 @@ def test_plugin_subcommands_via_rio_cli_hook(registry, capsys):
 def test_usage_error_exit_code(capsys):
     assert main(["plugins", "lst"]) == 2
     assert "No such command" in capsys.readouterr().err
+
+
+def test_stations_show_prints_the_file_and_copy_writes_it_naming_the_lines_to_edit(registry, tmp_path, capsys):
+    """The documented first step for real hardware: `rio stations show NAME > mine.toml` or `rio stations copy`."""
+    text = ('# the lab arm\nname = "lab-arm"\n[middleware]\nname = "thread"\n[components.arm]\n'
+            'driver = "rio.fake_arm"\ndof = 6                 # EDIT: your arm\'s joints\n')
+    packaged = tmp_path / "lab-arm.toml"
+    packaged.write_text(text)
+    mod = types.ModuleType("cli_copy_plugin")
+    mod.rio_stations = hookimpl(lambda: [Spec("lab-arm", "station", str(packaged), "a lab arm")])
+    registry.register(mod, name="cli-copy", dist="rio-lab")
+    assert main(["stations", "show", "lab-arm"]) == 0
+    assert capsys.readouterr().out == text
+    mine = tmp_path / "mine.toml"
+    assert main(["stations", "copy", "lab-arm", str(mine)]) == 0
+    err = capsys.readouterr().err
+    assert mine.read_text().endswith(text) and mine.read_text().startswith("# Copied from station 'lab-arm'")
+    assert f"{mine}:8: dof = 6" in err and "EDIT" in err  # the header moved the file's lines down by one
+    assert main(["stations", "copy", "lab-arm", str(mine)]) == 1  # never over a file without --force
+    assert "--force" in capsys.readouterr().err
+    assert main(["stations", "check", str(mine)]) == 0

@@ -1,4 +1,5 @@
-"""`rio stations list` (packaged station files) and `rio stations check` (validate one fully)."""
+"""`rio stations list` (packaged station files), `check` (validate one fully), `show` and `copy` (start yours
+from one)."""
 
 from __future__ import annotations
 
@@ -62,3 +63,46 @@ def check(
     emb_text = f"{emb.name} ({options.model_dump()})" if emb else "none (no arm or humanoid role)"
     console().print(f"middleware: {mw.name} {mw.config.model_dump()}\ncontrol rate: {st.rate_hz:g} Hz\n"
                     f"embodiment: {emb_text}\nok", markup=False)
+
+
+@app.command("show")
+def show(station: StationArgument) -> None:
+    """Print a station's file as it is (a packaged station's TOML, with its comments): the start of your own
+    (`rio stations copy` writes it to a file)."""
+    from rio.station.load import read_station_text
+
+    text, _source = read_station_text(station)
+    typer.echo(text, nl=not text.endswith("\n"))
+
+
+@app.command("copy")
+def copy(
+    station: StationArgument,
+    path: Annotated[str, typer.Argument(help="The .toml file to write.", show_default=False)],
+    force: Annotated[bool, typer.Option("--force", help="Replace the file if it exists.")] = False,
+) -> None:
+    """Write a station's file to PATH to make it yours, and list the lines its author marked to change for
+    your hardware (EDIT: addresses, serial ports, camera serials)."""
+    from pathlib import Path
+
+    from rio.errors import RioError
+    from rio.station.load import read_station_text
+
+    text, source = read_station_text(station)
+    out = Path(path)
+    if out.suffix != ".toml":
+        raise RioError(f"{out}: a station file ends in .toml")
+    if out.exists() and not force:
+        raise RioError(f"{out} exists; pass --force to replace it")
+    edits = [(n, line.strip()) for n, line in enumerate(text.splitlines(), start=2) if "EDIT" in line]
+    head = f"# Copied from station '{station}' ({source}) by `rio stations copy`.\n"
+    try:
+        out.write_text(head + text, encoding="utf-8")
+    except OSError as e:
+        raise RioError(f"cannot write {out}: {e.strerror or e}") from None
+    typer.echo(f"wrote {out}", err=True)
+    if edits:
+        typer.echo("change these lines for your hardware before the first run:", err=True)
+        for n, line in edits:
+            typer.echo(f"  {out}:{n}: {line}", err=True)
+    typer.echo(f"then: rio stations check {out}", err=True)
