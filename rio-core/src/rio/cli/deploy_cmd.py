@@ -13,6 +13,7 @@ from rio.cli.run_cmd import (
     JsonOption,
     MiddlewareOption,
     ProfileOption,
+    QuietOption,
     RateOption,
     ReadyTimeoutOption,
     RecordOption,
@@ -50,6 +51,7 @@ def deploy(
         "--lowpass", callback=positive, help="Low-pass cutoff on commands (Hz).")] = None,
     middleware: MiddlewareOption = None,
     ready_timeout: ReadyTimeoutOption = None,
+    quiet: QuietOption = False,
     device: TeleopOption = None,
     teleop_set: TeleopSetOption = None,
     json_out: JsonOption = False,
@@ -57,7 +59,7 @@ def deploy(
 ) -> None:
     """Deploy a policy with asynchronous chunked inference; prints a summary when it ends. A teleop device
     (--teleop) runs beside it for a policy that reads one (a locomotion policy's velocity command)."""
-    from rio.cli.run_cmd import finish
+    from rio.cli.run_cmd import finish, shows_status
     from rio.policy.async_inference import AsyncConfig
     from rio.workflows.deploy import run_deploy
 
@@ -66,5 +68,6 @@ def deploy(
     summary = run_deploy(station, policy, instruction=instruction, record=record, duration=duration,
                          middleware=middleware, rate_hz=rate, config=config, profile=profile,
                          device=device, device_config=key_values(teleop_set, "--teleop-set"),
-                         log=lambda m: typer.echo(m, err=True), seed=seed, ready_timeout=ready_timeout)
+                         log=lambda m: typer.echo(m, err=True), seed=seed, ready_timeout=ready_timeout,
+                         status=shows_status(quiet, json_out))
     finish(summary, json_out)

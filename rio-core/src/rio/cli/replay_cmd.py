@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 
 from rio.cli.args import known_station, non_negative, not_empty, positive
-from rio.cli.run_cmd import JsonOption, MiddlewareOption, ProfileOption, ReadyTimeoutOption
+from rio.cli.run_cmd import JsonOption, MiddlewareOption, ProfileOption, QuietOption, ReadyTimeoutOption, shows_status
 
 
 def replay(
@@ -26,6 +26,7 @@ def replay(
     allow_damaged: Annotated[bool, typer.Option("--allow-damaged",
                                                 help="Replay an episode whose files fail their sha256.")] = False,
     ready_timeout: ReadyTimeoutOption = None,
+    quiet: QuietOption = False,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
 ) -> None:
@@ -38,5 +39,6 @@ def replay(
     with damaged_warnings():
         summary = replay_episode(Dataset(dataset, allow_damaged=allow_damaged), episode, station,
                                  middleware=middleware, speed=speed, approach_s=approach_s, profile=profile,
-                                 log=lambda m: typer.echo(m, err=True), ready_timeout=ready_timeout)
+                                 log=lambda m: typer.echo(m, err=True), ready_timeout=ready_timeout,
+                                 status=shows_status(quiet, json_out))
     finish(summary, json_out)

@@ -35,6 +35,8 @@ MiddlewareOption = Annotated[str | None, typer.Option(
 ReadyTimeoutOption = Annotated[float | None, typer.Option(
     "--ready-timeout", callback=positive,
     help="Seconds the station's nodes may take to start (default: the station's ready_timeout_s, 60 s).")]
+QuietOption = Annotated[bool, typer.Option(
+    "--quiet", "-q", help="No live status line (shown only when the output is a terminal, and never with --json).")]
 SeedOption = Annotated[int | None, typer.Option(
     "--seed", min=0, help="On a station with a task (a sim world's \\[task]): the run's seed; episode k starts from "
                           "the draw of (seed, k), k the recorded episode's index (default: the task's own seed).")]
@@ -44,6 +46,13 @@ TeleopOption = Annotated[str | None, typer.Option(
 TeleopSetOption = Annotated[list[str] | None, typer.Option(
     "--teleop-set", help="KEY=VALUE for the teleop device's config, over the station's (JSON values; "
                          "repeatable), e.g. --teleop-set speed=0.05 --teleop-set hand=left")]
+
+
+def shows_status(quiet: bool, json_out: bool) -> bool:
+    """Whether a workflow shows its live status line: only to a person at a terminal."""
+    import sys
+
+    return not quiet and not json_out and sys.stdout.isatty() and sys.stderr.isatty()
 
 
 def exit_code(summary: Any) -> int:
@@ -102,6 +111,7 @@ def run(
     record: RecordOption = None,
     middleware: MiddlewareOption = None,
     ready_timeout: ReadyTimeoutOption = None,
+    quiet: QuietOption = False,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
 ) -> None:
@@ -118,5 +128,6 @@ def run(
 
     summary = run_workflow(station, make, middleware=middleware, rate_hz=rate,
                            duration=duration, instruction=instruction, record=record, profile=profile,
-                           log=lambda m: typer.echo(m, err=True), ready_timeout=ready_timeout)
+                           log=lambda m: typer.echo(m, err=True), ready_timeout=ready_timeout,
+                           status=shows_status(quiet, json_out))
     finish(summary, json_out)

@@ -13,6 +13,7 @@ from rio.cli.run_cmd import (
     JsonOption,
     MiddlewareOption,
     ProfileOption,
+    QuietOption,
     RateOption,
     ReadyTimeoutOption,
     RecordOption,
@@ -59,6 +60,7 @@ def teleop(
     rate: RateOption = None,
     middleware: MiddlewareOption = None,
     ready_timeout: ReadyTimeoutOption = None,
+    quiet: QuietOption = False,
     record: RecordOption = None,
     seed: SeedOption = None,
     episodes: Annotated[int, typer.Option("--episodes", min=1, help="With --record: episodes to keep.")] = 1,
@@ -74,7 +76,7 @@ def teleop(
 ) -> None:
     """Teleoperate a station's arm(s): a twist device in end-effector space, a leader arm joint by joint.
     Prints a summary when it ends."""
-    from rio.cli.run_cmd import finish
+    from rio.cli.run_cmd import finish, shows_status
     from rio.workflows.teleop import prepare_station, run_teleop
 
     st = prepare_station(station, device, key_values(teleop_set, "--teleop-set"))  # the one load of the run
@@ -84,7 +86,8 @@ def teleop(
                           duration=duration, middleware=middleware, rate_hz=rate, mode=mode, hand=hand, scale=scale,
                           max_pos_speed=max_pos_speed, max_rot_speed=max_rot_speed, align_speed=align_speed,
                           recorder=recorder, profile=profile, log=lambda m: typer.echo(m, err=True), seed=seed,
-                          ready_timeout=ready_timeout)
+                          ready_timeout=ready_timeout,
+                          status=shows_status(quiet, json_out))
 
     if record is None:
         finish(run(), json_out)

@@ -60,6 +60,7 @@ class Tick:
     t_sent: float = 0.0  # when the action went to env.step
     step: Any = None  # what env.step returned: the fresh state, tagged with the action
     action: np.ndarray | None = None
+    lateness: float = 0.0  # how late the loop woke for this (periodic) tick, seconds
     #: what the controller shows of this tick (teleop: devices, arms, mode; deploy: sample, chunk; ...)
     info: dict[str, Any] = field(default_factory=dict)
 
@@ -170,9 +171,10 @@ class ControlLoop:
                     self._tick(Tick(now, now + dt / 2 + self.lead_s, t_start, grid.k, False, self.obs, env),
                                tracker, objects)
                     continue
-                lateness.add(clock.now() - t_sample)
-                self._tick(Tick(t_sample, t_sample + dt / 2 + self.lead_s, t_start, grid.k, True, self.obs, env),
-                           tracker, objects)
+                woke_late = clock.now() - t_sample
+                lateness.add(woke_late)
+                self._tick(Tick(t_sample, t_sample + dt / 2 + self.lead_s, t_start, grid.k, True, self.obs, env,
+                                lateness=woke_late), tracker, objects)
                 grid.advance()
                 s.ticks += 1
                 late = clock.now() - grid.deadline  # past the next tick's wake-up

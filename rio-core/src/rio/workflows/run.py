@@ -47,15 +47,16 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
                  rate_hz: float | None = None, duration: float | None = None, instruction: str | None = None,
                  record: str | None = None, recorder: Any = None, on_tick: Callable[[Tick], None] | None = None,
                  profile: str | None = None, registry: Any = None, log: Callable[[str], None] | None = print,
-                 seed: int | None = None, episode: int | None = None, ready_timeout: float | None = None
-                 ) -> RunSummary:
+                 seed: int | None = None, episode: int | None = None, ready_timeout: float | None = None,
+                 status: bool = False) -> RunSummary:
     """Run the controller `make_controller(session)` builds on `station` (name, .toml path or `Station`).
     `record`: a dataset directory to record this run into as one episode; `recorder`: an open Recorder
     instead (a multi-episode session). `profile`: a directory for the trace, timeline and stats.
     A station whose sensor runs a task (a sim world's `[task]`) starts episode `episode` of a run seeded
     `seed` (`Env.reset`; None: the task's own seed); `episode` defaults to the index the recorded episode
     will get (so each episode of a dataset has its own start), else 0. `ready_timeout`: seconds the station's
-    nodes may take to start (default: the station's `ready_timeout_s`)."""
+    nodes may take to start (default: the station's `ready_timeout_s`). `status`: show the live status line
+    (`rio.loop.status`) on the terminal while the loop runs."""
     from rio.runtime.manager import ServerManager
     from rio.station.build import make_station
     from rio.station.load import load_station
@@ -91,6 +92,8 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
                                                         metadata={"source": f"rio {controller.name}"}))
             if episode is None and recorder is not None:
                 env.episode = recorder.next_index()
+            if status:
+                on_tick = _with_status_line(stack, on_tick, record or getattr(recorder, "root", None), env)
             loop = ControlLoop(env, controller, rate_hz=freq, duration=duration, recorder=recorder, on_tick=on_tick,
                                stop=stop, trace=prof.trace if prof is not None else None, log=say)
             summary = loop.run()
@@ -102,3 +105,22 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
         summary.signal = stop.received
     return summary
 
+
+
+def _with_status_line(stack: contextlib.ExitStack, on_tick: Callable[[Tick], None] | None, recording: Any,
+                      env: Any) -> Callable[[Tick], None]:
+    """`on_tick` followed by the live status line, shown for the loop's lifetime."""
+    from rich.console import Console
+
+    from rio.loop.status import StatusLine
+
+    label = f"{recording} episode {env.episode}" if recording is not None else None
+    line = stack.enter_context(StatusLine(Console(stderr=True, highlight=False), recording=label))
+    if on_tick is None:
+        return line
+
+    def both(tick: Tick) -> None:
+        on_tick(tick)
+        line(tick)
+
+    return both

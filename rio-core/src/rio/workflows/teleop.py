@@ -51,7 +51,7 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
                align_speed: float = 0.5, record: str | None = None, recorder: Any = None, profile: str | None = None,
                on_tick: Callable[[Tick], None] | None = None,
                log: Callable[[str], None] | None = print, seed: int | None = None,
-               episode: int | None = None, ready_timeout: float | None = None) -> RunSummary:
+               episode: int | None = None, ready_timeout: float | None = None, status: bool = False) -> RunSummary:
     """Teleoperate `station` (registered name or .toml path) with `device` (default: the station's
     own `teleop` component). `viz=True` streams to rerun (a string: save to that .rrd file).
     `record`: a dataset directory to record the run into; `recorder`: an open Recorder instead.
@@ -89,4 +89,4 @@ def run_teleop(station: Any, device: str | None = None, *, instruction: str | No
 
     return run_workflow(st, make, middleware=middleware, rate_hz=rate_hz, duration=duration, instruction=instruction,
                         record=record, recorder=recorder, on_tick=on_tick, profile=profile, log=log, seed=seed,
-                        episode=episode, ready_timeout=ready_timeout)
+                        episode=episode, ready_timeout=ready_timeout, status=status)
