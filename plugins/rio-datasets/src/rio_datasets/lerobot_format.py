@@ -26,6 +26,7 @@ from pydantic import Field
 from rio.config import Config
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
+from rio.recording.video import quiet_svt
 
 from . import lerobot_paths as LL
 from .common import (
@@ -54,6 +55,7 @@ class _VideoFile:
         self.path, self.frames, self.bytes = path, 0, 0
         self.container = av.open(str(path), "w", format="mp4")
         if opts.codec == "av1":
+            quiet_svt()
             codec, o = "libsvtav1", {"crf": str(opts.crf), "preset": opts.preset or "10", "g": str(opts.gop)}
         else:
             codec, o = "libx264", {"crf": str(opts.crf), "preset": opts.preset or "veryfast", "g": str(opts.gop),

@@ -10,6 +10,7 @@ timing information depends on the container.
 
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -59,10 +60,18 @@ class VideoOptions:
         name = CODECS[self.codec]
         g = str(max(1, round(self.gop_s * rate)))
         if self.codec == "av1":
+            quiet_svt()
             preset = self.preset if self.preset.isdigit() else "10"
             return name, {"crf": str(self.crf), "preset": preset, "g": g,
                           "svtav1-params": f"lp={self.threads}:rc=0"}
         return name, {"crf": str(self.crf), "preset": self.preset, "g": g, "threads": str(self.threads)}
+
+
+def quiet_svt() -> None:
+    """SVT-AV1 prints its settings and advice to stderr on every encoder it opens (two dozen `Svt[info]` and
+    `Svt[warn]` lines an export): errors only, unless the user set `SVT_LOG` (3 shows everything). Read by the
+    library when it first logs, so call it before opening an AV1 stream."""
+    os.environ.setdefault("SVT_LOG", "1")
 
 
 def video_problem(options: VideoOptions, depth: bool = True) -> str | None:
