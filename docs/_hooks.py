@@ -11,6 +11,7 @@
   file that the site has as a page (a plugin README, a docs/*.md page) to that page, so README text
   written for GitHub builds under `mkdocs build --strict`. Code blocks and inline code are left alone.
 - Edit links point at the real file in the repository (a plugin README for its page).
+- The command reference (`cli-reference.md`) is made from the `rio` command itself (`rio.cli.reference`).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ BRANCH = "main"
 ROOT = Path(__file__).resolve().parent.parent
 PLACEHOLDER = "plugins/_generated"
 OVERVIEW = "plugins/overview.md"  # generated: the table of plugins (not index.md: docs/plugins.md owns plugins/)
+CLI_REFERENCE = "cli-reference.md"  # generated from the rio command itself (rio.cli.reference)
 
 # site page (src_uri) -> repository path, for generated pages
 _GENERATED: dict[str, str] = {}
@@ -113,6 +115,13 @@ def on_files(files: Files, config: Any) -> Files:
         overview.edit_uri = None
         files.append(overview)
         _GENERATED[OVERVIEW] = "docs/" + OVERVIEW  # a page of docs/ as far as links go
+    if files.get_file_from_path(CLI_REFERENCE) is None:
+        from rio.cli.reference import reference
+
+        page = File.generated(config, CLI_REFERENCE, content=reference())
+        page.edit_uri = None
+        files.append(page)
+        _GENERATED[CLI_REFERENCE] = "docs/" + CLI_REFERENCE
     for _name, repo_path, src_uri in _plugin_sources():
         if files.get_file_from_path(src_uri) is not None:
             continue

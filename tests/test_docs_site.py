@@ -68,6 +68,14 @@ def test_api_reference_renders_docstrings(site: tuple[Path, str]) -> None:
     assert 'id="rio.interfaces.ArmNode"' in interfaces
 
 
+def test_the_command_reference_is_made_from_the_command(site: tuple[Path, str]) -> None:
+    out, _ = site
+    text = re.sub(r"<[^>]+>", "", _text(out / "cli-reference" / "index.html"))
+    for command in ("rio teleop", "rio deploy", "rio replay", "rio run", "rio stations copy", "rio export"):
+        assert command in text, f"the command reference lacks {command}"
+    assert "--ready-timeout" in text and "Seconds the station's nodes may take to start" in text
+
+
 def test_plugin_pages_come_from_readmes(site: tuple[Path, str]) -> None:
     out, _ = site
     readme = (ROOT / "plugins" / "rio-so100" / "README.md").read_text(encoding="utf-8")

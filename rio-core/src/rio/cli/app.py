@@ -29,6 +29,7 @@ class RioGroup(TyperGroup):
     def main(self, args: Sequence[str] | None = None, prog_name: str | None = None,
              complete_var: str | None = None, standalone_mode: bool = True, windows_expand_args: bool = True,
              **extra: Any) -> Any:
+        _tidy_help(self)
         code = _exit_status(lambda: super(RioGroup, self).main(args, prog_name, complete_var, standalone_mode=False,
                                                                windows_expand_args=windows_expand_args, **extra))
         if standalone_mode:
@@ -40,6 +41,29 @@ class RioGroup(TyperGroup):
             return super().invoke(ctx)
         except KeyboardInterrupt:
             raise Interrupted() from None
+
+
+def _tidy_help(command: Any) -> None:
+    """What `--help` shows, for every command a plugin or the core adds: a flag shows no `<bool>` type (it
+    takes no value), and a command's line in its group's list is its first paragraph on one line (typer
+    kept the docstring's line breaks there, cutting sentences)."""
+    for param in getattr(command, "params", ()):
+        if getattr(param, "is_flag", False) and param.metavar is None:
+            param.metavar = ""
+    if "get_help_option" in dir(command) and "get_help_option" not in vars(command):  # --help: made on demand
+        made = command.get_help_option
+
+        def help_option(ctx: Any) -> Any:
+            option = made(ctx)
+            if option is not None:
+                option.metavar = ""
+            return option
+
+        command.get_help_option = help_option
+    for sub in getattr(command, "commands", {}).values():
+        if sub.short_help is None and sub.help:
+            sub.short_help = " ".join(sub.help.split("\n\n")[0].split())
+        _tidy_help(sub)
 
 
 def run(argv: Sequence[str]) -> int:

@@ -85,6 +85,18 @@ def existing_path(value: P) -> P:
     return value
 
 
+def complete_station(incomplete: str) -> list[str]:
+    """Shell completion of a station argument: the registered names that start with what was typed (a path
+    is completed by the shell itself)."""
+    try:
+        from rio.plugins import get_registry
+
+        names = sorted(s.name for s in get_registry().specs("rio_stations"))
+    except Exception:  # completion must never print a traceback into the user's shell
+        return []
+    return [n for n in names if n.startswith(incomplete)]
+
+
 def known_station(value: P) -> P:
     """A station name or .toml path that can be found (`rio stations list`), before anything opens."""
     not_empty(value)

@@ -13,39 +13,43 @@ from typing import Annotated, Any
 
 import typer
 
-from rio.cli.args import key_values, known_station, not_empty, output_dir, positive
+from rio.cli.args import complete_station, key_values, known_station, not_empty, output_dir, positive
 
 #: The run's arm did not follow its commands.
 EXIT_NOT_FOLLOWED = 3
 
 JsonOption = Annotated[bool, typer.Option("--json", help="Print the summary as JSON (stdout).")]
 ProfileOption = Annotated[str | None, typer.Option(
-    "--profile", callback=output_dir,
+    "--profile", callback=output_dir, metavar="DIR",
     help="Write a trace (Perfetto / chrome://tracing), a timeline PNG and a CPU/RAM/GPU table to this directory.")]
 StationArgument = Annotated[str, typer.Argument(
-    callback=known_station, help="Station name (`rio stations list`) or path of a .toml file.")]
+    callback=known_station, metavar="STATION", autocompletion=complete_station,
+    help="Station name (`rio stations list`) or path of a .toml file.")]
 DurationOption = Annotated[float | None, typer.Option(
-    "--duration", "-d", callback=positive, help="Stop after this many seconds.")]
+    "--duration", "-d", callback=positive, metavar="SECONDS", help="Stop after this many seconds.")]
 RateOption = Annotated[float | None, typer.Option(
-    "--rate", callback=positive, help="Control rate (Hz; default: the station's).")]
+    "--rate", callback=positive, metavar="HZ", help="Control rate (Hz; default: the station's).")]
 RecordOption = Annotated[str | None, typer.Option(
-    "--record", callback=output_dir, help="Record the run as an episode of the dataset DIR (created if absent).")]
+    "--record", callback=output_dir, metavar="DIR",
+    help="Record the run as an episode of the dataset DIR (created if absent).")]
 MiddlewareOption = Annotated[str | None, typer.Option(
-    "--middleware", "-m", callback=not_empty, help="Override the station's middleware.")]
+    "--middleware", "-m", callback=not_empty, metavar="NAME", help="Override the station's middleware.")]
 ReadyTimeoutOption = Annotated[float | None, typer.Option(
-    "--ready-timeout", callback=positive,
+    "--ready-timeout", callback=positive, metavar="SECONDS",
     help="Seconds the station's nodes may take to start (default: the station's ready_timeout_s, 60 s).")]
 QuietOption = Annotated[bool, typer.Option(
     "--quiet", "-q", help="No live status line (shown only when the output is a terminal, and never with --json).")]
 SeedOption = Annotated[int | None, typer.Option(
-    "--seed", min=0, help="On a station with a task (a sim world's \\[task]): the run's seed; episode k starts from "
-                          "the draw of (seed, k), k the recorded episode's index (default: the task's own seed).")]
+    "--seed", min=0, metavar="SEED",
+    help="On a station with a task (a sim world's \\[task]): the run's seed; episode k starts from the draw of "
+         "(seed, k), k the recorded episode's index (default: the task's own seed).")]
 TeleopOption = Annotated[str | None, typer.Option(
-    "--teleop", "-t", callback=not_empty,
+    "--teleop", "-t", callback=not_empty, metavar="DEVICE",
     help="Teleop device: keyboard, scripted, or any registered teleop driver (default: the station's own).")]
 TeleopSetOption = Annotated[list[str] | None, typer.Option(
-    "--teleop-set", help="KEY=VALUE for the teleop device's config, over the station's (JSON values; "
-                         "repeatable), e.g. --teleop-set speed=0.05 --teleop-set hand=left")]
+    "--teleop-set", metavar="KEY=VALUE",
+    help="KEY=VALUE for the teleop device's config, over the station's (JSON values; repeatable), e.g. "
+         "--teleop-set speed=0.05 --teleop-set hand=left")]
 
 
 def shows_status(quiet: bool, json_out: bool) -> bool:
