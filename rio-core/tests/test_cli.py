@@ -189,3 +189,23 @@ def test_stations_show_prints_the_file_and_copy_writes_it_naming_the_lines_to_ed
     assert main(["stations", "copy", "lab-arm", str(mine)]) == 1  # never over a file without --force
     assert "--force" in capsys.readouterr().err
     assert main(["stations", "check", str(mine)]) == 0
+
+
+def test_station_names_complete_in_the_shell(registry, tmp_path):
+    from rio.cli.args import complete_station
+
+    mod = types.ModuleType("cli_complete_plugin")
+    mod.rio_stations = hookimpl(lambda: [Spec(n, "station", str(tmp_path / f"{n}.toml"), n)
+                                         for n in ("lab-arm", "lab-bimanual", "desk")])
+    registry.register(mod, name="cli-complete", dist="rio-lab")
+    assert complete_station("lab-") == ["lab-arm", "lab-bimanual"] and complete_station("x") == []
+    env = {**os.environ, "COMP_WORDS": "rio teleop sim-so", "COMP_CWORD": "2", "_RIO_COMPLETE": "complete_bash"}
+    r = subprocess.run([sys.executable, "-m", "rio"], capture_output=True, text=True, env=env, timeout=60)
+    assert "sim-so100" in r.stdout.split(), r.stdout  # through the shell hook, with the installed plugins
+
+
+def test_help_shows_no_bool_type_on_flags_and_one_line_per_command():
+    r = subprocess.run([sys.executable, "-m", "rio", "teleop", "--help"], capture_output=True, text=True,
+                       env={**os.environ, "COLUMNS": "200"}, timeout=60)
+    assert r.returncode == 0 and "--viz" in r.stdout and "<bool>" not in r.stdout, r.stdout
+    assert "SECONDS" in r.stdout and "KEY=VALUE" in r.stdout
