@@ -1,5 +1,5 @@
 """`rio.config`: a renamed field or value keeps its old name working for one release, saying so once in
-the log; `with_defaults` gives an inherited field another default without losing its constraints."""
+the log; `defaults` gives inherited fields other defaults without losing their constraints."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from typing import Literal
 import pytest
 from pydantic import Field, ValidationError
 
-from rio.config import Config, with_defaults
+from rio.config import Config
 
 
 class Base(Config):
@@ -48,15 +48,22 @@ def test_both_names_at_once_is_an_error_naming_both():
         Vendor(max_step_m=0.002, max_tool_step_m=0.003)
 
 
-def test_with_defaults_keeps_type_constraints_and_description():
-    Fast = with_defaults(Vendor, rate_hz=Field(250.0, le=500), max_tool_step_m=0.002)
-    c = Fast()
-    assert (c.rate_hz, c.max_tool_step_m) == (250.0, 0.002)
-    assert Fast.model_fields["rate_hz"].description == "loop rate (Hz)"
-    assert Fast(max_step_m=0.001).max_tool_step_m == 0.001  # renames still apply
-    for bad in ({"rate_hz": 600.0}, {"rate_hz": -1.0}, {"max_tool_step_m": 0.0}):
-        with pytest.raises(ValidationError, match=next(iter(bad))):
-            Fast(**bad)
-    assert Vendor().rate_hz == 100.0  # the model itself is unchanged
+def test_defaults_keep_type_constraints_and_description():
+    class Fast(Vendor):
+        defaults = {"rate_hz": Field(250.0, le=500), "max_tool_step_m": 0.002}
+
+    class Faster(Fast):  # a subclass keeps them
+        pass
+
+    for model in (Fast, Faster):
+        c = model()
+        assert (c.rate_hz, c.max_tool_step_m) == (250.0, 0.002)
+        assert model.model_fields["rate_hz"].description == "loop rate (Hz)"
+        assert model(max_step_m=0.001).max_tool_step_m == 0.001  # renames still apply
+        for bad in ({"rate_hz": 600.0}, {"rate_hz": -1.0}, {"max_tool_step_m": 0.0}):
+            with pytest.raises(ValidationError, match=next(iter(bad))):
+                model(**bad)
+    assert Vendor().rate_hz == 100.0  # the base itself is unchanged
     with pytest.raises(KeyError, match="has no field 'rate'"):
-        with_defaults(Vendor, rate=1.0)
+        class Typo(Vendor):
+            defaults = {"rate": 1.0}

@@ -12,29 +12,30 @@ defaults, descriptions and constraints live only there: the station file's table
             self.port = self.config.port
 
 A component is built from a config object or from fields (`AcmeArm(port="/dev/ttyUSB0")`, what
-`serve(AcmeArm, mw, port=...)` and station files do); both go through `Configurable.__init__`, so there is
-no constructor signature to keep in sync with the model. A plugin registers a variant of a component
+`serve(AcmeArm, mw, port=...)` and station files do); both go through `validate_config` (in
+`Configurable.__init__`, or `Node.__init__` for nodes), so there is no constructor signature to keep in sync
+with the model. A plugin registers a variant of a component
 as a spec carrying preset field values (`Spec(..., preset={"model": "so101"})`), not as a subclass.
 
-A field (or a value) renamed in a release keeps its old name working for one more release: the model lists
-it in `renamed` / `renamed_values`, and a station file or a script using the old name is validated as if it
-had used the new one, with one line in the log saying so. `with_defaults()` gives an inherited field
-another default (a vendor's rate, a bus's baud rate) without re-declaring it.
+A model sets other defaults for fields it inherits in `defaults` (a vendor's rate over its kind's, a bus's
+baud rate): each field keeps its type, constraints and description, so nothing is declared twice. A field
+(or a value) renamed in a release keeps its old name working for one more release: the model lists it in
+`renamed` / `renamed_values`, and a station file or a script using the old name is validated as if it had
+used the new one, with one line in the log saying so.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
-from typing import Any, ClassVar, TypeVar
+from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, ValidationError, create_model, model_validator
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 from pydantic.fields import FieldInfo
 
 from rio.suggest import closest
 
 log = logging.getLogger("rio.config")
-M = TypeVar("M", bound=BaseModel)
 
 
 class Config(BaseModel):
@@ -42,16 +43,39 @@ class Config(BaseModel):
     not be silently ignored)."""
 
     model_config = ConfigDict(extra="forbid")
+    #: {field: default} for inherited fields, or {field: Field(default, <more constraints>)}: the field keeps
+    #: its type, constraints and description (`class Config(ArmNode.Config): defaults = {"rate_hz": 250.0}`).
+    defaults: ClassVar[Mapping[str, Any]] = {}
     #: {old field name: new field name}: renamed fields still accepted for one release (a class's entries
     #: add to its bases').
     renamed: ClassVar[Mapping[str, str]] = {}
     #: {field: {old value: new value}}: renamed values of a field, still accepted for one release.
     renamed_values: ClassVar[Mapping[str, Mapping[Any, Any]]] = {}
 
+    @classmethod
+    def __pydantic_init_subclass__(cls, **kwargs: Any) -> None:
+        super().__pydantic_init_subclass__(**kwargs)
+        own = cls.__dict__.get("defaults")
+        if own:
+            for name, value in own.items():
+                cls.__pydantic_fields__[name] = with_default(cls, name, value)
+            cls.model_rebuild(force=True)
+
     @model_validator(mode="before")
     @classmethod
     def _accept_old_names(cls, data: Any) -> Any:
         return accept_renamed(cls, data)
+
+
+def with_default(model: type[BaseModel], name: str, value: Any) -> FieldInfo:
+    """Field `name` of `model` with the default `value` (or merged with `value`, a `Field(...)`)."""
+    base = model.model_fields.get(name)
+    if base is None:
+        raise KeyError(f"{model.__qualname__}.defaults: it has no field '{name}' (fields: "
+                       f"{', '.join(model.model_fields)})")
+    if isinstance(value, FieldInfo):
+        return FieldInfo.merge_field_infos(base, value)
+    return FieldInfo.merge_field_infos(base, default=value)
 
 
 _noticed: set[tuple[str, str]] = set()
@@ -93,23 +117,6 @@ def accept_renamed(model: type, data: Any) -> Any:
             _notice(model, f"{field} = {value!r}", repr(table[value]))
             out[field] = table[value]
     return out
-
-
-def with_defaults(model: type[M], /, **defaults: Any) -> type[M]:
-    """`model` with other defaults for some of its fields, each keeping its type, constraints and description
-    (a vendor's rate and step limits over its kind's, a bus's baud rate). A value may be a pydantic `Field(...)`
-    to add constraints too (`rate_hz=Field(250.0, le=500)`). Returns a subclass, named as `model`."""
-    fields: dict[str, Any] = {}
-    for name, value in defaults.items():
-        base = model.model_fields.get(name)
-        if base is None:
-            raise KeyError(f"{model.__qualname__} has no field '{name}' to give a default "
-                           f"(fields: {', '.join(model.model_fields)})")
-        info = (FieldInfo.merge_field_infos(base, value) if isinstance(value, FieldInfo)
-                else FieldInfo.merge_field_infos(base, default=value))
-        fields[name] = (base.annotation, info)
-    made: type[M] = create_model(model.__name__, __base__=model, __module__=model.__module__, **fields)
-    return made
 
 
 def validate_config(model: type[BaseModel], config: Any = None, fields: Mapping[str, Any] | None = None) -> Any:
