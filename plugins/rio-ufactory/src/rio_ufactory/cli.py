@@ -18,15 +18,15 @@ Ip = Annotated[str, typer.Option("--ip", help="controller IP address")]
 
 
 @contextmanager
-def _controller(ip: str) -> Iterator[Any]:
-    """The controller at `ip` for one command; an `XArmError` (no answer, a fault that will not clear)
-    is printed as one line and exits 1."""
-    from .controller import Controller
+def _connection(ip: str) -> Iterator[Any]:
+    """A connection to the control box at `ip` for one command; an `XArmError` (no answer, a fault that will
+    not clear) is printed as one line and exits 1."""
+    from .connection import XArmConnection
     from .faults import XArmError
 
     try:
         with contextlib.redirect_stdout(sys.stderr):  # the SDK's connection chatter: stdout is for results
-            ctl = Controller.acquire(ip, connect_timeout_s=3.0)
+            ctl = XArmConnection.acquire(ip, connect_timeout_s=3.0)
     except XArmError as e:
         typer.echo(f"error: {e}", err=True)
         raise typer.Exit(1) from None
@@ -43,7 +43,7 @@ def _controller(ip: str) -> Iterator[Any]:
 def status(ip: Ip,
            json_out: Annotated[bool, typer.Option("--json", help="Print it as JSON (stdout).")] = False) -> None:
     """Model, state, mode, error and warning of a controller."""
-    with _controller(ip) as ctl:
+    with _connection(ip) as ctl:
         api = ctl.api
         fault = ctl.fault()
         if json_out:
@@ -63,7 +63,7 @@ def status(ip: Ip,
 @app.command("clear-errors")
 def clear_errors(ip: Ip) -> None:
     """Clear the controller's error and warning (release an emergency stop first)."""
-    with _controller(ip) as ctl:
+    with _connection(ip) as ctl:
         before = ctl.fault()
         ctl.clear_faults()
         typer.echo(f"{ip}: cleared {before}" if before else f"{ip}: nothing to clear")
@@ -73,7 +73,7 @@ def clear_errors(ip: Ip) -> None:
 @app.command()
 def enable(ip: Ip) -> None:
     """Motors on, servo mode, ready (what a station does at start)."""
-    with _controller(ip) as ctl:
+    with _connection(ip) as ctl:
         ctl.enable_servo()
         typer.echo(f"{ip}: enabled, servo mode")
 
