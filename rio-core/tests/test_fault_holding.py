@@ -142,3 +142,16 @@ def test_a_link_that_drops_again_while_coming_back_holds_then_comes_back():
         s = arm.cycle()  # the link is seen up again: enabled this time
         assert s["connected"] and arm.enabled
         arm.handle_request(request([0.1, 0.0, 0.0]))
+
+
+def test_the_drivers_hook_runs_once_the_fault_has_stopped_the_node():
+    seen = []
+    arm = HoldingArm(dof=3)
+    arm.faults = FaultHolder(arm, "the fake arm", ask=arm.device_fault,
+                             on_report=lambda fault: seen.append((fault, arm.enabled)))
+    with lifecycle(arm):
+        arm.cycle()
+        arm.hw_fault = COLLISION
+        arm.cycle()
+        arm.cycle()  # held: not reported again
+    assert seen == [(COLLISION, False)]

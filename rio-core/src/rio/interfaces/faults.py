@@ -65,12 +65,13 @@ class FaultHolder:
     """The fault a node's device reports, held until cleared (see the module docstring). `device` is what
     the log and refusals call it ("xArm at 192.168.1.185"); `ask()` returns the hardware's fault now (None
     when it has none; default: the one held), `clear()` clears it on the hardware (raise naming what
-    still blocks, e.g. a pressed emergency stop; default: nothing to do)."""
+    still blocks, e.g. a pressed emergency stop; default: nothing to do); `on_report(fault)`, where the
+    driver has more to do when a fault stops the node (ask the robot for its damping mode)."""
 
     def __init__(self, node: CommandedNode, device: str, *, ask: Callable[[], Fault | None] | None = None,
-                 clear: Callable[[], None] | None = None):
+                 clear: Callable[[], None] | None = None, on_report: Callable[[Fault], None] | None = None):
         self.node, self.device = node, device
-        self._ask, self._clear = ask, clear
+        self._ask, self._clear, self._on_report = ask, clear, on_report
         #: The fault held now, or None.
         self.fault: Fault | None = None
         node.example_data = {**(node.example_data or {}), **FAULT_KEYS}
@@ -81,6 +82,8 @@ class FaultHolder:
             log.error("node '%s': %s stopped: %s", self.node.name, self.device, fault)
         self.fault = fault
         self.node.enabled = False
+        if self._on_report is not None:
+            self._on_report(fault)
 
     def ask(self) -> Fault | None:
         """The hardware's fault now (asks it where the driver said how), else the one held."""
