@@ -7,9 +7,9 @@
   how often a failed exchange is retried.
 
 A driver mixes the one it is into its `Config` (`class Config(NetworkDevice, ArmNode.Config)`) and sets
-its hardware's defaults with `rio.config.with_defaults` (`with_defaults(ServoBus, baudrate=57600)`), so the
-description and the constraints stay the same everywhere. A driver whose address may also name an
-emulator ("virtual") widens the field's type, not its validation (`IPv4 | Literal["virtual"]`).
+its hardware's defaults in the Config's `defaults` (`defaults = {"baudrate": 57600}`, `rio.config`), so
+the description and the constraints stay the same everywhere. A driver whose address may also be a host
+name (a socket's, the Robotiq URCap's; the Vision Pro's) redeclares `ip` as a plain `str` and says why.
 """
 
 from __future__ import annotations
