@@ -155,3 +155,10 @@ def test_the_drivers_hook_runs_once_the_fault_has_stopped_the_node():
         arm.cycle()
         arm.cycle()  # held: not reported again
     assert seen == [(COLLISION, False)]
+
+
+def test_the_old_mixin_names_say_what_to_write_instead():
+    with pytest.raises(ImportError, match="FaultHolder"):
+        from rio.interfaces import FaultHolding  # noqa: F401
+    with pytest.raises(ImportError, match="ModelTable"):
+        from rio.interfaces import ModelTableArm  # noqa: F401

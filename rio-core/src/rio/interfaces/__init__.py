@@ -55,3 +55,18 @@ __all__ = ["ArmNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "
            "NetworkDevice", "ServoBus", "IPv4", "Grabber", "CameraError", "SourceLost", "SourceFinished",
            "DampingGuard", "DampingConfig", "BodyDampingConfig", "MotorGainsConfig", "motor_gains"]
 
+
+#: Names this package had before its mixins became parts a node holds, and what a driver writes instead.
+_MOVED = {
+    "FaultHolding": "give the node a FaultHolder in setup(): self.faults = FaultHolder(self, device, ask=..., "
+                    "clear=...) (and a LinkSupervisor for a link that can drop)",
+    "DampingSafety": "give the node a DampingGuard and a FaultHolder asking it (rio.interfaces.damping)",
+    "ModelTableArm": "set `models = ModelTable(...)` on the ArmNode driver",
+    "GrabbingCamera": "make the grabber in open() as self.grabber: the camera kind publishes from it and stops it",
+}
+
+
+def __getattr__(name: str) -> object:
+    if name in _MOVED:
+        raise ImportError(f"rio.interfaces.{name} is gone: {_MOVED[name]} (docs/drivers.md)")
+    raise AttributeError(f"module 'rio.interfaces' has no attribute '{name}'")
