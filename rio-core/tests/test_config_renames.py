@@ -67,3 +67,12 @@ def test_defaults_keep_type_constraints_and_description():
     with pytest.raises(KeyError, match="has no field 'rate'"):
         class Typo(Vendor):
             defaults = {"rate": 1.0}
+
+
+def test_a_station_file_with_an_old_arm_field_still_loads():
+    from rio.station import parse_station
+
+    st = parse_station({"name": "s", "components": {"arm": {"driver": "rio.fake_arm", "max_step_m": 0.01,
+                                                            "max_step_eef_rad": 0.2}}})
+    c = st.components["arm"].config
+    assert (c.max_tool_step_m, c.max_tool_step_rad) == (0.01, 0.2)
