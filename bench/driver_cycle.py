@@ -1,4 +1,4 @@
-"""What the driver contract costs per cycle: a kind's `read_state()` (read, commander step, write, the
+"""What the driver contract costs per cycle: a kind's `cycle()` (read, commander step, write, the
 standard keys; for an arm with a model also forward kinematics) against the same driver's bare
 `read_joints()` + `write_joints()`, measured in the same run, interleaved in rounds.
 
@@ -38,7 +38,7 @@ def measure(node, cycles: int, rounds: int) -> tuple[float, float]:
         contract, reference = [], []
         for _ in range(rounds):
             reference.append(per_cycle_us(bare, cycles))
-            contract.append(per_cycle_us(node.read_state, cycles))
+            contract.append(per_cycle_us(node.cycle, cycles))
     return float(np.median(contract)), float(np.median(reference))
 
 

@@ -25,10 +25,10 @@ from rio.testing import lifecycle, wait_until
 def run_for(node, seconds: float, period: float = 0.005):
     """Tick a node's loop in this thread (what the runtime does), return the last sample."""
     t_end = time.monotonic() + seconds
-    s = node.read_state()
+    s = node.cycle()
     while time.monotonic() < t_end:
         time.sleep(period)
-        s = node.read_state()
+        s = node.cycle()
     return s
 
 
@@ -90,16 +90,16 @@ def test_joint_targets_are_clipped_step_limited_and_refused_when_disabled():
     with lifecycle(arm):
         assert arm.enabled and arm.joint_limits() == [[-0.5, -0.1], [0.5, 0.1]]
         arm.command_joints(np.array([3.0, -3.0]), time.monotonic())
-        s = arm.read_state()
+        s = arm.cycle()
         assert np.allclose(s["joint_pos"], [0.0, 0.0])  # read before the first write of this cycle
-        s = arm.read_state()
+        s = arm.cycle()
         assert np.allclose(s["joint_pos"], [0.01, -0.01])  # one bounded step, never the jump
         s = run_for(arm, 0.4)
         assert np.allclose(s["joint_pos"], [0.5, -0.1])  # ends clipped at the limits
         arm.disable()
         with pytest.raises(InvalidRequest, match="disabled"):
             arm.command_joints(np.zeros(2), time.monotonic())
-        assert not arm.read_state()["enabled"]
+        assert not arm.cycle()["enabled"]
         arm.enable()
         arm.home(0.05)
         assert np.allclose(run_for(arm, 0.5)["joint_pos"], 0.0)
@@ -152,7 +152,7 @@ def test_arm_without_model_or_cartesian_control_refuses_eef_targets():
 
     arm = JointsOnly()
     with lifecycle(arm):
-        s = arm.read_state()
+        s = arm.cycle()
         assert np.isnan(s["eef_pose"]).all()  # unmeasured: NaN, never a made-up pose
         with pytest.raises(InvalidRequest, match="no Cartesian control and no robot_description"):
             arm.command_eef(np.array([0.3, 0, 0.2, 1, 0, 0, 0]), time.monotonic())

@@ -1,5 +1,5 @@
 """Damping safety (`rio.interfaces.damping`): the tilt of a base from its IMU, the three named stops of a
-driver that mixes in `DampingSafety` (state lost, fall, stale stream) and damping every cycle while
+driver that holds a `DampingGuard` (state lost, fall, stale stream) and damping every cycle while
 disabled, and the driver kit's watchdog case asking the driver whether to expect a damping stop.
 
 `SoftHumanoid` is a stand-in for a humanoid on low-level topics (its joints follow the goal; a test
@@ -19,14 +19,12 @@ from rio.conformance.drivers import HumanoidConformance
 from rio.conformance.driving import Loop, build_node, resolve_driver
 from rio.control.rotations import euler_to_quat
 from rio.errors import InvalidRequest
-from rio.interfaces import FAULT_KEYS, BodyDampingConfig, DampingSafety, HumanoidNode
+from rio.interfaces import BodyDampingConfig, DampingGuard, FaultHolder, HumanoidNode
 from rio.interfaces.damping import FALL, STALE_COMMANDS, STATE_LOST, state_lost, tilt_from_quat, tilt_from_rpy
 from rio.testing import lifecycle
 
 
-class SoftHumanoid(DampingSafety, HumanoidNode):
-    body = "pelvis"
-
+class SoftHumanoid(HumanoidNode):
     class Config(BodyDampingConfig, HumanoidNode.Config):
         rate_hz: float = Field(100.0, gt=0)
         dof: int = Field(4, ge=1)
@@ -37,7 +35,8 @@ class SoftHumanoid(DampingSafety, HumanoidNode):
 
     def setup(self) -> None:
         super().setup()
-        self.example_data = {**self.example_data, **FAULT_KEYS}
+        self.safety = DampingGuard(self, self.state_lost, tilt=self.tilt_deg, body="pelvis")
+        self.faults = FaultHolder(self, "the soft humanoid", ask=self.safety.device_fault)
         self.silent = False  # the device stops publishing
         self.quat = np.array([1.0, 0.0, 0.0, 0.0])
         self.dampings = 0
@@ -45,25 +44,21 @@ class SoftHumanoid(DampingSafety, HumanoidNode):
     def open(self) -> None:
         self.q = np.zeros(self.dof)
 
-    def set_enabled(self, enabled: bool) -> None:
-        if enabled:
-            self.check_device_fault()
-
     def state_lost(self, age: float):
         return state_lost("softstate_timeout", "soft/state", age, "the test", "unsilence it")
 
     def tilt_deg(self) -> float | None:
         return tilt_from_quat(self.quat)
 
-    def send_damping(self) -> None:
+    def write_disabled(self) -> None:
         self.dampings += 1
 
     def read_joints(self) -> dict:
         if not self.silent:
-            self.t_state = clock.now()
-        self.watch_safety()
+            self.safety.t_state = clock.now()
+        self.safety.watch()
         return {"joint_pos": self.q.copy(), "joint_vel": np.zeros(self.dof), "base_quat": self.quat.copy(),
-                "base_ang_vel": np.zeros(3), **self.fault_status()}
+                "base_ang_vel": np.zeros(3)}
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
         self.q = np.array(joint_pos, dtype=np.float64)
@@ -72,8 +67,9 @@ class SoftHumanoid(DampingSafety, HumanoidNode):
 class StiffLiar(SoftHumanoid):
     """Says it damps a silent stream but only holds it (what the kit must catch)."""
 
-    def watch_safety(self) -> None:
-        pass
+    def setup(self) -> None:
+        super().setup()
+        self.safety.watch = lambda: None  # watches nothing: never stops itself
 
 
 def soft(**fields) -> SoftHumanoid:
@@ -113,12 +109,12 @@ def test_an_imu_reading_that_means_nothing_is_nan_never_upright():
 # -- the stops ----------------------------------------------------------------------------------------------
 def test_a_stream_that_stops_is_a_stale_fault_and_damped_every_cycle():
     node = soft()
-    assert node.damps_on_stale  # the default
+    assert node.safety.damps_on_stale  # the default
     with lifecycle(node):
         loop = Loop(node)
         stream_then_stop(node, loop)
         s = loop.run(until=lambda s: s["fault_code"] != 0, timeout=3.0)
-        assert s["fault_code"] == STALE_COMMANDS and not s["enabled"] and node.fault.name == "stale_commands"
+        assert s["fault_code"] == STALE_COMMANDS and not s["enabled"] and node.faults.fault.name == "stale_commands"
         n = node.dampings
         loop.run(cycles=5)
         assert node.dampings >= n + 5  # every cycle while faulted
@@ -149,8 +145,8 @@ def test_a_silent_device_is_the_drivers_named_fault_until_it_speaks_again():
         loop.run(cycles=3)
         node.silent = True
         s = loop.run(until=lambda s: s["fault_code"] != 0, timeout=3.0)
-        assert s["fault_code"] == STATE_LOST and node.fault.name == "softstate_timeout" and not s["enabled"]
-        assert "no soft/state for" in str(node.fault) and "unsilence it" in str(node.fault)
+        assert s["fault_code"] == STATE_LOST and node.faults.fault.name == "softstate_timeout" and not s["enabled"]
+        assert "no soft/state for" in str(node.faults.fault) and "unsilence it" in str(node.faults.fault)
         with pytest.raises(InvalidRequest, match="softstate_timeout"):
             node.clear_faults()  # refused while it lasts
         node.silent = False
@@ -167,9 +163,9 @@ def test_a_fall_faults_beyond_the_limit_only_and_holds_over_a_later_stale_stream
         assert loop.run(cycles=3)["fault_code"] == 0
         node.quat = euler_to_quat(math.radians(50.0), 0.0, 0.0)
         s = loop.run(until=lambda s: s["fault_code"] != 0, timeout=3.0)
-        assert s["fault_code"] == FALL and "pelvis is tilted 50 deg" in str(node.fault)
+        assert s["fault_code"] == FALL and "pelvis is tilted 50 deg" in str(node.faults.fault)
         loop.run(cycles=3)
-        assert node.fault.code == FALL  # a fall is not replaced by anything watched later
+        assert node.faults.fault.code == FALL  # a fall is not replaced by anything watched later
         with pytest.raises(InvalidRequest, match="fall"):
             node.clear_faults()
         node.quat = np.array([1.0, 0.0, 0.0, 0.0])

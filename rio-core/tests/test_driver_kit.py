@@ -55,11 +55,14 @@ class UnguardedArm(FakeArm):
             raise InvalidRequest(self.name, "joint_pos", "the device is disabled")
         self.plan = (self.q.copy(), np.array(joint_pos, dtype=float), clock.now(), float(t_cmd_target))
 
-    def drive(self, now):
+    def cycle(self):
+        sample = self.read_arm()
         if self.enabled and self.plan is not None:
             q0, q1, t0, t1 = self.plan
-            a = 1.0 if t1 <= t0 else min(max((now - t0) / (t1 - t0), 0.0), 1.0)
+            a = 1.0 if t1 <= t0 else min(max((clock.now() - t0) / (t1 - t0), 0.0), 1.0)
             self.write_joints(q0 + a * (q1 - q0))
+        return self.complete(sample)
+
 '''
 
 KIT_RUN = '''
@@ -127,7 +130,7 @@ def kit_loaded() -> None:
     import rio.runtime.runner  # noqa: F401 - the close-after-error case
 
     with lifecycle(FakeModelArm()) as arm:  # forward kinematics: rio.kinematics and what it imports
-        arm.read_state()
+        arm.cycle()
 
 
 def test_kit_catches_broken_drivers_and_passes_the_sound_fakes(kit_loaded: None, pytester: pytest.Pytester):

@@ -11,13 +11,13 @@ from rio.testing import cycle_gripper, lifecycle, nudge_last_joint
 
 def test_nudge_turns_the_last_joint_and_back():
     with lifecycle(FakeArm(dof=6, max_step_rad=0.05)) as arm:
-        q0 = arm.read_state()["joint_pos"].copy()
+        q0 = arm.cycle()["joint_pos"].copy()
         nudge_last_joint(arm, rad=0.1, seconds=0.2)
-        np.testing.assert_allclose(arm.read_state()["joint_pos"], q0, atol=0.01)
+        np.testing.assert_allclose(arm.cycle()["joint_pos"], q0, atol=0.01)
 
 
 def test_cycle_gripper_reaches_each_opening():
     with lifecycle(FakeGripper()) as grip:
         w = grip.width
         cycle_gripper(grip, (w, 0.3 * w, w), tol=0.003, seconds=0.2)
-        assert abs(grip.read_state()["position"] - w) < 0.003
+        assert abs(grip.cycle()["position"] - w) < 0.003

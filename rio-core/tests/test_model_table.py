@@ -1,5 +1,6 @@
-"""`ModelTableArm`: a vendor arm's joints, home, limits and robot description come from its plugin's
-model table, picked by the station's `model`; the station's own fields still narrow them."""
+"""`ModelTable`: a vendor arm's joints, home, limits and robot description come from its plugin's model
+table, picked by the station's `model`; the station's own fields still narrow them; the table's defaults and
+rate bound are the config's, with the kind's descriptions."""
 
 from __future__ import annotations
 
@@ -7,9 +8,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
-from rio.fakes.arms import SIX_DOF_MJCF, FakeArm
-from rio.interfaces import ModelTableArm
+from rio.fakes.arms import SIX_DOF_MJCF
+from rio.interfaces import ArmNode, ModelTable
 from rio.testing import lifecycle
 
 
@@ -26,24 +28,32 @@ TABLE = {"small": Entry("small", tuple(f"j{i}" for i in range(1, 7)), (0.0, 0.3,
 described: list[tuple] = []
 
 
-def lookup(name: str) -> Entry:
-    if name not in TABLE:
-        raise KeyError(f"unknown model '{name}'; known: {', '.join(TABLE)}")
-    return TABLE[name]
-
-
 def describe(name: str, tcp_offset) -> dict:
     described.append((name, tcp_offset))
     return {"format": "mjcf", "xml": SIX_DOF_MJCF, "frame": "tool", "joints": list(TABLE[name].joint_names)}
 
 
-class TabledArm(ModelTableArm, FakeArm):
-    lookup_model = staticmethod(lookup)
-    describe_model = staticmethod(describe)
+MODELS = ModelTable(TABLE, describe, default="small", defaults={"rate_hz": 250.0, "max_tool_step_m": 0.002},
+                    max_rate_hz=500.0)
 
-    class Config(FakeArm.Config):
-        model: str = "small"
+
+class TabledArm(ArmNode):
+    """An arm whose joints follow their goal, everything else from the table."""
+
+    models = MODELS
+
+    class Config(ArmNode.Config):
+        model: str = "small"  # any name, to see an unknown one named by the table
         tcp_offset: tuple[float, ...] | None = None
+
+    def open(self) -> None:
+        self.q = np.asarray(self.default_home())
+
+    def read_joints(self):
+        return {"joint_pos": self.q.copy()}
+
+    def write_joints(self, joint_pos) -> None:
+        self.q = np.array(joint_pos)
 
 
 def test_joints_home_limits_and_description_come_from_the_table():
@@ -67,3 +77,19 @@ def test_an_unknown_model_is_named():
     with pytest.raises(Exception, match="unknown model 'big'; known: small"):
         with lifecycle(TabledArm(model="big")):
             pass
+
+
+def test_the_config_takes_the_model_the_defaults_and_the_rate_bound_from_the_table():
+    class Config(ArmNode.Config):
+        defaults = MODELS.defaults
+        model: str = MODELS.field()
+
+    c = Config()
+    assert (c.model, c.rate_hz, c.max_tool_step_m) == ("small", 250.0, 0.002)
+    kinds = ArmNode.Config.model_fields
+    assert Config.model_fields["max_tool_step_m"].description == kinds["max_tool_step_m"].description
+    assert Config.model_fields["model"].description == "which model: small"
+    with pytest.raises(ValidationError, match="unknown model 'big'; known: small"):
+        Config(model="big")
+    with pytest.raises(ValidationError, match="rate_hz"):
+        Config(rate_hz=600.0)

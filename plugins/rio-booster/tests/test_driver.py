@@ -123,7 +123,7 @@ def test_a_fall_damps_and_faults_until_the_robot_is_upright(make_robot, domain_i
         loop.run(cycles=3)
         robot.tilt(70.0)
         s = loop.run(until=lambda s: s["fault_code"] != 0, timeout=3.0)
-        assert s["fault_code"] == FALL and node.fault.name == "fall" and not s["enabled"]
+        assert s["fault_code"] == FALL and node.faults.fault.name == "fall" and not s["enabled"]
         assert tilt_from_rpy(quat_to_euler(s["base_quat"])) == pytest.approx(70.0, abs=0.5)
         assert robot.last_frame.is_damping() and robot.mode == DAMPING
         with pytest.raises(InvalidRequest, match="fall"):
@@ -143,7 +143,7 @@ def test_a_robot_that_goes_quiet_is_a_named_fault(make_robot, domain_id):
         loop.run(cycles=3)
         robot.publishing = False
         s = loop.run(until=lambda s: s["fault_code"] != 0, timeout=3.0)
-        assert s["fault_code"] == STATE_LOST and "no rt/low_state" in str(node.fault)
+        assert s["fault_code"] == STATE_LOST and "no rt/low_state" in str(node.faults.fault)
         assert robot.last_frame.is_damping() and robot.mode == DAMPING
         with pytest.raises(InvalidRequest, match="lowstate_timeout"):
             node.enable()

@@ -33,7 +33,7 @@ def request(arm, q) -> None:
 def test_joint_goals_become_asynchronous_motions_the_robot_follows(fake_ip):
     with lifecycle(arm_on(fake_ip)) as arm:
         ctl = fake.controller(fake_ip)
-        s = arm.read_state()
+        s = arm.cycle()
         assert s["enabled"] and s["connected"] and s["fault_code"] == 0
         goal = s["joint_pos"] + np.array([0.3, -0.2, 0.2, 0.2, 0.1, -0.1, 0.25])
         n0 = ctl.motions
@@ -45,7 +45,7 @@ def test_joint_goals_become_asynchronous_motions_the_robot_follows(fake_ip):
 
 def test_eef_goals_become_cartesian_motions_in_the_tool_frame(fake_ip):
     with lifecycle(arm_on(fake_ip, tcp_offset=HAND_TCP)) as arm:
-        start = arm.read_state()["eef_pose"]
+        start = arm.cycle()["eef_pose"]
         assert abs(start[2] - (0.5903 - 0.1034)) < 1e-3  # the hand's TCP below the flange at the ready pose
         goal = start.copy()
         goal[:3] += [0.05, -0.04, -0.06]
@@ -60,13 +60,13 @@ def test_eef_goals_become_cartesian_motions_in_the_tool_frame(fake_ip):
                                        ("power", "power")])
 def test_a_reflex_is_held_as_a_named_fault_until_recovered(fake_ip, what, name):
     with lifecycle(arm_on(fake_ip)) as arm:
-        q0 = arm.read_state()["joint_pos"]
+        q0 = arm.cycle()["joint_pos"]
         goal = q0 + 0.4
         arm.command_joints(goal, clock.now() + 1.0)
         Loop(arm).run(seconds=0.1)
         fake.controller(fake_ip).inject(what)
         s = run_until(arm, lambda s: s["fault_code"] != 0, timeout=3)
-        assert arm.fault is not None and arm.fault.name == name
+        assert arm.faults.fault is not None and arm.faults.fault.name == name
         assert not s["enabled"] and s["connected"]  # node alive, arm held
         held = s["joint_pos"].copy()
         s = Loop(arm).run(seconds=0.3)
@@ -83,24 +83,24 @@ def test_a_reflex_is_held_as_a_named_fault_until_recovered(fake_ip, what, name):
 
 def test_auto_recover_clears_a_reflex_by_itself(fake_ip):
     with lifecycle(arm_on(fake_ip, auto_recover=True, auto_recover_delay_s=0.2)) as arm:
-        arm.read_state()
+        arm.cycle()
         fake.controller(fake_ip).inject("joint_reflex")
         run_until(arm, lambda s: s["fault_code"] == 1, timeout=3)
         s = run_until(arm, lambda s: s["fault_code"] == 0 and s["enabled"], timeout=5)
-        assert s["enabled"] and arm.fault is None
+        assert s["enabled"] and arm.faults.fault is None
 
 
 def test_user_stop_is_a_named_fault(fake_ip):
     with lifecycle(arm_on(fake_ip)) as arm:
-        arm.read_state()
+        arm.cycle()
         fake.controller(fake_ip).inject("user_stopped")
         run_until(arm, lambda s: s["fault_code"] != 0, timeout=3)
-        assert arm.fault.name == "user_stopped"
+        assert arm.faults.fault.name == "user_stopped"
 
 
 def test_a_dropped_link_holds_then_reconnects_holding_where_the_arm_is(fake_ip):
     with lifecycle(arm_on(fake_ip)) as arm:
-        q0 = arm.read_state()["joint_pos"]
+        q0 = arm.cycle()["joint_pos"]
         ctl = fake.controller(fake_ip)
         ctl.inject("link_lost")
         s = run_until(arm, lambda s: not s["connected"], timeout=3)

@@ -14,9 +14,9 @@ from rio.testing import lifecycle
 
 def test_status_and_recover_name_and_clear_a_reflex(fake_ip, capsys):
     with lifecycle(FrankaArm(ip=fake_ip, backend="fake", model="panda")) as arm:
-        arm.read_state()
+        arm.cycle()
         fake.controller(fake_ip).inject("collision")
-        assert arm.read_state()["fault_code"] == 3
+        assert arm.cycle()["fault_code"] == 3
         assert main(["franka", "status", "--ip", fake_ip, "--backend", "fake"]) == 0
         out = capsys.readouterr().out
         assert "collision" in out and "mode reflex" in out
@@ -27,7 +27,7 @@ def test_status_and_recover_name_and_clear_a_reflex(fake_ip, capsys):
         assert "cleared collision" in capsys.readouterr().out
         assert fake.controller(fake_ip).model.name == "panda"  # the CLI left the box as the node made it
         assert arm.clear_faults() == "cleared"
-        s = arm.read_state()
+        s = arm.cycle()
         assert s["enabled"] and s["fault_code"] == 0
         assert main(["franka", "recover", "--ip", fake_ip, "--backend", "fake"]) == 0
         assert "nothing to clear" in capsys.readouterr().out

@@ -15,7 +15,7 @@ def test_closing_on_an_object_grasps_it_and_opening_releases(fake_ip):
     ctl = fake.controller(fake_ip)
     ctl.object_width = 0.03
     with lifecycle(FrankaHand(ip=fake_ip, backend="fake", speed=0.2)) as hand:
-        assert abs(hand.read_state()["position"] - 0.08) < 1e-6
+        assert abs(hand.cycle()["position"] - 0.08) < 1e-6
         hand.command("position", [0.0], clock.now() + 0.1)
         s = Loop(hand).run(until=lambda s: s["object_detected"], timeout=5)
         assert s["object_detected"] and abs(s["position"] - 0.03) < 1e-3
@@ -28,7 +28,7 @@ def test_closing_on_an_object_grasps_it_and_opening_releases(fake_ip):
 def test_a_dropped_gripper_link_reconnects(fake_ip):
     ctl = fake.controller(fake_ip)
     with lifecycle(FrankaHand(ip=fake_ip, backend="fake")) as hand:
-        hand.read_state()
+        hand.cycle()
         ctl.inject("link_lost")
         Loop(hand).run(until=lambda s: not s["connected"], timeout=3)
         ctl.restore_link()

@@ -40,8 +40,8 @@ def _node(driver: str, **fields):
 def test_arm_reads_and_holds_then_moves_last_joint():
     arm = _node(f"franka.{MODEL}", enable_on_open=MOTION, disable_on_close=False, relative_dynamics_factor=0.1)
     with lifecycle(arm):
-        s = arm.read_state()
-        assert s["connected"] and s["fault_code"] == 0, arm.fault
+        s = arm.cycle()
+        assert s["connected"] and s["fault_code"] == 0, arm.faults.fault
         assert np.isfinite(s["joint_pos"]).all() and np.isfinite(s["eef_pose"]).all()
         if not MOTION:
             return

@@ -34,7 +34,7 @@ def test_a_joint_fault_is_named_held_and_cleared():
         session.fake_robot(IP, "gen3").inject_fault("joint_fault")
         s = Loop(arm).run(cycles=3)
         assert s["fault_code"] == 3 and not s["enabled"] and s["holding"]
-        assert arm.fault is not None and arm.fault.name == "action_aborted"
+        assert arm.faults.fault is not None and arm.faults.fault.name == "action_aborted"
         held = s["joint_pos"].copy()
         with pytest.raises(InvalidRequest, match="stopped by a fault: action_aborted"):
             arm.handle_request({**arm.example_request, "joint_pos": q0, "t_cmd_target": clock.now()})
@@ -51,8 +51,8 @@ def test_an_emergency_stop_is_named_and_clears_only_once_released():
         robot = session.fake_robot(IP, "gen3")
         robot.inject_fault("emergency_stop")
         s = Loop(arm).run(cycles=2)
-        assert s["fault_code"] == 2 and arm.fault.name == "emergency_stop" and "release the emergency stop" in \
-            str(arm.fault)
+        assert s["fault_code"] == 2 and arm.faults.fault.name == "emergency_stop" and "release the emergency stop" in \
+            str(arm.faults.fault)
         assert Loop(grip).run(cycles=2)["fault_code"] == 2  # the gripper's node holds too (one base)
         with pytest.raises(KinovaError, match="emergency stop"):
             arm.clear_faults()

@@ -43,7 +43,7 @@ def _node(driver: str, **fields):
 def test_arm_reads_and_holds_then_moves_last_joint():
     arm = _node(f"kinova.{MODEL}", enable_on_open=MOTION, disable_on_close=False)
     with lifecycle(arm):
-        s = arm.read_state()
+        s = arm.cycle()
         assert s["fault_code"] == 0 and np.isfinite(s["joint_pos"]).all() and np.isfinite(s["eef_pose"]).all()
         if not MOTION:
             return

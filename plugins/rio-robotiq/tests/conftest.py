@@ -38,14 +38,14 @@ def dh_rtu():
 
 
 class Runner:
-    """Ticks `node.read_state()` at the node's rate (the runtime's loop, in the test's thread)."""
+    """Ticks `node.cycle()` at the node's rate (the runtime's loop, in the test's thread)."""
 
     def __init__(self, node: Any):
         self.node = node
         self.last: dict[str, Any] = {}
 
     def tick(self) -> dict[str, Any]:
-        self.last = dict(self.node.read_state())
+        self.last = dict(self.node.cycle())
         time.sleep(1.0 / self.node.rate_hz)
         return self.last
 

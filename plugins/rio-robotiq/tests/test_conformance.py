@@ -40,12 +40,12 @@ class TestRobotiqHandEVirtual(GripperConformance):
 class TestRobotiqUrcap(GripperConformance):
     driver = "robotiq.urcap"
     config = {"model": "2f85"}
-    bad_config = {"host": "127.0.0.1", "port": 1, "connect_timeout_s": 0.0}  # nothing listens: refused
+    bad_config = {"ip": "127.0.0.1", "port": 1, "connect_timeout_s": 0.0}  # nothing listens: refused
 
     @contextmanager
     def emulator(self):
         with UrcapServer(RobotiqRegisters("2f85")) as srv:
-            yield {"host": srv.host, "port": srv.port}
+            yield {"ip": srv.host, "port": srv.port}
 
 
 class TestDhAg95(GripperConformance):

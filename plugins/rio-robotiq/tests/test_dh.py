@@ -32,12 +32,12 @@ def test_open_initializes_and_skips_it_when_done(dh_rtu):
     assert regs.init_state == 0
     with lifecycle(DhGripper(port=dh_rtu.port)) as g:
         assert regs.init_state == 1
-        s = g.read_state()
+        s = g.cycle()
         assert s["position"] == pytest.approx(0.095) and s["enabled"] and not s["object_detected"]
     regs.handle(bytes.fromhex("01 06 01 03 01 F4"))  # move to half open behind the driver's back
     time.sleep(1.0)
     with lifecycle(DhGripper(port=dh_rtu.port)) as g:  # initialized: no initialization (it would open fully)
-        assert g.read_state()["position"] == pytest.approx(0.0475, abs=TOL)
+        assert g.cycle()["position"] == pytest.approx(0.0475, abs=TOL)
 
 
 def test_moves_to_a_width_and_both_ends(dh_rtu, runner):
@@ -128,4 +128,4 @@ def test_initialization_timeout_and_dead_line_name_the_port(dh_rtu):
 
 def test_the_ag105_is_the_145_mm_model():
     with lifecycle(DhGripper(port="virtual", model="ag105")) as g:
-        assert g.read_state()["max_width"] == pytest.approx(0.145)
+        assert g.cycle()["max_width"] == pytest.approx(0.145)

@@ -59,7 +59,7 @@ def open_and_close(node) -> None:
             g.handle_request({"position": target, "t_cmd_target": clock.now() + 1.0, "force": 0.0})
             t_end = time.monotonic() + 5.0
             while time.monotonic() < t_end:
-                s = g.read_state()
+                s = g.cycle()
                 time.sleep(1.0 / g.rate_hz)
             print(f"{type(node).__name__}: target {target:.4f} m, measured {s['position']:.4f} m, state {s}")
             assert abs(s["position"] - target) < TOL
@@ -89,7 +89,7 @@ def test_robotiq_urcap_status():
 def test_robotiq_urcap_moves():
     from rio_robotiq.robotiq.driver import RobotiqUrcapGripper
 
-    open_and_close(RobotiqUrcapGripper(host=need(URCAP_HOST, "RIO_ROBOTIQ_URCAP_HOST", motion=True),
+    open_and_close(RobotiqUrcapGripper(ip=need(URCAP_HOST, "RIO_ROBOTIQ_URCAP_HOST", motion=True),
                                        model=ROBOTIQ_MODEL))
 
 

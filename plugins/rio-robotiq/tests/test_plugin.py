@@ -37,7 +37,7 @@ def test_drivers_station_and_requirements_are_registered():
     ("robotiq.2f85", {"port": "/dev/ttyUSB0"}, 0.085),
     ("robotiq.2f140", {"port": "/dev/ttyUSB0"}, 0.140),
     ("robotiq.hande", {"port": "/dev/ttyUSB0", "max_width": 0.04}, 0.04),
-    ("robotiq.urcap", {"host": "10.0.0.2", "model": "2f140"}, 0.140),
+    ("robotiq.urcap", {"ip": "10.0.0.2", "model": "2f140"}, 0.140),
     ("dh.ag95", {"port": "/dev/ttyUSB0"}, 0.095),
     ("dh.ag105", {"port": "/dev/ttyUSB0"}, 0.145),
 ])

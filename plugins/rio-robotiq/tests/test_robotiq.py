@@ -31,7 +31,7 @@ class Bench:
     def make(self, **config: Any) -> Any:
         if self.transport == "rtu":
             return RobotiqGripper(port=self.device.port, **config)
-        return RobotiqUrcapGripper(host=self.device.host, port=self.device.port, **config)
+        return RobotiqUrcapGripper(ip=self.device.host, port=self.device.port, **config)
 
 
 @pytest.fixture(params=["rtu", "urcap"])
@@ -49,7 +49,7 @@ def test_open_activates_a_reset_gripper(bench):
     assert not bench.regs.activated
     with lifecycle(bench.make()) as g:
         assert bench.regs.activated and bench.regs.rGTO == 1  # activated, and enabled: following
-        s = g.read_state()
+        s = g.cycle()
         assert s["position"] == pytest.approx(0.085) and s["fault"] == 0 and not s["object_detected"]
         assert s["enabled"] and s["max_width"] == pytest.approx(0.085)
 
@@ -62,7 +62,7 @@ def test_an_activated_gripper_is_not_activated_again(bench):
     assert wait_until(lambda: abs(regs.position - 0.085 * (1 - 128 / 255)) < 1e-6)
     regs.activation_s = 60.0  # re-activating would now time out
     with lifecycle(bench.make(activation_timeout_s=2.0)) as g:
-        assert g.read_state()["position"] == pytest.approx(regs.position, abs=COUNT)
+        assert g.cycle()["position"] == pytest.approx(regs.position, abs=COUNT)
 
 
 def test_moves_to_a_width_and_to_both_ends(bench, runner):
@@ -130,7 +130,7 @@ def test_a_major_fault_stops_the_fingers_raises_and_resets(bench, runner):
         time.sleep(0.2)
         assert regs.position == pytest.approx(stopped)
         with pytest.raises(RobotiqFault):  # still faulted: every cycle says so
-            g.read_state()
+            g.cycle()
         assert g.reset_fault() is True
         assert regs.activated and regs.fault == 0
         s = r.settle(0.1)
@@ -201,7 +201,7 @@ def test_rtu_another_slave_id_is_not_answered(robotiq_rtu):
 
 
 def test_urcap_speaks_the_documented_lines(urcap, runner):
-    with lifecycle(RobotiqUrcapGripper(host=urcap.host, port=urcap.port, force=235.0)) as g:
+    with lifecycle(RobotiqUrcapGripper(ip=urcap.host, port=urcap.port, force=235.0)) as g:
         r = runner(g)
         r.move(0.0425)
         r.until(lambda s: abs(s["position"] - 0.0425) <= COUNT)
@@ -213,18 +213,18 @@ def test_urcap_speaks_the_documented_lines(urcap, runner):
 
 
 def test_urcap_dropped_connection_is_a_named_error(urcap):
-    with lifecycle(RobotiqUrcapGripper(host=urcap.host, port=urcap.port, timeout_s=0.5)) as g:
+    with lifecycle(RobotiqUrcapGripper(ip=urcap.host, port=urcap.port, timeout_s=0.5)) as g:
         urcap.drop_clients()
         with pytest.raises(CommunicationError, match=f"URCap {urcap.host}:{urcap.port}"):
             for _ in range(5):
-                g.read_state()
+                g.cycle()
 
 
 def test_virtual_ports_start_private_emulators(runner):
-    for node in (RobotiqGripper(port="virtual", model="2f140"), RobotiqUrcapGripper(host="virtual", model="hande")):
+    for node in (RobotiqGripper(port="virtual", model="2f140"), RobotiqUrcapGripper(ip="virtual", model="hande")):
         with lifecycle(node) as g:
             r = runner(g)
             w = 0.5 * g.config.max_width
             r.move(w)
             r.until(lambda s, w=w: abs(s["position"] - w) <= 0.001)
-        assert node._virtual is None and node.link is None  # stopped with the node
+        assert node._virtual is None and node.device is None  # stopped with the node

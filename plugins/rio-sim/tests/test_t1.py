@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 from rio_sim import t1
-from rio_sim.humanoid import SimG1, SimT1
+from rio_sim.humanoid import SimHumanoid
 from rio_sim.indices import joint_indices
 from rio_sim.robots import ASSETS
 from rio_sim.scenes import TABLE_HEIGHT, build_model
@@ -95,15 +95,15 @@ def test_the_hands_ik_moves_only_the_arms():
         t1.asset_text(hands=True)
 
 
-@pytest.mark.parametrize("driver, joint, group", [(SimG1, "left_knee_joint", "legs"),
-                                                  (SimT1, "Left_Knee_Pitch", "knees")])
-def test_gains_take_groups_and_joint_names_and_name_an_unknown_key(driver, joint, group):
-    ok = driver.Config(gains={group: [120.0, 3.0], joint: [150.0, 4.0]})
+@pytest.mark.parametrize("robot, joint, group", [("g1", "left_knee_joint", "legs"),
+                                                 ("t1", "Left_Knee_Pitch", "knees")])
+def test_gains_take_groups_and_joint_names_and_name_an_unknown_key(robot, joint, group):
+    ok = SimHumanoid.Config(robot=robot, gains={group: [120.0, 3.0], joint: [150.0, 4.0]})
     assert ok.gains[joint] == (150.0, 4.0)
     with pytest.raises(ValidationError, match="left_knee"):
-        driver.Config(gains={"left_knee": [150.0, 4.0]})
+        SimHumanoid.Config(robot=robot, gains={"left_knee": [150.0, 4.0]})
     with pytest.raises(ValidationError, match=f"must be >= 0 \\({joint}\\)"):
-        driver.Config(gains={joint: [-1.0, 4.0]})
+        SimHumanoid.Config(robot=robot, gains={joint: [-1.0, 4.0]})
 
 
 GAINS = """

@@ -80,7 +80,7 @@ def test_follower_uses_the_calibration(make_vbus):
     for sid, servo in bus.servos.items():
         servo.encoder = hand.middles[sid] + (100 if sid == 2 else 0)
     with lifecycle(So100Follower(port=bus.port, calibration="arm1")) as node:
-        s = node.read_state()
+        s = node.cycle()
         assert np.allclose(s["joint_pos"], [0, 100 * RAD_PER_STEP, 0, 0, 0], atol=1e-9)
         assert bus.servo(2).homing_offset == result.joint("shoulder_lift").homing_offset
         lower, upper = node.joint_limits()

@@ -62,7 +62,7 @@ def test_node_reads_calibrated_joints_within_limits():
 
     cls = So100Follower if ROLE == "follower" else So100Leader
     with lifecycle(cls(port=PORT, calibration=CALIBRATION, model=MODEL)) as node:
-        s = node.read_state()
+        s = node.cycle()
         print("joint_pos", np.round(s["joint_pos"], 3), "error", s["error"])
         assert not np.any(s["error"])
         if ROLE == "follower":
@@ -79,13 +79,13 @@ def test_follower_small_wrist_roll_motion():
     from rio import clock
 
     with lifecycle(So100Follower(port=PORT, calibration=CALIBRATION, model=MODEL)) as node:
-        q0 = node.read_state()["joint_pos"].copy()
+        q0 = node.cycle()["joint_pos"].copy()
         for delta in (0.15, 0.0):
             target = q0.copy()
             target[4] += delta
             node.command_joints(target, clock.now() + 1.0)
             t_end = clock.now() + 1.5
             while clock.now() < t_end:
-                s = node.read_state()
+                s = node.cycle()
                 time.sleep(0.01)
             assert abs(s["joint_pos"][4] - target[4]) < 0.03, s["joint_pos"]

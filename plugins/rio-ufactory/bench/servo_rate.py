@@ -112,12 +112,12 @@ def main() -> None:
                 goal = state["q"].copy()
                 goal[0] = g0
                 arm.command_joints(goal, clock.now())
-                state["s"] = arm.read_state()  # the node's next cycle sends it
+                state["s"] = arm.cycle()  # the node's next cycle sends it
 
-            state["q"] = arm.read_state()["joint_pos"]
+            state["q"] = arm.cycle()["joint_pos"]
 
             def rio_joint0():
-                state["s"] = arm.read_state()
+                state["s"] = arm.cycle()
                 return float(state["s"]["joint_pos"][0])
 
             res["rio latency"] = latency(rio_send, rio_joint0)

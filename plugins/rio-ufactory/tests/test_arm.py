@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from rio_ufactory.arm.driver import XArm
-from rio_ufactory.controller import Controller
+from rio_ufactory.connection import XArmConnection
 from rio_ufactory.faults import XArmError, XArmFault
 from rio_ufactory.loopback import free_loopback
 
@@ -28,7 +28,7 @@ def run_until(arm, pred, timeout: float = 8.0) -> dict:
 def test_joint_targets_stream_as_servo_commands_and_the_report_follows(make_emulator):
     emu = make_emulator("xarm7")
     with lifecycle(XArm(ip=emu.host, model="xarm7")) as arm:
-        s = arm.read_state()
+        s = arm.cycle()
         assert s["enabled"] and s["connected"] and s["fault_code"] == 0
         assert emu.mode == 1  # servo mode
         np.testing.assert_allclose(s["joint_pos"], emu.joint_pos, atol=1e-4)
@@ -45,7 +45,7 @@ def test_joint_targets_stream_as_servo_commands_and_the_report_follows(make_emul
 def test_joint_targets_are_clipped_to_the_models_limits(make_emulator):
     emu = make_emulator("lite6", gripper="lite6")
     with lifecycle(XArm(ip=emu.host, model="lite6", max_step_rad=0.05)) as arm:
-        q = arm.read_state()["joint_pos"]
+        q = arm.cycle()["joint_pos"]
         goal = q.copy()
         goal[2] = 7.0  # joint 3 of a Lite 6 stops at 5.236 rad
         arm.command_joints(goal, clock.now() + 0.5)
@@ -57,7 +57,7 @@ def test_joint_targets_are_clipped_to_the_models_limits(make_emulator):
 def test_eef_targets_go_through_the_controllers_cartesian_servo(make_emulator):
     emu = make_emulator("xarm6")
     with lifecycle(XArm(ip=emu.host, model="xarm6")) as arm:
-        start = arm.read_state()["eef_pose"]
+        start = arm.cycle()["eef_pose"]
         goal = start.copy()
         goal[:3] += [0.04, -0.03, -0.05]
         arm.command_eef(goal, clock.now() + 1.0)
@@ -71,7 +71,7 @@ def test_eef_targets_by_rios_ik_with_a_tool_offset_agree_with_the_controller(mak
     offset = [0.0, 0.0, 0.16, 0.0, 0.0, 0.0]
     with lifecycle(XArm(ip=emu.host, model="xarm7", eef_control="ik", tcp_offset=offset)) as arm:
         assert arm.robot_description()["frame"] == "tool"
-        s = arm.read_state()
+        s = arm.cycle()
         reported = emu.tcp_pose()  # the controller's TCP: mm, rad, offset included
         np.testing.assert_allclose(s["eef_pose"][:3] * 1000.0, reported[:3], atol=0.5)
         goal = s["eef_pose"].copy()
@@ -87,7 +87,7 @@ def test_a_station_naming_the_wrong_model_is_refused(make_emulator):
     arm = XArm(ip=emu.host, model="xarm6")
     with pytest.raises(XArmError, match=r"station says xArm 6, the controller reports xArm 7"):
         arm.open()
-    assert emu.host not in Controller._shared  # nothing left open
+    assert emu.host not in XArmConnection._shared  # nothing left open
 
 
 def test_no_controller_is_a_clear_error_naming_the_address():
@@ -101,14 +101,14 @@ def test_no_controller_is_a_clear_error_naming_the_address():
 def test_a_fault_holds_the_arm_names_itself_and_clears(make_emulator, kind, code, name):
     emu = make_emulator("xarm7")
     with lifecycle(XArm(ip=emu.host, model="xarm7")) as arm:
-        q0 = arm.read_state()["joint_pos"]
+        q0 = arm.cycle()["joint_pos"]
         goal = q0 + 0.4
         arm.command_joints(goal, clock.now() + 1.5)
         spin(arm, 0.3)
         emu.inject_fault(kind, joint=3)
         s = run_until(arm, lambda s: s["fault_code"] != 0, timeout=3)
         assert s["fault_code"] == code and not s["enabled"]
-        assert arm.fault is not None and arm.fault.name == name
+        assert arm.faults.fault is not None and arm.faults.fault.name == name
         stopped = emu.joint_pos.copy()
         spin(arm, 0.3)
         np.testing.assert_allclose(emu.joint_pos, stopped, atol=1e-3)  # held where it stopped
@@ -129,8 +129,8 @@ def test_emergency_stop_cannot_be_cleared_until_released(make_emulator):
     with lifecycle(XArm(ip=emu.host, model="xarm7")) as arm:
         emu.inject_fault("estop")
         s = run_until(arm, lambda s: s["fault_code"] != 0, timeout=3)
-        assert s["fault_code"] == 1 and arm.fault.name == "emergency_stop"
-        assert "release the emergency stop" in str(arm.fault)
+        assert s["fault_code"] == 1 and arm.faults.fault.name == "emergency_stop"
+        assert "release the emergency stop" in str(arm.faults.fault)
         with pytest.raises(XArmFault, match="emergency_stop"):
             arm.clear_faults()
         emu.release_estop()
@@ -164,9 +164,9 @@ def test_arm_and_gripper_in_one_process_share_one_connection(make_emulator):
 
     emu = make_emulator("xarm7")
     with lifecycle(XArm(ip=emu.host, model="xarm7")) as arm, lifecycle(XArmGripper(ip=emu.host)) as grip:
-        assert arm.ctl is grip.ctl and arm.ctl.users == 2
+        assert arm.conn is grip.conn and arm.conn.users == 2
         assert wait_until(lambda: emu.clients == 2)  # one command socket + one report socket
-    assert emu.host not in Controller._shared
+    assert emu.host not in XArmConnection._shared
 
 
 def test_another_program_stopping_the_arm_is_a_named_stop_and_enable_resumes(make_emulator, connect):
@@ -176,9 +176,9 @@ def test_another_program_stopping_the_arm_is_a_named_stop_and_enable_resumes(mak
         other = connect(emu)  # UFACTORY Studio, a script: the controller takes several clients
         assert other.set_state(4) == 0
         s = run_until(arm, lambda s: s["fault_code"] != 0, timeout=3)
-        assert s["fault_code"] == -1 and not s["enabled"] and arm.fault.name == "stopped"
+        assert s["fault_code"] == -1 and not s["enabled"] and arm.faults.fault.name == "stopped"
         assert arm.enable() and spin(arm, 0.1)["enabled"]
-        assert arm.fault is None and emu.state in (1, 2)
+        assert arm.faults.fault is None and emu.state in (1, 2)
 
 
 def test_after_a_drop_every_node_on_the_controller_comes_back(make_emulator):

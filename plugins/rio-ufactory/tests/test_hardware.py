@@ -39,9 +39,9 @@ def _node(driver: str, **fields):
 
 
 def test_identity_and_realtime_report_rate():
-    from rio_ufactory.controller import Controller
+    from rio_ufactory.connection import XArmConnection
 
-    ctl = Controller.acquire(IP, model=MODEL)
+    ctl = XArmConnection.acquire(IP, model=MODEL)
     try:
         n0, t0 = ctl.reports, time.monotonic()
         time.sleep(1.0)
@@ -55,7 +55,7 @@ def test_identity_and_realtime_report_rate():
 def test_arm_reads_and_holds_then_moves_last_joint():
     arm = _node(f"ufactory.{MODEL}", enable_on_open=MOTION, disable_on_close=False)
     with lifecycle(arm):
-        s = arm.read_state()
+        s = arm.cycle()
         assert s["connected"] and np.isfinite(s["joint_pos"]).all() and np.isfinite(s["eef_pose"]).all()
         if not MOTION:
             return

@@ -92,7 +92,7 @@ def test_commands_say_what_is_wrong_without_a_controller(capsys):
 def test_emulator_command_serves_a_controller_until_interrupted():
     import signal
 
-    from rio_ufactory.controller import Controller
+    from rio_ufactory.connection import XArmConnection
     from rio_ufactory.loopback import PORT_502_HINT, can_listen_on_502, free_loopback
 
     if not can_listen_on_502():
@@ -103,7 +103,7 @@ def test_emulator_command_serves_a_controller_until_interrupted():
     try:
         first = proc.stdout.readline()
         assert f"Lite 6 controller emulator listening on {host}" in first, first
-        ctl = Controller.acquire(host, model="lite6")
+        ctl = XArmConnection.acquire(host, model="lite6")
         assert (ctl.api.axis, ctl.api.device_type) == (6, 9)
         ctl.release()
     finally:

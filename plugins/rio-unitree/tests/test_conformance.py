@@ -6,8 +6,8 @@ Config for the kit, and why: whole-body `lowcmd` (the kit commands every joint);
 short); gains stiff enough that gravity sags a joint of the hanging robot less than the kit's 0.03 rad
 tracking tolerance (the real robot's defaults sag more: a controller adds feed-forward); strong damping,
 since the kit re-enables a disabled, damped robot and wants it where it was. `on_stale` is the driver's
-default, "damp": the kit's watchdog case asks the driver (`damps_on_stale`) and checks the damping stop
-(disabled with its stale_commands fault, driven no more, clear_faults() holding where it is)."""
+default, "damp": the kit's watchdog case asks the driver (`node.safety.damps_on_stale`) and checks the
+damping stop (disabled with its stale_commands fault, driven no more, clear_faults() holding where it is)."""
 
 from __future__ import annotations
 

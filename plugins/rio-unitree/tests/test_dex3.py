@@ -129,7 +129,7 @@ def test_no_hand_state_is_a_named_error(domain_id):
     node = dex3_node(domain_id, "left", connect_timeout_s=0.3)
     with pytest.raises(TimeoutError, match=rf"no rt/dex3/left/state on interface 'lo' \(DDS domain {domain_id}\)"):
         node.open()
-    assert node.dds is None
+    assert node.topics.dds is None
 
 
 def test_a_hand_tracker_curls_the_fingers_on_the_bridge_station(tmp_path, domain_id):

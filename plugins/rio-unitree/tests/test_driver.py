@@ -145,7 +145,7 @@ def test_a_fall_damps_and_faults_until_the_robot_is_upright(make_bridge, domain_
         loop.run(cycles=3)
         bridge.tilt(70.0)  # the mount tilts: to the IMU, a fall forward
         s = loop.run(until=lambda s: s["fault_code"] != 0, timeout=3.0)
-        assert s["fault_code"] == FALL and node.fault.name == "fall" and not s["enabled"]
+        assert s["fault_code"] == FALL and node.faults.fault.name == "fall" and not s["enabled"]
         assert tilt_from_quat(s["base_quat"]) == pytest.approx(70.0, abs=1.0)
         assert tap.wait(is_damping, timeout=2.0) is not None
         with pytest.raises(InvalidRequest, match="fall"):
@@ -173,7 +173,7 @@ def test_a_robot_that_goes_quiet_is_a_named_fault(make_bridge, domain_id):
         loop.run(cycles=3)
         bridge.stop()
         s = loop.run(until=lambda s: s["fault_code"] != 0, timeout=3.0)
-        assert s["fault_code"] == STATE_LOST and "no rt/lowstate" in str(node.fault)
+        assert s["fault_code"] == STATE_LOST and "no rt/lowstate" in str(node.faults.fault)
         with pytest.raises(InvalidRequest, match="lowstate_timeout"):
             node.enable()
 
@@ -207,7 +207,7 @@ def test_a_lowstate_with_a_wrong_crc_is_not_believed(domain_id):
                 g1(domain_id, connect_timeout_s=0.5).open()
             trusting = g1(domain_id, check_state_crc=False, control="lowcmd", enable_on_open=False)
             with lifecycle(trusting):  # e.g. Unitree's unitree_mujoco, which does not sign its state
-                assert trusting.read_state()["joint_pos"].shape == (29,)
+                assert trusting.cycle()["joint_pos"].shape == (29,)
         finally:
             stop.set()
             thread.join()

@@ -194,7 +194,7 @@ def test_lost_state_is_a_named_fault(inspire_bridge, domain_id):
         inspire_bridge.stop()  # the service goes silent
         s = loop.run(until=lambda s: s["fault_code"] != 0, timeout=3.0)
         assert s["fault_code"] == STATE_LOST and not s["enabled"]
-        assert node.fault.name == "handstate_timeout" and "rt/inspire/state" in node.fault.meaning
+        assert node.faults.fault.name == "handstate_timeout" and "rt/inspire/state" in node.faults.fault.meaning
         with pytest.raises(InvalidRequest, match="handstate_timeout"):
             node.handle_request({"joint_pos": _pose("left"), "t_cmd_target": clock.now() + 1.0})
 
@@ -203,7 +203,7 @@ def test_no_inspire_state_is_a_named_error(domain_id):
     node = inspire_node(domain_id, "left", connect_timeout_s=0.3)
     with pytest.raises(TimeoutError, match=rf"no rt/inspire/state on interface 'lo' \(DDS domain {domain_id}\)"):
         node.open()
-    assert node.dds is None
+    assert node.topics.dds is None
 
 
 class TestInspireOnBridge(HandConformance):

@@ -21,7 +21,7 @@ def run_until(arm, pred, timeout: float = 8.0) -> dict:
 
 def test_joint_targets_stream_as_servoj_and_rtde_reports_them(emulator):
     with lifecycle(URArm(**emulator.driver_fields, model="ur5e")) as arm:
-        s = arm.read_state()
+        s = arm.cycle()
         assert s["enabled"] and s["connected"] and s["fault_code"] == 0 and s["robot_mode"] == 7
         np.testing.assert_allclose(s["joint_pos"], emulator.state()["q"], atol=1e-3)
         goal = s["joint_pos"] + np.array([0.2, -0.1, 0.15, 0.1, -0.1, 0.2])
@@ -34,7 +34,7 @@ def test_joint_targets_stream_as_servoj_and_rtde_reports_them(emulator):
 
 def test_eef_targets_go_through_servol(emulator):
     with lifecycle(URArm(**emulator.driver_fields, model="ur5e")) as arm:
-        start = arm.read_state()["eef_pose"]
+        start = arm.cycle()["eef_pose"]
         goal = start.copy()
         goal[:3] += [0.03, -0.02, -0.04]
         arm.command_eef(goal, clock.now() + 1.0)
@@ -51,7 +51,7 @@ def test_protective_stop_is_named_held_and_recovered_through_the_dashboard(emula
             arm.handle_request({"mode": 0, "joint_pos": s["joint_pos"], "eef_pose": s["eef_pose"],
                                 "t_cmd_target": clock.now()})
         assert arm.clear_faults() == "cleared"
-        s = arm.read_state()
+        s = arm.cycle()
         assert s["enabled"] and s["fault_code"] == 0 and emulator.state()["safety_mode"] == 1
 
 
@@ -64,7 +64,7 @@ def test_emergency_stop_needs_the_button_then_power_and_brakes(emulator):
             arm.clear_faults()  # the button is still pressed
         emulator.inject("release_emergency_stop")
         assert arm.clear_faults() == "cleared"  # dashboard: power on, brake release
-        assert emulator.state()["robot_mode"] == 7 and arm.read_state()["enabled"]
+        assert emulator.state()["robot_mode"] == 7 and arm.cycle()["enabled"]
 
 
 def test_speed_slider_is_reported(emulator, caplog):
@@ -78,6 +78,6 @@ def test_speed_slider_is_reported(emulator, caplog):
 def test_a_dropped_link_is_held_then_reconnected(emulator):
     with lifecycle(URArm(**emulator.driver_fields, model="ur5e")) as arm:
         emulator.inject("drop")
-        assert wait_until(lambda: not arm.read_state()["enabled"], timeout=5)
+        assert wait_until(lambda: not arm.cycle()["enabled"], timeout=5)
         s = run_until(arm, lambda s: s["connected"] and s["enabled"], timeout=10)
         assert s["connected"] and s["enabled"]

@@ -64,7 +64,7 @@ def test_arm_reads_then_moves_last_joint():
     arm = build_node(resolve_driver(f"ur.{MODEL}"), {"ip": IP, "enable_on_open": MOTION, "disable_on_close": False},
                      "hw")
     with lifecycle(arm):
-        s = arm.read_state()
+        s = arm.cycle()
         assert s["connected"] and np.isfinite(s["joint_pos"]).all() and np.isfinite(s["eef_pose"]).all()
         print(f"fault: {s['fault_code']}, speed slider {s['speed_scaling']:.2f}")
         if not MOTION:

@@ -12,19 +12,30 @@ defaults, descriptions and constraints live only there: the station file's table
             self.port = self.config.port
 
 A component is built from a config object or from fields (`AcmeArm(port="/dev/ttyUSB0")`, what
-`serve(AcmeArm, mw, port=...)` and station files do); both go through `Configurable.__init__`, so there is
-no constructor signature to keep in sync with the model. A plugin registers a variant of a component
+`serve(AcmeArm, mw, port=...)` and station files do); both go through `validate_config` (in
+`Configurable.__init__`, or `Node.__init__` for nodes), so there is no constructor signature to keep in sync
+with the model. A plugin registers a variant of a component
 as a spec carrying preset field values (`Spec(..., preset={"model": "so101"})`), not as a subclass.
+
+A model sets other defaults for fields it inherits in `defaults` (a vendor's rate over its kind's, a bus's
+baud rate): each field keeps its type, constraints and description, so nothing is declared twice. A field
+(or a value) renamed in a release keeps its old name working for one more release: the model lists it in
+`renamed` / `renamed_values`, and a station file or a script using the old name is validated as if it had
+used the new one, with one line in the log saying so.
 """
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
+from pydantic.fields import FieldInfo
 
 from rio.suggest import closest
+
+log = logging.getLogger("rio.config")
 
 
 class Config(BaseModel):
@@ -32,6 +43,80 @@ class Config(BaseModel):
     not be silently ignored)."""
 
     model_config = ConfigDict(extra="forbid")
+    #: {field: default} for inherited fields, or {field: Field(default, <more constraints>)}: the field keeps
+    #: its type, constraints and description (`class Config(ArmNode.Config): defaults = {"rate_hz": 250.0}`).
+    defaults: ClassVar[Mapping[str, Any]] = {}
+    #: {old field name: new field name}: renamed fields still accepted for one release (a class's entries
+    #: add to its bases').
+    renamed: ClassVar[Mapping[str, str]] = {}
+    #: {field: {old value: new value}}: renamed values of a field, still accepted for one release.
+    renamed_values: ClassVar[Mapping[str, Mapping[Any, Any]]] = {}
+
+    @classmethod
+    def __pydantic_init_subclass__(cls, **kwargs: Any) -> None:
+        super().__pydantic_init_subclass__(**kwargs)
+        own = cls.__dict__.get("defaults")
+        if own:
+            for name, value in own.items():
+                cls.__pydantic_fields__[name] = with_default(cls, name, value)
+            cls.model_rebuild(force=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _accept_old_names(cls, data: Any) -> Any:
+        return accept_renamed(cls, data)
+
+
+def with_default(model: type[BaseModel], name: str, value: Any) -> FieldInfo:
+    """Field `name` of `model` with the default `value` (or merged with `value`, a `Field(...)`)."""
+    base = model.model_fields.get(name)
+    if base is None:
+        raise KeyError(f"{model.__qualname__}.defaults: it has no field '{name}' (fields: "
+                       f"{', '.join(model.model_fields)})")
+    if isinstance(value, FieldInfo):
+        return FieldInfo.merge_field_infos(base, value)
+    return FieldInfo.merge_field_infos(base, default=value)
+
+
+_noticed: set[tuple[str, str]] = set()
+
+
+def _notice(model: type, old: str, new: str) -> None:
+    """One line per process and rename: a station validated by a server, its client and a tool says it once."""
+    key = (model.__qualname__, old)
+    if key not in _noticed:
+        _noticed.add(key)
+        log.warning("%s: %s is now %s (the old name is accepted until the next release)", model.__qualname__,
+                    old, new)
+
+
+def accept_renamed(model: type, data: Any) -> Any:
+    """`data` (a mapping of fields) with the old names and values `model` declares renamed (`Config.renamed`,
+    `Config.renamed_values`, from every class of its MRO) turned into the new ones. Both names at once is an
+    error naming both."""
+    if not isinstance(data, Mapping):
+        return data
+    names: dict[str, str] = {}
+    values: dict[str, Mapping[Any, Any]] = {}
+    for klass in reversed(model.__mro__):
+        names.update(klass.__dict__.get("renamed", {}))
+        for field, table in klass.__dict__.get("renamed_values", {}).items():
+            values[field] = {**values.get(field, {}), **table}
+    if not names and not values:
+        return data
+    out = dict(data)
+    for old, new in names.items():
+        if old in out:
+            if new in out:
+                raise ValueError(f"{old} and {new} are one field ({old} is its old name): set {new} only")
+            _notice(model, f"'{old}'", f"'{new}'")
+            out[new] = out.pop(old)
+    for field, table in values.items():
+        value = out.get(field)
+        if isinstance(value, str) and value in table:
+            _notice(model, f"{field} = {value!r}", repr(table[value]))
+            out[field] = table[value]
+    return out
 
 
 def validate_config(model: type[BaseModel], config: Any = None, fields: Mapping[str, Any] | None = None) -> Any:

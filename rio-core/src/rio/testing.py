@@ -53,12 +53,12 @@ def nudge_last_joint(arm: Any, rad: float = 0.1, seconds: float = 2.0, tol: floa
                      timeout: float = 5.0) -> None:
     """A hardware test's first motion: turn an enabled arm's last joint by `rad` over `seconds` and back,
     checking it reached each goal within `tol` (rad) and `timeout` (s)."""
-    q0 = np.asarray(arm.read_state()["joint_pos"], dtype=np.float64).copy()
+    q0 = np.asarray(arm.cycle()["joint_pos"], dtype=np.float64).copy()
     goal = q0.copy()
     goal[-1] += rad
     for target in (goal, q0):
         arm.command_joints(target, clock.now() + seconds)
-        assert wait_until(lambda t=target: abs(arm.read_state()["joint_pos"][-1] - t[-1]) < tol, timeout=timeout)
+        assert wait_until(lambda t=target: abs(arm.cycle()["joint_pos"][-1] - t[-1]) < tol, timeout=timeout)
 
 
 def cycle_gripper(grip: Any, widths: Any, tol: float, seconds: float = 1.0, timeout: float = 6.0) -> None:
@@ -66,7 +66,7 @@ def cycle_gripper(grip: Any, widths: Any, tol: float, seconds: float = 1.0, time
     checking it got within `tol` (m) of each within `timeout` (s)."""
     for goal in widths:
         grip.command("position", [goal], clock.now() + seconds)
-        assert wait_until(lambda g=goal: abs(grip.read_state()["position"] - g) < tol, timeout=timeout)
+        assert wait_until(lambda g=goal: abs(grip.cycle()["position"] - g) < tol, timeout=timeout)
 
 
 def skip_tests_without(need: str | SystemNeed, why: str = "", items: Any = None, under: str = "") -> None:
@@ -163,7 +163,7 @@ def lifecycle(node: Node) -> Iterator[Node]:
     """A node's server lifecycle in the caller's thread, without a middleware: `open()`, `opened()` (the
     kind's contract: limits, commander, enable), then on exit `closing()` and `close()`, exactly as the
     runtime runs them. For unit tests and hardware bring-up: `with lifecycle(Arm(port=...)) as arm:
-    arm.read_state()`."""
+    arm.cycle()` (one tick: read, step the commander, write; `arm.read_state()` only reads)."""
     node.open()
     try:
         node.opened()

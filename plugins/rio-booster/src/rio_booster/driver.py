@@ -36,7 +36,7 @@ from pydantic import Field
 
 from rio import clock
 from rio.control.rotations import euler_to_quat
-from rio.interfaces import FAULT_KEYS, BodyDampingConfig, DampingSafety, HumanoidNode, MotorGainsConfig, motor_gains
+from rio.interfaces import BodyDampingConfig, DampingGuard, FaultHolder, HumanoidNode, MotorGainsConfig, motor_gains
 from rio.interfaces.damping import state_lost, tilt_from_rpy
 
 from . import t1
@@ -81,10 +81,9 @@ def start_channels(sdk: Any, domain_id: int, interface: str) -> None:
         _factory_started[sdk.__name__] = (domain_id, interface)
 
 
-class T1(DampingSafety, HumanoidNode):
-    body = "trunk"
-
+class T1(HumanoidNode):
     class Config(BodyDampingConfig, MotorGainsConfig, HumanoidNode.Config):
+        defaults = {"max_step_rad": 0.004}  # 2 rad/s at 500 Hz
         interface: str = Field("", description="network interface on the robot's network, by name or address "
                                                "(Booster's examples pass the address, e.g. '127.0.0.1'); '' for "
                                                "the SDK's default. With sdk = 'rio_booster.emulator' it names "
@@ -99,8 +98,6 @@ class T1(DampingSafety, HumanoidNode):
         prepare_s: float = Field(3.0, ge=0, description="seconds to let the robot settle in prepare mode before "
                                                         "custom (only when it was not in prepare or custom)")
         motor_mode: int = Field(0, description="MotorCmd.mode of every motor (the SDK's examples send 0)")
-        max_step_rad: float = Field(0.004, gt=0, description="largest joint goal change per cycle (rad): 2 rad/s "
-                                                             "at 500 Hz")
         torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
                                                      "effort limit")
 
@@ -115,13 +112,14 @@ class T1(DampingSafety, HumanoidNode):
         self.idx = np.array([j.index for j in self.joints], dtype=np.intp)
         self.gains = motor_gains(c, {"kp": [j.kp for j in self.joints], "kd": [j.kd for j in self.joints],
                                      "damping_kd": [j.damping for j in self.joints]}, self.name, self.dof)
-        self.example_data = {**self.example_data, **FAULT_KEYS, "robot_mode": -1}
+        self.example_data = {**self.example_data, "robot_mode": -1}
         where = "the emulator" if c.sdk == EMULATOR else f"interface '{c.interface or 'default'}'"
-        self.device_label = f"the T1 on {where} (DDS domain {c.domain_id})"
+        self.safety = DampingGuard(self, self.state_lost, tilt=self.tilt_deg, body="trunk")
+        self.faults = FaultHolder(self, f"the T1 on {where} (DDS domain {c.domain_id})", ask=self.safety.device_fault,
+                                  on_report=self._on_fault)
         self.sdk: Any = None
         self._lock = threading.Lock()
         self._state: dict[str, np.ndarray] | None = None
-        self.t_state = -np.inf
         self.n_states = 0
         self.robot_mode = -1
         self._in_control = False  # the robot is in custom mode by us (we owe it damping when we let go)
@@ -185,7 +183,6 @@ class T1(DampingSafety, HumanoidNode):
 
     def set_enabled(self, enabled: bool) -> None:
         if enabled:
-            self.check_device_fault()
             self._take_control()
         elif self._pub is not None and self._in_control:
             self._let_go()
@@ -201,20 +198,20 @@ class T1(DampingSafety, HumanoidNode):
             s = self._state
         return None if s is None else tilt_from_rpy(s["rpy"])
 
-    def on_fault(self, fault: Any) -> None:
-        super().on_fault(fault)
-        if self._in_control:
-            self._let_go()
-
     # -- cycle --------------------------------------------------------------------------------------
     def read_joints(self) -> dict[str, Any]:
-        self.watch_safety()
+        self.safety.watch()
         s = self.state()
         quat = euler_to_quat(*s["rpy"])
         return {"joint_pos": s["q"][self.idx], "joint_vel": s["dq"][self.idx], "base_quat": quat,
-                "base_ang_vel": s["gyro"].copy(), "robot_mode": int(self.robot_mode), **self.fault_status()}
+                "base_ang_vel": s["gyro"].copy(), "robot_mode": int(self.robot_mode)}
 
-    def send_damping(self) -> None:
+    def _on_fault(self, fault: Any) -> None:
+        """A fault stopped the node: damping on the wire and in the robot's own mode, if it was ours."""
+        if self._in_control:
+            self._let_go()
+
+    def write_disabled(self) -> None:
         """Damping on the wire every cycle while disabled, once we had control (before, the robot is its own)."""
         if self._had_control:
             self._send(self.wire.damping())
@@ -239,7 +236,7 @@ class T1(DampingSafety, HumanoidNode):
         if s["q"].shape != (t1.NUM_JOINTS,):
             return  # not a 23-joint T1 (or a parallel-only message): ignored
         with self._lock:
-            self._state, self.t_state = s, clock.now()
+            self._state, self.safety.t_state = s, clock.now()
             self.n_states += 1
 
     def _get_mode(self) -> int:

@@ -2,8 +2,9 @@
 
 A driver writes only `connect()` (open the device, return a `rio.interfaces.grabber.Source`), `where()` (the device as
 messages name it) and, if it has any, `details()` (what it negotiated). This class owns the rest: the grab
-thread with its reopen-once-a-second, the first-frame wait, resizing to the configured size, and the
-published sample: the kind's `rgb` / `intrinsics` (/ `depth` / `depth_scale`) plus
+thread (`self.grabber`, a part the camera kind publishes from as frames land and stops on closing) with its
+reopen-once-a-second, the first-frame wait, resizing to the configured size, and the published sample: the
+kind's `rgb` / `intrinsics` (/ `depth` / `depth_scale`) plus
 
 - `timestamp`: `rio.clock.now()` when the frame was taken off the device (not when it was published);
 - `frame_age`: seconds between that grab and the publish (how stale the newest frame was);
@@ -20,7 +21,7 @@ from pydantic import Field
 
 from rio import clock
 from rio.interfaces import CameraNode
-from rio.interfaces.grabber import Grabber, GrabbingCamera, Source
+from rio.interfaces.grabber import Grabber, Source
 from rio.runtime.node import remote
 
 from .errors import CameraError
@@ -30,7 +31,7 @@ from .frames import Frame
 log = logging.getLogger("rio_cameras")
 
 
-class ThreadedCamera(GrabbingCamera, CameraNode):
+class ThreadedCamera(CameraNode):
     class Config(CameraNode.Config):
         open_timeout_s: float = Field(10.0, gt=0, description="how long opening waits for the first frame (s)")
         reopen_s: float = Field(1.0, gt=0, le=60, description="seconds between reopen attempts after the "

@@ -17,17 +17,17 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from rio.interfaces import FAULT_KEYS, GripperNode
+from rio.interfaces import FaultHolder, GripperNode, LinkSupervisor
 
 from .backend import connect_gripper
-from .link import FrankaLink, LinkConfig
+from .link import FrankaConfig, FrankaConnection
 
 
-class FrankaHand(FrankaLink, GripperNode):
-    class Config(LinkConfig, GripperNode.Config):
-        rate_hz: float = Field(20.0, gt=0, le=100, description="cycles per second (one width read each)")
-        max_width: float = Field(0.08, gt=0, description="full opening (m): the Franka Hand opens 80 mm")
-        force: float | None = Field(20.0, ge=0, description="grasp force (N) when closing; 0 or None: plain moves")
+class FrankaHand(GripperNode):
+    class Config(FrankaConfig, GripperNode.Config):
+        # one width read per cycle; the Franka Hand opens 80 mm; it grasps with 20 N when closing (0 or None:
+        # plain moves)
+        defaults = {"rate_hz": Field(20.0, le=100), "max_width": 0.08, "force": 20.0}
         speed: float = Field(0.1, gt=0, le=0.2, description="finger speed (m/s)")
         epsilon_inner: float = Field(0.005, ge=0, description="grasped if the fingers stop at most this much "
                                                               "inside the goal (m)")
@@ -37,42 +37,45 @@ class FrankaHand(FrankaLink, GripperNode):
 
     def setup(self) -> None:
         super().setup()
-        self.example_data = {**self.example_data, **FAULT_KEYS, "object_detected": False}
+        self.example_data = {**self.example_data, "object_detected": False}
+        self.conn = FrankaConnection(self, lambda: connect_gripper(self.config.ip, self.config.backend))
+        self.faults = FaultHolder(self, f"Franka at {self.config.ip}")
+        self.link = LinkSupervisor(self.faults, up=lambda: self.conn.handle is not None, reconnect=self.conn.retry)
         self._sent: tuple[float, float] | None = None
         self._last = (float(self.config.max_width), False)
 
-    def connect(self) -> Any:
-        return connect_gripper(self.config.ip, self.config.backend)
-
     def open(self) -> None:
-        self.open_link()
+        self.conn.open(self.config.connect_timeout_s)
+
+    def close(self) -> None:
+        self.conn.close()
 
     def set_enabled(self, enabled: bool) -> None:
         self._sent = None
 
     def read_width(self) -> dict[str, Any]:
-        self.link_status()  # retries a dropped link
-        hand = self.handle
+        self.link.watch()  # retries a dropped link
+        hand = self.conn.handle
         if hand is not None:
             # one GripperState: width and is_grasped of the same moment (two property reads are two
             # reads of the gripper, which a busy machine can put far apart)
-            got = self.guarded(lambda: (lambda st: (float(st.width), bool(st.is_grasped)))(hand.state))
+            got = self.conn.call(lambda: (lambda st: (float(st.width), bool(st.is_grasped)))(hand.state))
             if got is not None:
                 self._last = got
         width, obj = self._last
-        return {"position": width, "object_detected": obj, "connected": self.handle is not None,
-                **self.fault_status()}
+        return {"position": width, "object_detected": obj}
 
     def write_width(self, width: float, force: float) -> None:
         goal = float(width)  # the kind's goal this cycle (clipped, step-limited, held by the watchdog)
         sent = self._sent
         same_force = sent is not None and (sent[1] == force or (np.isnan(sent[1]) and np.isnan(force)))
-        if self.handle is None or (sent is not None and same_force and abs(goal - sent[0]) <= self.config.deadband_m):
+        unchanged = sent is not None and same_force and abs(goal - sent[0]) <= self.config.deadband_m
+        if self.conn.handle is None or unchanged:
             return
         self._sent = (goal, force)
-        c, hand = self.config, self.handle
+        c, hand = self.config, self.conn.handle
         closing = goal < self._last[0] - c.deadband_m
         if closing and np.isfinite(force) and force > 0:
-            self.guarded(hand.grasp_async, goal, c.speed, force, c.epsilon_inner, c.epsilon_outer)
+            self.conn.call(hand.grasp_async, goal, c.speed, force, c.epsilon_inner, c.epsilon_outer)
         else:
-            self.guarded(hand.move_async, goal, c.speed)
+            self.conn.call(hand.move_async, goal, c.speed)

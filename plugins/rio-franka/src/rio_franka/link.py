@@ -1,5 +1,7 @@
-"""What both nodes of this plugin do the same way: connect through `backend.py`, notice a fault or a
-dropped link, keep the node alive with the robot held, and recover.
+"""What both nodes of this plugin do the same way around their franky object (a `Robot` or a `Gripper`, or
+the fake's): connect through `backend.py` (`FrankaConnection`), turn franky's exceptions into a held fault
+or a held, reconnecting link (the core's parts, `rio.interfaces.FaultHolder` and `LinkSupervisor`), and
+reconnect once a second after a drop.
 
 A fault does not end the node: libfranka has aborted the motion and the arm holds by itself; the node
 reports `fault_code`, refuses commands naming the fault, and `clear_faults()` (or `rio franka recover`
@@ -11,13 +13,14 @@ second with a new connection; meanwhile `connected` is false and commands are re
 from __future__ import annotations
 
 import logging
+import time
+from collections.abc import Callable
 from typing import Any
 
 from pydantic import Field
 
 from rio import clock
-from rio.config import Config
-from rio.interfaces import FaultHolding
+from rio.interfaces import NetworkDevice
 
 from .faults import FrankaSetupError, fault_of_message
 
@@ -26,74 +29,77 @@ log = logging.getLogger("rio_franka")
 RETRY_S = 1.0
 
 
-class LinkConfig(Config):
+class FrankaConfig(NetworkDevice):
     """Station fields every node on a Franka control box takes (mixed into each driver's Config)."""
 
-    ip: str = Field(description="the robot's FCI address (Desk's IP; the control box's FCI port), e.g. 172.16.0.2")
+    defaults = {"connect_timeout_s": 0.0}  # one try: a set-up error (versions, FCI) says what to change at once
     backend: str = Field("franky", description='"franky" (the robot), "fake" (a modelled robot, no hardware) or '
                                                '"sim" / "sim:ARM@WORLD" (an arm of a running rio-sim world)')
 
 
-class FrankaLink(FaultHolding):
-    """Mixed in ahead of a commanded kind whose config is a `LinkConfig`; the node defines `connect()`.
-    Faults are held the core way (`rio.interfaces.FaultHolding`: `on_fault`, `fault_status()`,
-    `clear_faults()`, `fault_info()`); this adds the franky connection, its drops and its exceptions."""
+class FrankaConnection:
+    """The franky object of `node` (`handle`, None while the link is down). `connect()` makes a new one;
+    `on_connected(handle)` applies what does not survive a new connection (impedances, thresholds)."""
 
-    config: Any
-    handle: Any = None  # the franky Robot / Gripper (or the fake's)
-    _next_try = 0.0
+    def __init__(self, node: Any, connect: Callable[[], Any], on_connected: Callable[[Any], None] | None = None):
+        self.node, self._connect, self._on_connected = node, connect, on_connected
+        self.handle: Any = None
+        self._next_try = 0.0
 
-    def connect(self) -> Any:
-        raise NotImplementedError
-
-    def on_connected(self, handle: Any) -> None:
-        """Once after every (re)connection: settings that do not survive a new connection."""
-
-    def open_link(self) -> None:
-        self.device_label = f"Franka at {self.config.ip}"
-        self.handle = self.connect()
-        self.on_connected(self.handle)
-        self.fault = None
+    def open(self, timeout_s: float) -> None:
+        """Connect, trying again for up to `timeout_s` while the box does not answer (0: one try)."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                self.handle = self._connect()
+                break
+            except FrankaSetupError:
+                if time.monotonic() >= deadline:
+                    raise
+                time.sleep(0.2)
+        if self._on_connected is not None:
+            self._on_connected(self.handle)
 
     def close(self) -> None:
         self.handle = None
 
-    # -- connection (a drop is held the core way: on_lost / on_restored) ---------------------------
-    def link_up(self) -> bool:
-        return self.handle is not None
+    def retry(self) -> None:
+        """After a drop, a new connection, tried at most once per `RETRY_S` (the link supervisor's
+        `reconnect`). A new connection starts without the fault held before it: the box is asked again."""
+        if self.handle is not None or clock.now() < self._next_try:
+            return
+        self._next_try = clock.now() + RETRY_S
+        try:
+            handle = self._connect()
+            if self._on_connected is not None:
+                self._on_connected(handle)
+        except FrankaSetupError as e:
+            log.debug("node '%s': still no link: %s", self.node.name, e)
+            return
+        self.handle = handle
+        self.node.faults.fault = None
 
-    def link_status(self) -> dict[str, Any]:
-        """Keys every sample carries; also where a dropped link is retried."""
-        if self.handle is None and clock.now() >= self._next_try:
-            self._next_try = clock.now() + RETRY_S
-            try:
-                self.open_link()
-            except FrankaSetupError as e:
-                log.debug("node '%s': still no link: %s", self.name, e)
-            else:
-                self.on_restored()
-        return self.fault_status()
-
-    def on_lost(self) -> None:
-        """franky's Robot is unusable after a network error: drop it, retry with a new one."""
-        super().on_lost()
+    def drop(self) -> None:
+        """franky's object is unusable after a network error: hold the link lost, retry a period later."""
+        self.node.link.lost()
         self.handle = None
         self._next_try = clock.now() + RETRY_S
 
-    def classify(self, e: Exception) -> None:
-        """franky's exceptions -> the held, named-fault state or the reconnecting one; others propagate."""
-        kind = type(e).__name__
-        if kind == "NetworkException":
-            self.on_lost()
-        elif kind in ("ControlException", "CommandException"):
-            self.on_fault(self.device_fault() or fault_of_message(str(e)))
-        else:
-            raise e
-
-    def guarded(self, fn, *args: Any) -> Any:
-        """Run one device call; franky's errors become the held states above."""
+    def call(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """Run one device call; franky's errors become the held states (`classify`), returning None."""
         try:
             return fn(*args)
         except Exception as e:
             self.classify(e)
             return None
+
+    def classify(self, e: Exception) -> None:
+        """franky's exceptions -> the held, named-fault state or the reconnecting one; others propagate."""
+        kind = type(e).__name__
+        faults = self.node.faults
+        if kind == "NetworkException":
+            self.drop()
+        elif kind in ("ControlException", "CommandException"):
+            faults.report(faults.ask() or fault_of_message(str(e)))
+        else:
+            raise e

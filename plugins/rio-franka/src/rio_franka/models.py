@@ -24,6 +24,11 @@ FLANGE = (0.0, 0.107, 0.0)
 #: Franka's ready pose (rad): the hand pointing down in front of the base.
 READY = (0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4)
 
+#: What an arm node on a Franka control box starts from (a station may set others): goals handed to franky 100 times a
+#: second (libfranka interpolates at 1 kHz, the most a node may hand it); 0.02 rad per cycle is 2 rad/s.
+NODE_DEFAULTS = {"rate_hz": 100.0, "max_step_rad": 0.02, "max_tool_step_m": 0.005, "max_tool_step_rad": 0.02}
+MAX_RATE_HZ = 1000.0
+
 #: The Franka Hand's TCP from the flange: 0.1034 m out, turned -45 deg about z (x along the fingers' travel).
 HAND_TCP = (0.0, 0.0, 0.1034, 0.0, 0.0, -math.pi / 4)
 

@@ -21,6 +21,11 @@ INSTALL = (f"download {WHEEL} from https://github.com/Kinovarobotics/kortex/rele
 ASSETS = Path(__file__).parent / "assets"
 INF = math.inf
 
+#: What an arm node on a Kinova base starts from (a station may set others): 100 cycles a second (1000 in
+#: low-level mode, the most the base takes); 0.01 rad per cycle is 1 rad/s.
+NODE_DEFAULTS = {"rate_hz": 100.0, "max_step_rad": 0.01}
+MAX_RATE_HZ = 1000.0
+
 
 def _deg(*pairs: float | None) -> tuple[tuple[float, float], ...]:
     """Symmetric limits from degrees; None = a continuous joint (no limit: Kinova's actuators turn freely)."""

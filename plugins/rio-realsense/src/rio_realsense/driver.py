@@ -29,7 +29,7 @@ from pydantic import Field, model_validator
 
 from rio import clock
 from rio.interfaces import CameraNode
-from rio.interfaces.grabber import Grabber, GrabbingCamera
+from rio.interfaces.grabber import Grabber
 from rio.runtime.node import remote
 
 from .errors import RealSenseError
@@ -37,7 +37,7 @@ from .stream import RealSenseStream
 
 log = logging.getLogger("rio_realsense")
 
-class RealSenseCamera(GrabbingCamera, CameraNode):
+class RealSenseCamera(CameraNode):
     """Publishes the newest frameset at `rate_hz` (the camera's frame rate); one not grabbed in time is
     not published."""
 

@@ -1,15 +1,13 @@
-"""`LinkedGripper`: the lifecycle both gripper drivers share. A driver opens a link to its gripper (a
-Modbus RTU client, the Robotiq URCap socket) in `connect()`, starting a private emulator first for a
-"virtual" address (`self._virtual`), then brings the gripper up (Robotiq activation, DH
-initialization) in `bring_up()`. A failure on the way, and `close()`, release both: the link is closed
-and the emulator stopped."""
+"""What both gripper drivers do around the link to their gripper (a Modbus RTU client, the Robotiq URCap
+socket), held as the node's `device`: open it (starting a private emulator first for a "virtual"
+address, held as `_virtual`), bring the gripper up over it (Robotiq activation, DH initialization), and
+release both, when the node closes and when bringing the gripper up fails."""
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from typing import Any
-
-from rio.interfaces import GripperNode
 
 from . import virtual
 from .errors import CommunicationError
@@ -27,43 +25,25 @@ def model_width(max_width: float | None, spec: GripperModel) -> float:
     return max_width
 
 
-class LinkedGripper(GripperNode):
-    spec: GripperModel
+def open_device(node: Any, connect: Callable[[], Any], bring_up: Callable[[], None]) -> None:
+    """`node.device = connect()` (which may start `node._virtual`), then `bring_up()`; a failure on the way
+    releases both before it goes on."""
+    try:
+        node.device = connect()
+        bring_up()
+    except BaseException:
+        close_device(node)
+        raise
 
-    def setup(self) -> None:
-        super().setup()
-        #: the open link (`close()`, `where`); None while closed
-        self.link: Any = None
-        self._virtual: Any = None
 
-    # -- what a driver writes ---------------------------------------------------------------------------
-    def connect(self) -> Any:
-        """Open and return the link (for a virtual address, start `self._virtual` and link to it)."""
-        raise NotImplementedError
-
-    def bring_up(self) -> None:
-        """Make the gripper ready to move over `self.link` (activate, initialize)."""
-        raise NotImplementedError
-
-    # -- lifecycle --------------------------------------------------------------------------------------
-    def open(self) -> None:
-        try:
-            self.link = self.connect()
-            self.bring_up()
-        except BaseException:
-            self._release()
-            raise
-
-    def close(self) -> None:
-        self._release()
-
-    def _release(self) -> None:
-        try:
-            if self.link is not None:
-                self.link.close()
-        except CommunicationError as e:
-            log.warning("%s: closing the link: %s", self.spec.label, e)
-        finally:
-            self.link = None
-            virtual.stop(self._virtual)
-            self._virtual = None
+def close_device(node: Any) -> None:
+    """Close `node.device` and stop `node._virtual` (each at most once)."""
+    try:
+        if node.device is not None:
+            node.device.close()
+    except CommunicationError as e:
+        log.warning("%s: closing the link: %s", node.spec.label, e)
+    finally:
+        node.device = None
+        virtual.stop(node._virtual)
+        node._virtual = None

@@ -17,22 +17,23 @@ from pydantic import Field
 from rio import clock
 from rio.interfaces import ArmNode
 
-from .attached import Attached
+from .attached import WorldAttachment
 from .indices import arm_indices
 from .robots import ROBOTS, get_robot
 
 
-class SimArm(Attached, ArmNode):
+class SimArm(ArmNode):
     class Config(ArmNode.Config):
+        defaults = {"max_step_rad": 0.1}
         robot: str = Field("so100", description=f"robot model: {', '.join(sorted(ROBOTS))}")
         arm: str = Field("arm", description="which arm of the scene (its name prefix: arm, left, right)")
         world: str = Field("sim", description="the sim.world this arm lives in")
-        max_step_rad: float = Field(0.1, gt=0, description="largest joint goal change per cycle (rad)")
 
     def setup(self) -> None:
         self.robot = get_robot(self.config.robot)
-        self.arm, self.world = self.config.arm, self.config.world
+        self.arm = self.config.arm
         super().setup()
+        self.sim = WorldAttachment(self.config.world)
 
     def default_joint_names(self) -> list[str]:
         return list(self.robot.arm_joints)
@@ -41,22 +42,22 @@ class SimArm(Attached, ArmNode):
         return list(self.robot.home)
 
     def open(self) -> None:
-        self.attach_world()
-        self.idx = arm_indices(self.model, self.arm, self.robot)
+        self.sim.attach()
+        self.idx = arm_indices(self.sim.model, self.arm, self.robot)
 
     def close(self) -> None:
-        self.detach_world()
+        self.sim.detach()
 
     def hardware_limits(self) -> tuple[np.ndarray, np.ndarray]:
-        ranges = np.array([self.model.joint(f"{self.arm}/{n}").range for n in self.robot.arm_joints])
+        ranges = np.array([self.sim.model.joint(f"{self.arm}/{n}").range for n in self.robot.arm_joints])
         return ranges[:, 0], ranges[:, 1]
 
     def read_joints(self) -> dict[str, Any]:
-        s = self.world_state()
+        s = self.sim.state()
         return {"joint_pos": s["qpos"][self.idx.qpos], "joint_vel": s["qvel"][self.idx.dof]}
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
-        self.bus.command(self.idx.act, joint_pos, clock.now() + 1.0 / self.rate_hz)
+        self.sim.bus.command(self.idx.act, joint_pos, clock.now() + 1.0 / self.rate_hz)
 
     def robot_description(self) -> dict[str, Any]:
         """The robot's MJCF, its tool site and arm joints (shared IK and forward kinematics)."""

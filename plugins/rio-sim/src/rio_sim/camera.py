@@ -22,7 +22,7 @@ from pydantic import Field
 
 from rio.interfaces import CameraNode
 
-from .attached import Attached
+from .attached import WorldAttachment
 from .gl import CONTEXT_LOCK, gl_problem
 
 log = logging.getLogger("rio_sim.camera")
@@ -31,7 +31,7 @@ log = logging.getLogger("rio_sim.camera")
 MAX_DEPTH_M = 10.0
 
 
-class SimCamera(Attached, CameraNode):
+class SimCamera(CameraNode):
     class Config(CameraNode.Config):
         camera: str = Field("front", description="scene camera: 'front', or '<arm>/wrist' (e.g. arm/wrist)")
         world: str = Field("sim", description="the sim.world it looks at")
@@ -43,7 +43,8 @@ class SimCamera(Attached, CameraNode):
     def setup(self) -> None:
         super().setup()
         c = self.config
-        self.camera, self.world, self.require_gl = c.camera, c.world, c.require_gl
+        self.camera, self.require_gl = c.camera, c.require_gl
+        self.sim = WorldAttachment(c.world)
         self.example_data["rendered"] = True
         self.renderer = None
 
@@ -51,10 +52,11 @@ class SimCamera(Attached, CameraNode):
         import mujoco
 
         self._mj = mujoco
-        self.attach_world()
+        self.sim.attach()
+        self.model = self.sim.model
         names = [self.model.camera(i).name for i in range(self.model.ncam)]
         if self.camera not in names:
-            raise ValueError(f"scene '{self.bus.scene}' has no camera '{self.camera}'; cameras: {names}")
+            raise ValueError(f"scene '{self.sim.bus.scene}' has no camera '{self.camera}'; cameras: {names}")
         self.data = mujoco.MjData(self.model)
         fovy = math.radians(float(self.model.camera(self.camera).fovy[0]))
         f = 0.5 * self.height / math.tan(fovy / 2)
@@ -77,14 +79,14 @@ class SimCamera(Attached, CameraNode):
             with CONTEXT_LOCK:
                 self.renderer.close()
             self.renderer = None
-        self.detach_world()
+        self.sim.detach()
 
     def read_state(self) -> dict[str, Any]:
         if self.renderer is None:
-            self.bus.check_alive()
+            self.sim.bus.check_alive()
             return self._placeholder
         mj, m, d = self._mj, self.model, self.data
-        d.qpos[:] = self.world_state()["qpos"]
+        d.qpos[:] = self.sim.state()["qpos"]
         mj.mj_kinematics(m, d)
         mj.mj_camlight(m, d)
         r = self.renderer

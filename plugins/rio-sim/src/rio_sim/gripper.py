@@ -12,12 +12,12 @@ from pydantic import Field
 from rio import clock
 from rio.interfaces import GripperNode
 
-from .attached import Attached
+from .attached import WorldAttachment
 from .indices import arm_indices
 from .robots import ROBOTS, get_robot
 
 
-class SimGripper(Attached, GripperNode):
+class SimGripper(GripperNode):
     class Config(GripperNode.Config):
         robot: str = Field("so100", description=f"robot model the gripper belongs to: {', '.join(sorted(ROBOTS))}")
         arm: str = Field("arm", description="which arm of the scene the gripper is on")
@@ -28,19 +28,20 @@ class SimGripper(Attached, GripperNode):
         self.robot = get_robot(self.config.robot)
         if self.config.max_width is None:
             self.config = self.config.model_copy(update={"max_width": self.robot.max_width})
-        self.arm, self.world = self.config.arm, self.config.world
+        self.arm = self.config.arm
         super().setup()
+        self.sim = WorldAttachment(self.config.world)
 
     def open(self) -> None:
-        self.attach_world()
-        self.idx = arm_indices(self.model, self.arm, self.robot)
+        self.sim.attach()
+        self.idx = arm_indices(self.sim.model, self.arm, self.robot)
 
     def close(self) -> None:
-        self.detach_world()
+        self.sim.detach()
 
     def read_width(self) -> dict[str, Any]:
-        return {"position": float(np.sum(self.world_state()["qpos"][self.idx.finger_qpos]))}
+        return {"position": float(np.sum(self.sim.state()["qpos"][self.idx.finger_qpos]))}
 
     def write_width(self, width: float, force: float) -> None:
         n = len(self.idx.finger_act)
-        self.bus.command(self.idx.finger_act, np.full(n, width / n), clock.now() + 1.0 / self.rate_hz)
+        self.sim.bus.command(self.idx.finger_act, np.full(n, width / n), clock.now() + 1.0 / self.rate_hz)

@@ -26,10 +26,12 @@ def rio_drivers() -> list[Spec]:
         Spec("teleop.expert", "teleop", f"{_S}.expert:SimExpert",
              "scripted expert for a sim station's pick-and-place task (reads the world's true state): "
              "demonstrations from every start, ended with keep or discard"),
-        Spec("sim.g1", "humanoid", f"{_S}.humanoid:SimG1",
-             "simulated Unitree G1 (29 DoF): joint PD servos, pelvis IMU, wrist IK model; on a stand or free"),
-        Spec("sim.t1", "humanoid", f"{_S}.humanoid:SimT1",
-             "simulated Booster T1 (23 DoF): joint PD servos, trunk IMU, hand IK model; on a stand or free"),
+        Spec("sim.g1", "humanoid", f"{_S}.humanoid:SimHumanoid",
+             "simulated Unitree G1 (29 DoF): joint PD servos, pelvis IMU, wrist IK model; on a stand or free",
+             preset={"robot": "g1"}),
+        Spec("sim.t1", "humanoid", f"{_S}.humanoid:SimHumanoid",
+             "simulated Booster T1 (23 DoF): joint PD servos, trunk IMU, hand IK model; on a stand or free",
+             preset={"robot": "t1"}),
         Spec("sim.g1_hand", "hand", f"{_S}.humanoid:SimG1Hand",
              "simulated Unitree Dex3-1 hand of a sim.g1 (7 DoF), with its model for hand-tracking retargeting"),
     ]

@@ -18,54 +18,55 @@ Ip = Annotated[str, typer.Option("--ip", help="controller IP address")]
 
 
 @contextmanager
-def _controller(ip: str) -> Iterator[Any]:
-    """The controller at `ip` for one command; an `XArmError` (no answer, a fault that will not clear)
-    is printed as one line and exits 1."""
-    from .controller import Controller
+def _connection(ip: str) -> Iterator[Any]:
+    """A connection to the control box at `ip` for one command; an `XArmError` (no answer, a fault that will
+    not clear) is printed as one line and exits 1."""
+    from .connection import XArmConnection
     from .faults import XArmError
 
     try:
         with contextlib.redirect_stdout(sys.stderr):  # the SDK's connection chatter: stdout is for results
-            ctl = Controller.acquire(ip, connect_timeout_s=3.0)
+            conn = XArmConnection.acquire(ip, connect_timeout_s=3.0)
     except XArmError as e:
         typer.echo(f"error: {e}", err=True)
         raise typer.Exit(1) from None
     try:
-        yield ctl
+        yield conn
     except XArmError as e:
         typer.echo(f"error: {e}", err=True)
         raise typer.Exit(1) from None
     finally:
-        ctl.release()
+        conn.release()
 
 
 @app.command()
 def status(ip: Ip,
            json_out: Annotated[bool, typer.Option("--json", help="Print it as JSON (stdout).")] = False) -> None:
     """Model, state, mode, error and warning of a controller."""
-    with _controller(ip) as ctl:
-        api = ctl.api
-        fault = ctl.fault()
+    with _connection(ip) as conn:
+        api = conn.api
+        fault = conn.fault()
         if json_out:
             from rio.cli.output import print_json
 
-            print_json({"ip": ip, "model": ctl.model.label if ctl.model else None, "axis": api.axis,
+            print_json({"ip": ip, "model": conn.model.label if conn.model else None, "axis": api.axis,
                         "device_type": api.device_type, "firmware": api.version, "state": api.state,
-                        "mode": api.mode, "joints_rad": [float(a) for a in ctl.joints(api.axis)[0]],
+                        "mode": api.mode, "joints_rad": [float(a) for a in conn.joints(api.axis)[0]],
                         "fault": str(fault) if fault else None})
             return
-        typer.echo(f"{ip}: {ctl.model.label if ctl.model else 'unknown model'} (axis {api.axis}, type "
+        typer.echo(f"{ip}: {conn.model.label if conn.model else 'unknown model'} (axis {api.axis}, type "
                    f"{api.device_type}), firmware {api.version}")
-        typer.echo(f"state {api.state}, mode {api.mode}, joints (rad) {[round(a, 4) for a in ctl.joints(api.axis)[0]]}")
+        joints = [round(a, 4) for a in conn.joints(api.axis)[0]]
+        typer.echo(f"state {api.state}, mode {api.mode}, joints (rad) {joints}")
         typer.echo(f"fault: {fault}" if fault else "no fault")
 
 
 @app.command("clear-errors")
 def clear_errors(ip: Ip) -> None:
     """Clear the controller's error and warning (release an emergency stop first)."""
-    with _controller(ip) as ctl:
-        before = ctl.fault()
-        ctl.clear_faults()
+    with _connection(ip) as conn:
+        before = conn.fault()
+        conn.clear_faults()
         typer.echo(f"{ip}: cleared {before}" if before else f"{ip}: nothing to clear")
         typer.echo("next: `rio ufactory enable --ip IP`, or the station node's enable()/clear_faults()")
 
@@ -73,8 +74,8 @@ def clear_errors(ip: Ip) -> None:
 @app.command()
 def enable(ip: Ip) -> None:
     """Motors on, servo mode, ready (what a station does at start)."""
-    with _controller(ip) as ctl:
-        ctl.enable_servo()
+    with _connection(ip) as conn:
+        conn.enable_servo()
         typer.echo(f"{ip}: enabled, servo mode")
 
 

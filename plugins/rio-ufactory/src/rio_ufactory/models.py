@@ -14,6 +14,11 @@ from pathlib import Path
 
 ASSETS = Path(__file__).parent / "assets"
 
+#: What an arm node on an xArm control box starts from (a station may set others): the box's servo loop runs
+#: at 250 Hz and takes at most 500 targets a second; 0.01 rad per cycle is 2.5 rad/s, 2 mm is 0.5 m/s.
+NODE_DEFAULTS = {"rate_hz": 250.0, "max_step_rad": 0.01, "max_tool_step_m": 0.002, "max_tool_step_rad": 0.01}
+MAX_RATE_HZ = 500.0
+
 _TURN = (-2 * math.pi, 2 * math.pi)
 
 

@@ -20,7 +20,19 @@ import threading
 import time
 from typing import Any
 
+from pydantic import Field
+
+from rio.config import Config
+
 log = logging.getLogger("rio_unitree")
+
+
+class DdsConfig(Config):
+    """Station fields of a node on the robot's DDS topics (the G1, its hands): where its participant joins."""
+
+    interface: str = Field("eth0", description="network interface on the robot's network (192.168.123.x; "
+                                               "'lo' for the bridge on this machine)")
+    domain_id: int = Field(0, ge=0, le=232, description="DDS domain (the robot's is 0)")
 
 LOWSTATE, LOWCMD, ARM_SDK = "rt/lowstate", "rt/lowcmd", "rt/arm_sdk"
 # Unitree's RPC to its motion switcher service (the SDK's `GetClientChannelName("motion_switcher", ...)`)

@@ -13,7 +13,7 @@ Two ways to command, `control`:
   (debug mode: L2+R2 on the remote while it hangs in damping, or the motion switcher's release); the
   robot is then on its own: hang it.
 
-Safety, by the driver itself (each a named fault, `rio.interfaces.damping`): no lowstate for
+Safety, by the driver itself (each a named fault, `rio.interfaces.damping`, its `DampingGuard` part): no lowstate for
 `state_timeout_s` (`lowstate_timeout`); the pelvis tilted beyond `fall_tilt_deg`; and a stream of
 commands that stops (the kind's watchdog hold) with `on_stale = "damp"`. A stopped or disabled node in lowcmd mode sends
 damping (kp = 0, kd = each joint's damping) every cycle, never a frozen stiff pose; in arm_sdk mode it
@@ -33,31 +33,25 @@ import numpy as np
 from pydantic import Field
 
 from rio import clock
-from rio.interfaces import FAULT_KEYS, BodyDampingConfig, DampingSafety, HumanoidNode, MotorGainsConfig, motor_gains
+from rio.interfaces import BodyDampingConfig, DampingGuard, FaultHolder, HumanoidNode, MotorGainsConfig, motor_gains
 from rio.interfaces.damping import state_lost, tilt_from_quat
 
 from . import g1
 from .commands import Commands
-from .dds import ARM_SDK, LOWCMD, LOWSTATE, Participant
+from .dds import ARM_SDK, LOWCMD, LOWSTATE, DdsConfig, Participant
 from .wire import LowState, state_crc_ok
 
 log = logging.getLogger("rio_unitree")
 
 
-class G1(DampingSafety, HumanoidNode):
-    body = "pelvis"
-
-    class Config(BodyDampingConfig, MotorGainsConfig, HumanoidNode.Config):
-        interface: str = Field("eth0", description="network interface on the robot's network (192.168.123.x; "
-                                                   "'lo' for the bridge on this machine)")
-        domain_id: int = Field(0, ge=0, le=232, description="DDS domain (the robot's is 0)")
+class G1(HumanoidNode):
+    class Config(DdsConfig, BodyDampingConfig, MotorGainsConfig, HumanoidNode.Config):
+        defaults = {"max_step_rad": 0.004}  # 2 rad/s at 500 Hz
         dof: Literal[23, 29] = Field(29, description="which G1: 29 joints, or 23 (no waist roll/pitch, no wrist "
                                                      "pitch/yaw)")
         control: Literal["arm_sdk", "lowcmd"] = Field(
             "arm_sdk", description='"arm_sdk": waist and arms on rt/arm_sdk while Unitree\'s locomotion stands the '
                                    'robot; "lowcmd": whole body on rt/lowcmd (debug mode only: hang the robot)')
-        max_step_rad: float = Field(0.004, gt=0, description="largest joint goal change per cycle (rad): 2 rad/s at "
-                                                             "500 Hz")
         torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
                                                      "effort limit")
         arm_sdk_ramp_s: float = Field(1.0, gt=0, description="arm_sdk: seconds to ramp the weight 0 -> 1 (enable) "
@@ -86,11 +80,11 @@ class G1(DampingSafety, HumanoidNode):
                                  "locomotion (use control = 'lowcmd' for the whole body)")
         self.gains = motor_gains(c, {"kp": [j.kp for j in self.joints], "kd": [j.kd for j in self.joints],
                                      "damping_kd": [j.damping for j in self.joints]}, self.name, self.dof)
-        self.example_data = {**self.example_data, **FAULT_KEYS}
-        self.device_label = f"the G1 on {c.interface} (DDS domain {c.domain_id})"
+        self.safety = DampingGuard(self, self.state_lost, tilt=self.tilt_deg, body="pelvis")
+        self.faults = FaultHolder(self, f"the G1 on {c.interface} (DDS domain {c.domain_id})",
+                                  ask=self.safety.device_fault)
         self.dds: Participant | None = None
         self.state: LowState | None = None
-        self.t_state = -np.inf
         self.bad_crc = 0
         self._weight = 0.0  # arm_sdk weight last sent
         self._t_sent = 0.0
@@ -155,7 +149,6 @@ class G1(DampingSafety, HumanoidNode):
 
     def set_enabled(self, enabled: bool) -> None:
         if enabled:
-            self.check_device_fault()
             self._goal = None
             self._t_sent = clock.now()
         elif self.config.control == "lowcmd" and self.dds is not None:
@@ -173,14 +166,14 @@ class G1(DampingSafety, HumanoidNode):
     # -- cycle --------------------------------------------------------------------------------------
     def read_joints(self) -> dict[str, Any]:
         self._poll()
-        self.watch_safety()
+        self.safety.watch()
         s, idx = self.state, self.wire_slots
         assert s is not None
         quat = np.asarray(s.quaternion, np.float64)
         norm = float(np.linalg.norm(quat))
         return {"joint_pos": s.q[idx].astype(np.float64), "joint_vel": s.dq[idx].astype(np.float64),
                 "base_quat": quat / norm if norm > 0.5 else np.full(4, np.nan),
-                "base_ang_vel": np.asarray(s.gyroscope, np.float64), **self.fault_status()}
+                "base_ang_vel": np.asarray(s.gyroscope, np.float64)}
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
         s = self.state
@@ -204,7 +197,7 @@ class G1(DampingSafety, HumanoidNode):
         got = False
         for data in reversed(self._state_in.take()):
             if not self.config.check_state_crc or state_crc_ok(data):
-                self.state, self.t_state, got = LowState.decode(data), clock.now(), True
+                self.state, self.safety.t_state, got = LowState.decode(data), clock.now(), True
                 break
             self.bad_crc += 1
         return got
@@ -213,7 +206,7 @@ class G1(DampingSafety, HumanoidNode):
         assert self.dds is not None
         self._out.write(cmd.encode())
 
-    def send_damping(self) -> None:
+    def write_disabled(self) -> None:
         """While disabled (or stopped): damping on rt/lowcmd; on rt/arm_sdk, the weight ramped down to 0
         holding the last goal, then silence (Unitree's controller has the arms)."""
         if self.dds is None or self.state is None:
@@ -239,7 +232,7 @@ class G1(DampingSafety, HumanoidNode):
         t_end = time.monotonic() + (self.config.arm_sdk_ramp_s + 0.1 if self.config.control == "arm_sdk" else 0.05)
         while time.monotonic() < t_end:
             self._poll()
-            self.send_damping()
+            self.write_disabled()
             if self.config.control == "arm_sdk" and self._goal is None:
                 break
             time.sleep(period)

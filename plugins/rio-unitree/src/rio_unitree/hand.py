@@ -1,9 +1,10 @@
-"""Unitree's DDS hands in joint space: `DdsHand`, what every one shares (the topics, the damping safety),
-and `unitree.dex3`, one Dex3-1 hand (config `side`) on its own topics (`unitree.inspire`: `inspire.py`).
+"""Unitree's DDS hands in joint space: `HandTopics`, the part every one holds for its state/command topic
+pair, `HandConfig`, and `unitree.dex3`, one Dex3-1 hand (config `side`) on its own topics (`unitree.inspire`:
+`inspire.py`).
 
-`DdsHand` opens one participant, a reader of the hand's state topic and a writer of its command topic,
-waits for the first state at open, and sends one command per cycle: the driver's `position(goal,
-measured)` while enabled, its `damping()` while disabled or faulted and a moment before closing.
+`HandTopics` opens one participant, a reader of the hand's state topic and a writer of its command topic,
+waits for the first state at open, and sends what the node gives it: the driver's `position(goal,
+measured)` each cycle while enabled, its `damping()` while disabled or faulted and a moment before closing.
 
 The Dex3-1: each cycle reads the newest `rt/dex3/<side>/state` and sends one `rt/dex3/<side>/cmd`: every motor
 with its id and status "enabled" in its mode byte (`rio_unitree.dex3`), `q` = the goal clipped to its
@@ -25,147 +26,111 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 
 from rio import clock
-from rio.interfaces import FAULT_KEYS, DampingConfig, DampingSafety, Fault, HandNode, MotorGainsConfig, motor_gains
+from rio.interfaces import DampingConfig, DampingGuard, Fault, FaultHolder, HandNode, MotorGainsConfig, motor_gains
 from rio.interfaces.damping import state_lost
 
 from . import dex3
-from .dds import Participant
+from .dds import DdsConfig, Participant
 from .hand_wire import HandCmd, HandState
 
 log = logging.getLogger("rio_unitree")
 
-class DdsHand(DampingSafety, HandNode):
-    """A hand behind a Unitree DDS state/command topic pair. The driver sets `state_topic`, `cmd_topic`,
-    `device_label` and `device_hint` in `setup()`, and defines `decode_state` (bytes -> its state, None
-    when it is not this hand's), `joint_state` (its q and dq of this node's joints, rad), `position` and
-    `damping` (messages with `encode()`)."""
+class HandConfig(DdsConfig, DampingConfig, HandNode.Config):
+    """Station fields of every Unitree DDS hand."""
 
-    device_noun = "hand"
-    state_topic: str
-    cmd_topic: str
-    #: What open()'s timeout asks about ("is the left Dex3-1 on and connected ...?").
-    device_hint = "the hand"
+    defaults = {"rate_hz": 100.0, "max_step_rad": 0.05}  # 5 rad/s at 100 Hz
 
-    class Config(DampingConfig, HandNode.Config):
-        interface: str = Field("eth0", description="network interface on the robot's network (192.168.123.x; "
-                                                   "'lo' for the bridge on this machine)")
-        domain_id: int = Field(0, ge=0, le=232, description="DDS domain (the robot's is 0)")
-        rate_hz: float = Field(100.0, gt=0, description="loop rate (Hz)")
 
-    # -- driver hooks ---------------------------------------------------------------------------------
-    def decode_state(self, data: bytes) -> Any:
-        raise NotImplementedError
+def hand_parts(node: Any, device: str, topic: str) -> None:
+    """Give a hand node its damping guard and fault holder (`device`: what the log calls it; `topic`: its
+    state topic, which the lost-state fault names)."""
+    c = node.config
 
-    def joint_state(self, state: Any) -> tuple[np.ndarray, np.ndarray]:
-        raise NotImplementedError
+    def lost(age: float) -> Fault:
+        return state_lost("handstate_timeout", topic, age, f"interface '{c.interface}' (DDS domain {c.domain_id})",
+                          "check the hand's cable and the robot")
 
-    def position(self, goal: np.ndarray, measured: np.ndarray) -> Any:
-        raise NotImplementedError
+    node.safety = DampingGuard(node, lost, device_noun="hand")
+    node.faults = FaultHolder(node, device, ask=node.safety.device_fault)
 
-    def damping(self) -> Any:
-        raise NotImplementedError
 
-    def open_topics(self, dds: Participant) -> None:
-        """More topics the driver needs, opened with the others (none by default)."""
+class HandTopics:
+    """A hand's state and command topics on one DDS participant (`dds`, None while closed). `decode(bytes)`:
+    the hand's state, or None when a message is not this hand's; `hint`: what open()'s timeout asks about
+    ("the left Dex3-1"); `guard`: the node's damping guard, told when a state arrives."""
 
-    # -- setup --------------------------------------------------------------------------------------
-    def setup(self) -> None:
-        super().setup()
-        self.example_data = {**self.example_data, **FAULT_KEYS}
+    def __init__(self, state_topic: str, cmd_topic: str, decode: Callable[[bytes], Any], hint: str,
+                 guard: DampingGuard):
+        self.state_topic, self.cmd_topic, self.decode, self.hint, self.guard = (state_topic, cmd_topic, decode,
+                                                                                hint, guard)
         self.dds: Participant | None = None
-        self.state: Any = None
-        self.t_state = -np.inf
+        self.state: Any = None  # the newest state
 
-    # -- hardware -----------------------------------------------------------------------------------
-    def open(self) -> None:
-        c = self.config
+    def open(self, config: Any, more: Callable[[Participant], None] | None = None) -> Participant:
+        """Join the domain, open both topics (and `more` of the driver's), wait for the first state."""
+        c = config
         self.dds = Participant(c.domain_id, c.interface)
         try:
             self._state_in = self.dds.reader(self.state_topic)
             self._out = self.dds.writer(self.cmd_topic)
-            self.open_topics(self.dds)
+            if more is not None:
+                more(self.dds)
             deadline = time.monotonic() + c.connect_timeout_s
-            while not self._poll():
+            while not self.poll():
                 if time.monotonic() > deadline:
                     raise TimeoutError(
                         f"no {self.state_topic} on interface '{c.interface}' (DDS domain {c.domain_id}) within "
-                        f"{c.connect_timeout_s} s: is {self.device_hint} on and connected (the G1 powers it), and "
+                        f"{c.connect_timeout_s} s: is {self.hint} on and connected (the G1 powers it), and "
                         "this interface on the robot's network (192.168.123.x)?")
                 time.sleep(0.005)
             if not self._out.wait_matched(1.0):
-                log.warning("node '%s': nothing reads %s yet: commands may go unheard", self.name, self.cmd_topic)
+                log.warning("%s: nothing reads %s yet: commands may go unheard", self.hint, self.cmd_topic)
         except BaseException:
             self.dds.close()
             self.dds = None
             raise
+        return self.dds
 
-    def close(self) -> None:
+    def close(self, damping: Callable[[], Any] | None, rate_hz: float) -> None:
+        """Leave the domain; with `damping`, send it a moment first (the hand's last command from us is soft)."""
         if self.dds is None:
             return
         try:
-            if self.config.disable_on_close and self.state is not None:
+            if damping is not None and self.state is not None:
                 t_end = time.monotonic() + 0.05
                 while time.monotonic() < t_end:
-                    self._send(self.damping())
-                    time.sleep(1.0 / self.config.rate_hz)
+                    self.send(damping())
+                    time.sleep(1.0 / rate_hz)
         finally:
             self.dds.close()
             self.dds = None
 
-    def set_enabled(self, enabled: bool) -> None:
-        if enabled:
-            self.check_device_fault()
-        elif self.dds is not None:
-            self._send(self.damping())
-
-    def state_lost(self, age: float) -> Fault:
-        c = self.config
-        return state_lost("handstate_timeout", self.state_topic, age, f"interface '{c.interface}' (DDS domain "
-                          f"{c.domain_id})", "check the hand's cable and the robot")
-
-    # -- cycle --------------------------------------------------------------------------------------
-    def read_joints(self) -> dict[str, Any]:
-        self._poll()
-        self.watch_safety()
-        assert self.state is not None
-        q, dq = self.joint_state(self.state)
-        return {"joint_pos": q, "joint_vel": dq, **self.fault_status()}
-
-    def send_damping(self) -> None:
-        if self.dds is not None:
-            self._send(self.damping())
-
-    def write_joints(self, joint_pos: np.ndarray) -> None:
-        assert self.state is not None
-        self._send(self.position(joint_pos, self.joint_state(self.state)[0]))
-
-    # -- helpers ------------------------------------------------------------------------------------
-    def _poll(self) -> bool:
+    def poll(self) -> bool:
+        """Take the newest state; whether one came."""
         data = self._state_in.latest()
         if data is None:
             return False
-        state = self.decode_state(data)
+        state = self.decode(data)
         if state is None:
             return False
-        self.state, self.t_state = state, clock.now()
+        self.state, self.guard.t_state = state, clock.now()
         return True
 
-    def _send(self, cmd: Any) -> None:
-        assert self.dds is not None
-        self._out.write(cmd.encode())
+    def send(self, cmd: Any) -> None:
+        if self.dds is not None:
+            self._out.write(cmd.encode())
 
 
-class Dex3(DdsHand):
-    class Config(DdsHand.Config, MotorGainsConfig):
+class Dex3(HandNode):
+    class Config(HandConfig, MotorGainsConfig):
         side: Literal["left", "right"] = Field("right", description="which Dex3-1")
-        max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad): 5 rad/s "
-                                                            "at 100 Hz")
         torque_limit: bool = Field(True, description="clip each goal to where kp * error stays within the motor's "
                                                      "effort limit")
 
@@ -182,11 +147,33 @@ class Dex3(DdsHand):
                                 "damping_kd": [dex3.DAMPING_KD] * self.dof}, self.name, self.dof)
         self.gains = {k: np.asarray(v, np.float64) for k, v in gains.items()}
         self.effort = np.array([j.effort for j in self.joints], np.float64)
-        self.device_label = f"the {c.side} Dex3-1 on {c.interface} (DDS domain {c.domain_id})"
-        self.device_hint = f"the {c.side} Dex3-1"
-        self.state_topic, self.cmd_topic = dex3.state_topic(c.side), dex3.cmd_topic(c.side)
+        hand_parts(self, f"the {c.side} Dex3-1 on {c.interface} (DDS domain {c.domain_id})", dex3.state_topic(c.side))
+        self.topics = HandTopics(dex3.state_topic(c.side), dex3.cmd_topic(c.side), self.decode_state,
+                                 f"the {c.side} Dex3-1", self.safety)
 
     # -- hardware -----------------------------------------------------------------------------------
+    def open(self) -> None:
+        self.topics.open(self.config)
+
+    def close(self) -> None:
+        self.topics.close(self.damping if self.config.disable_on_close else None, self.config.rate_hz)
+
+    def set_enabled(self, enabled: bool) -> None:
+        if not enabled:
+            self.topics.send(self.damping())
+
+    def read_joints(self) -> dict[str, Any]:
+        self.topics.poll()
+        self.safety.watch()
+        q, dq = self.joint_state(self.topics.state)
+        return {"joint_pos": q, "joint_vel": dq}
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.topics.send(self.position(joint_pos, self.joint_state(self.topics.state)[0]))
+
+    def write_disabled(self) -> None:
+        self.topics.send(self.damping())
+
     def hardware_limits(self) -> tuple[list[float], list[float]]:
         return [j.lower for j in self.joints], [j.upper for j in self.joints]
 
@@ -226,14 +213,14 @@ class Dex3(DdsHand):
         cmd = self._cmd()
         cmd.kd[:] = dex3.DAMPING_KD
         cmd.kd[self.ids] = self.gains["damping_kd"]
-        if self.state is not None:
-            cmd.q[self.ids] = self.state.q[self.ids]
+        if self.topics.state is not None:
+            cmd.q[self.ids] = self.topics.state.q[self.ids]
         return cmd
 
     def decode_state(self, data: bytes) -> HandState | None:
         state = HandState.decode(data)
         if len(state.q) < dex3.NUM_MOTORS:
-            log.warning("node '%s': %s with %d motors (a Dex3-1 has %d): ignored", self.name, self.state_topic,
+            log.warning("node '%s': %s with %d motors (a Dex3-1 has %d): ignored", self.name, self.topics.state_topic,
                         len(state.q), dex3.NUM_MOTORS)
             return None
         return state

@@ -20,7 +20,7 @@ with the newest positions another writer authored (`mode` 1) on `rt/inspire/cmd`
 with where that hand is (holding it). So a left and a right node run side by side; a writer that marks
 nothing (e.g. xr_teleoperate) is not followed: never run one beside these nodes.
 
-The damping safety of every Unitree hand (`rio_unitree.hand`): the service offers no torque-free mode
+The damping safety of every Unitree hand (`rio_unitree.hand.hand_parts`): the service offers no torque-free mode
 (the hand's linear actuators hold wherever they are commanded), so this hand's "damping" is to stop where
 it is: each own motor commanded to its measured position. Commands are clipped to the joint model's range.
 There is no model of this hand in rio-sim, so `robot_description()` is None.
@@ -35,8 +35,10 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
+from rio.interfaces import HandNode
+
 from .dds import INSPIRE_CMD, INSPIRE_STATE, Participant
-from .hand import DdsHand
+from .hand import HandConfig, HandTopics, hand_parts
 from .inspire_wire import MotorCmds, MotorStates
 from .joint_table import pick
 
@@ -89,11 +91,9 @@ def from_wire(q: Any, lower: Any, upper: Any) -> np.ndarray:
     return upper - np.asarray(q, np.float64) * (upper - lower)
 
 
-class Inspire(DdsHand):
-    class Config(DdsHand.Config):
+class Inspire(HandNode):
+    class Config(HandConfig):
         side: Literal["left", "right"] = Field("right", description="which Inspire hand")
-        max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad): 5 rad/s "
-                                                            "at 100 Hz")
 
     # -- setup --------------------------------------------------------------------------------------
     def default_joint_names(self) -> list[str]:
@@ -110,12 +110,36 @@ class Inspire(DdsHand):
         self.own = np.zeros(NUM_MOTORS, bool)
         self.own[first:first + PER_HAND] = True
         self.others_q = np.full(NUM_MOTORS, np.nan)  # newest positions other writers authored
-        self.device_label = f"the {c.side} Inspire hand on {c.interface} (DDS domain {c.domain_id})"
-        self.device_hint = f"Unitree's Inspire service (rt/inspire/*) with the {c.side} Inspire hand"
-        self.state_topic, self.cmd_topic = INSPIRE_STATE, INSPIRE_CMD
+        hand_parts(self, f"the {c.side} Inspire hand on {c.interface} (DDS domain {c.domain_id})", INSPIRE_STATE)
+        self.topics = HandTopics(INSPIRE_STATE, INSPIRE_CMD, self.decode_state,
+                                 f"Unitree's Inspire service (rt/inspire/*) with the {c.side} Inspire hand",
+                                 self.safety)
 
-    def open_topics(self, dds: Participant) -> None:
+    # -- hardware -----------------------------------------------------------------------------------
+    def open(self) -> None:
+        self.topics.open(self.config, more=self._hear_commands)
+
+    def _hear_commands(self, dds: Participant) -> None:
         self._cmds_in = dds.reader(INSPIRE_CMD, depth=32)
+
+    def close(self) -> None:
+        self.topics.close(self.damping if self.config.disable_on_close else None, self.config.rate_hz)
+
+    def set_enabled(self, enabled: bool) -> None:
+        if not enabled:
+            self.topics.send(self.damping())
+
+    def read_joints(self) -> dict[str, Any]:
+        self.topics.poll()
+        self.safety.watch()
+        q, dq = self.joint_state(self.topics.state)
+        return {"joint_pos": q, "joint_vel": dq}
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.topics.send(self.position(joint_pos, self.joint_state(self.topics.state)[0]))
+
+    def write_disabled(self) -> None:
+        self.topics.send(self.damping())
 
     def hardware_limits(self) -> tuple[list[float], list[float]]:
         return self.lower.tolist(), self.upper.tolist()
@@ -133,10 +157,11 @@ class Inspire(DdsHand):
     def damping(self) -> MotorCmds:
         """Own hand held where it is (the service has no torque-free mode); the other hand as its writer
         last asked, else held where it is."""
-        assert self.state is not None
+        state = self.topics.state
+        assert state is not None
         self._hear_others()
         cmd = MotorCmds.zeros(NUM_MOTORS)
-        cmd.q[:] = self.state.q[:NUM_MOTORS]
+        cmd.q[:] = state.q[:NUM_MOTORS]
         heard = ~self.own & np.isfinite(self.others_q)
         cmd.q[heard] = self.others_q[heard]
         cmd.mode[self.own] = 1
@@ -147,7 +172,7 @@ class Inspire(DdsHand):
         state = MotorStates.decode(data)
         if len(state.q) < NUM_MOTORS:
             log.warning("node '%s': %s with %d motors (the Inspire service sends %d): ignored", self.name,
-                        self.state_topic, len(state.q), NUM_MOTORS)
+                        INSPIRE_STATE, len(state.q), NUM_MOTORS)
             return None
         return state
 

@@ -14,6 +14,11 @@ import math
 from dataclasses import dataclass
 
 _TURN = (-2 * math.pi, 2 * math.pi)
+
+#: What a node on a UR controller starts from (a station may set others): the controller runs at 500 Hz and
+#: takes servo targets at most that fast; 0.006 rad per cycle is 3 rad/s, 2 mm is 1 m/s.
+NODE_DEFAULTS = {"rate_hz": 500.0, "max_step_rad": 0.006, "max_tool_step_m": 0.002, "max_tool_step_rad": 0.006}
+MAX_RATE_HZ = 500.0
 _ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
 JOINT_NAMES = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
                "wrist_3_joint")

@@ -89,11 +89,12 @@ class _CommandableConformance(DriverConformance):
         return f"{self.what} {i}" if self.what == "joint" else self.what
 
     def damps_on_stale(self, node: Any) -> bool:
-        """Whether the node under test damps a silent stream instead of holding it (`on_stale`, else the
-        driver's `damps_on_stale`, which `rio.interfaces.DampingSafety` drivers have)."""
+        """Whether the node under test damps a silent stream instead of holding it (`on_stale`, else what
+        the node's damping guard says: `node.safety.damps_on_stale`, `rio.interfaces.DampingGuard`)."""
         if self.on_stale is not None:
             return self.on_stale == "damp"
-        return bool(getattr(node, "damps_on_stale", False))
+        safety = getattr(node, "safety", None)
+        return bool(getattr(safety, "damps_on_stale", False))
 
     def request_keys(self, node: Node) -> KeySpec:
         return {"t_cmd_target": ((), FLOAT)}
@@ -252,8 +253,9 @@ class _CommandableConformance(DriverConformance):
         self._expect_refused(node, target, WATCHDOG_DAMPS, "a command after the stop was accepted (it must be "
                                                            "refused, naming the fault, until clear_faults())")
         q_off = self.measure(s)
-        expect(hasattr(node, "clear_faults"), self.kind, WATCHDOG_DAMPS,
-               "the node has no clear_faults(): a driver that damps holds its fault (rio.interfaces.FaultHolding)")
+        expect(getattr(node, "faults", None) is not None, self.kind, WATCHDOG_DAMPS,
+               "the node holds no faults (node.faults is None): a driver that damps holds its stale_commands "
+               "fault (rio.interfaces.FaultHolder)")
         node.clear_faults()
         n0 = len(loop.writes)
         s = loop.run(cycles=5)

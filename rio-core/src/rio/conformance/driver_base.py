@@ -194,7 +194,8 @@ class DriverConformance:
             loop = self.loop(node)
             loop.run(cycles=self.cycles)
         expect(len(loop.samples) >= 2, self.kind, LAYOUT,
-               f"{len(loop.samples)} samples in {loop.ticks} ticks (read_state() returned None {loop.skipped} times)")
+               f"{len(loop.samples)} samples in {loop.ticks} ticks (cycle() returned None {loop.skipped} times)")
+
         for i, s in enumerate(loop.samples):
             check_layout(self.kind, declared, s, i)
 

@@ -14,14 +14,15 @@
 
         bad_config = {"port": "/dev/nope"}   # optional: a config whose open() must fail
         on_stale = "damp"                    # optional: what a silent stream gets, "hold" or "damp"
-                                             # (default: the driver's `damps_on_stale`, else "hold")
+                                             # (default: what the node's damping guard says, `node.safety`, else "hold")
 
 Base classes (none named `Test*`, so importing one collects nothing): `ArmConformance`,
 `GripperConformance`, `HandConformance`, `HumanoidConformance`, `CameraConformance`,
 `TeleopConformance` and `SensorConformance` (any node: the cases every driver passes).
 
 The cases check public behaviour only. Most run the node in the test's thread with
-`rio.testing.lifecycle()` and tick `read_state()` at the node's rate, as the runtime does; the goals
+`rio.testing.lifecycle()` and tick `cycle()` at the node's rate, as the runtime does; the goals
+
 the kind asks the driver to write are recorded by wrapping the driver's `write_joints` /
 `write_width` on the instance, so step and hold checks are exact and need no physics. A few cases go
 through the runtime (`NodeRunner`, `ServerManager` on the thread middleware). Every failure names the

@@ -93,7 +93,7 @@ def build_node(dut: DriverUnderTest, fields: Mapping[str, Any], name: str) -> No
 
 # -- ticking a node in this thread ----------------------------------------------------------------------
 class Loop:
-    """Ticks a node's `read_state()` at its rate in the caller's thread, as the runtime does, keeping
+    """Ticks a node's `cycle()` at its rate in the caller's thread, as the runtime does, keeping
     every sample and (when `goal_hook` names the driver's write hook, e.g. "write_joints") every goal the
     kind asks the driver to write, as a vector. The hook is wrapped on the instance, so what is recorded
     is exactly what reaches the driver, with no physics in between."""
@@ -104,7 +104,7 @@ class Loop:
         self.rate = clock.Rate(node.rate_hz, spin_s=0.0)
         self.samples: list[dict[str, Any]] = []
         self.ticks = 0
-        self.skipped = 0  # ticks whose read_state() returned None (nothing published)
+        self.skipped = 0  # ticks whose cycle() returned None (nothing published)
         #: (tick number, goal) for every write
         self.writes: list[tuple[int, np.ndarray]] = []
         if goal_hook is not None:
@@ -123,7 +123,7 @@ class Loop:
 
     def tick(self) -> dict[str, Any] | None:
         self.ticks += 1
-        sample = self.node.read_state()
+        sample = self.node.cycle()
         if sample is None:
             self.skipped += 1
         else:

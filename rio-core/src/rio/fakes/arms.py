@@ -18,15 +18,13 @@ class FakeArm(ifc.ArmNode):
     directly and leaves the joints where they are."""
 
     class Config(ifc.ArmNode.Config):
+        defaults = {"max_step_rad": 0.5, "max_tool_step_m": 0.05, "max_tool_step_rad": 0.5}
         dof: int = Field(6, ge=1, le=64, description="number of joints (named joint1..N)")
-        max_step_rad: float = Field(0.5, gt=0, description="largest joint goal change per cycle (rad)")
-        max_step_m: float = Field(0.05, gt=0, description="largest end-effector travel per cycle (m)")
-        max_step_eef_rad: float = Field(0.5, gt=0, description="largest end-effector rotation per cycle (rad)")
         frozen: bool = Field(False, description="ignore every command, as a disabled or e-stopped arm does (to "
                                                 "check that a workflow notices)")
 
     def default_joint_names(self) -> list[str]:
-        return [f"joint{i + 1}" for i in range(self.config.dof)]
+        return numbered_joints(self.config.dof)
 
     def open(self) -> None:
         home = self.config.home
@@ -55,21 +53,15 @@ class FakeArm(ifc.ArmNode):
             self.pose = np.array(eef_pose, dtype=np.float64)
 
 
-class FakeJoints:
-    """Joints that follow the goal (the fake hand, humanoid and model arm)."""
+def numbered_joints(n: int) -> list[str]:
+    return [f"joint{i + 1}" for i in range(n)]
 
-    config: Any
-    dof: int
 
-    def default_joint_names(self) -> list[str]:
-        return [f"joint{i + 1}" for i in range(self.config.dof)]
-
-    def open(self) -> None:  # at the configured home when there is one (a pose away from singularities)
-        home = self.config.home
-        self.q = np.zeros(self.dof) if home is None else np.asarray(home, dtype=np.float64)
-
-    def write_joints(self, joint_pos: np.ndarray) -> None:
-        self.q = np.array(joint_pos, dtype=np.float64)
+def at_home(node: Any) -> np.ndarray:
+    """Where a fake's joints start: at the configured home when there is one (a pose away from
+    singularities), else zeros. The fakes' joints then follow their goal (`write_joints` stores it)."""
+    home = node.config.home
+    return np.zeros(node.dof) if home is None else np.asarray(home, dtype=np.float64)
 
 
 #: A 6-joint arm for tests of the kinematic part of the arm contract (simple geoms, tool site "tool"):
@@ -98,13 +90,13 @@ SIX_DOF_MJCF = """<mujoco model="rio-test-arm">
 </mujoco>"""
 
 
-class FakeModelArm(FakeJoints, ifc.ArmNode):
+class FakeModelArm(ifc.ArmNode):
     """A joint-only arm that ships a robot model and measures no end-effector pose: the arm kind
     computes `eef_pose` by forward kinematics and turns end-effector targets into joint targets by IK
     (needs `rio-core[ik]`)."""
 
     class Config(ifc.ArmNode.Config):
-        max_step_rad: float = Field(0.5, gt=0, description="largest joint goal change per cycle (rad)")
+        defaults = {"max_step_rad": 0.5}
 
     def default_joint_names(self) -> list[str]:
         return [f"j{i + 1}" for i in range(6)]
@@ -112,8 +104,14 @@ class FakeModelArm(FakeJoints, ifc.ArmNode):
     def default_home(self) -> list[float]:
         return [0.0, 0.5, 1.2, 0.0, 1.4, 0.0]  # tool in front of the base, pointing down
 
+    def open(self) -> None:
+        self.q = at_home(self)
+
     def read_joints(self) -> dict[str, Any]:
         return {"joint_pos": self.q.copy()}
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.q = np.array(joint_pos, dtype=np.float64)
 
     def robot_description(self) -> dict[str, Any]:
         return {"format": "mjcf", "xml": SIX_DOF_MJCF, "frame": "tool", "frame_type": "site",
@@ -124,8 +122,7 @@ class FakeGripper(ifc.GripperNode):
     """Parallel gripper whose fingers follow the goal; starts fully open."""
 
     class Config(ifc.GripperNode.Config):
-        rate_hz: float = Field(100.0, gt=0)
-        max_step_m: float = Field(0.05, gt=0, description="largest opening change per cycle (m)")
+        defaults = {"rate_hz": 100.0, "max_step_m": 0.05}
 
     def open(self) -> None:
         self.opening = self.width

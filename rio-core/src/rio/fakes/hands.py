@@ -8,18 +8,27 @@ import numpy as np
 from pydantic import Field
 
 from rio import interfaces as ifc
-from rio.fakes.arms import FakeJoints
+from rio.fakes.arms import at_home, numbered_joints
 
 
-class FakeHand(FakeJoints, ifc.HandNode):
+class FakeHand(ifc.HandNode):
     """Hand whose joints follow their goal."""
 
     class Config(ifc.HandNode.Config):
+        defaults = {"max_step_rad": 0.5}
         dof: int = Field(6, ge=1, le=64, description="number of joints (named joint1..N)")
-        max_step_rad: float = Field(0.5, gt=0)
+
+    def default_joint_names(self) -> list[str]:
+        return numbered_joints(self.config.dof)
+
+    def open(self) -> None:
+        self.q = at_home(self)
 
     def read_joints(self) -> dict[str, Any]:
         return {"joint_pos": self.q.copy()}
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.q = np.array(joint_pos, dtype=np.float64)
 
 
 # -- Fakes with kinematic models (retargeting: rio.kinematics.hand_retarget, multi_frame) ----------
@@ -134,13 +143,13 @@ def five_finger_hand_description(side: str = "right") -> dict[str, Any]:
 FIVE_FINGER_HAND_MJCF = five_finger_hand_mjcf("right")
 
 
-class FakeModelHand(FakeJoints, ifc.HandNode):
+class FakeModelHand(ifc.HandNode):
     """A 20-joint five-finger hand that ships its model, so tracked human hands can be retargeted onto
     it (needs `rio-core[ik]`); its joints follow their goal."""
 
     class Config(ifc.HandNode.Config):
+        defaults = {"max_step_rad": 0.5}
         side: Literal["right", "left"] = Field("right", description="which hand")
-        max_step_rad: float = Field(0.5, gt=0, description="largest joint goal change per cycle (rad)")
 
     def default_joint_names(self) -> list[str]:
         return five_finger_hand_joints()
@@ -148,8 +157,15 @@ class FakeModelHand(FakeJoints, ifc.HandNode):
     def hardware_limits(self) -> tuple[list[float], list[float]]:
         return five_finger_hand_limits()
 
+    def open(self) -> None:
+        self.q = at_home(self)
+
     def read_joints(self) -> dict[str, Any]:
         return {"joint_pos": self.q.copy()}
 
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.q = np.array(joint_pos, dtype=np.float64)
+
     def robot_description(self) -> dict[str, Any]:
         return {**five_finger_hand_description(self.config.side), "joints": list(self.joint_list)}
+

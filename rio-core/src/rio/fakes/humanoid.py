@@ -8,21 +8,29 @@ import numpy as np
 from pydantic import Field
 
 from rio import interfaces as ifc
-from rio.fakes.arms import FakeJoints
+from rio.fakes.arms import at_home, numbered_joints
 from rio.fakes.hands import vec_text
 
 
-class FakeHumanoid(FakeJoints, ifc.HumanoidNode):
+class FakeHumanoid(ifc.HumanoidNode):
     """Humanoid standing still (identity base orientation) whose joints follow their goal."""
 
     class Config(ifc.HumanoidNode.Config):
+        defaults = {"rate_hz": 100.0, "max_step_rad": 0.5}
         dof: int = Field(12, ge=1, le=128, description="number of joints (named joint1..N)")
-        rate_hz: float = Field(100.0, gt=0)
-        max_step_rad: float = Field(0.5, gt=0)
+
+    def default_joint_names(self) -> list[str]:
+        return numbered_joints(self.config.dof)
+
+    def open(self) -> None:
+        self.q = at_home(self)
 
     def read_joints(self) -> dict[str, Any]:
         return {"joint_pos": self.q.copy(), "joint_vel": np.zeros(self.dof),
                 "base_quat": np.array([1.0, 0.0, 0.0, 0.0]), "base_ang_vel": np.zeros(3)}
+
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.q = np.array(joint_pos, dtype=np.float64)
 
 
 _X, _Y, _Z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
@@ -108,13 +116,12 @@ def upper_body_description() -> dict[str, Any]:
             "home": upper_body_home()}
 
 
-class FakeModelHumanoid(FakeJoints, ifc.HumanoidNode):
+class FakeModelHumanoid(ifc.HumanoidNode):
     """A humanoid standing still whose joints follow their goal and that ships its model
     (`UPPER_BODY_MJCF`), so its wrists can be teleoperated by IK (needs `rio-core[ik]`)."""
 
     class Config(ifc.HumanoidNode.Config):
-        rate_hz: float = Field(100.0, gt=0)
-        max_step_rad: float = Field(0.5, gt=0)
+        defaults = {"rate_hz": 100.0, "max_step_rad": 0.5}
 
     def default_joint_names(self) -> list[str]:
         return upper_body_joints()
@@ -133,5 +140,9 @@ class FakeModelHumanoid(FakeJoints, ifc.HumanoidNode):
         return {"joint_pos": self.q.copy(), "joint_vel": np.zeros(self.dof),
                 "base_quat": np.array([1.0, 0.0, 0.0, 0.0]), "base_ang_vel": np.zeros(3)}
 
+    def write_joints(self, joint_pos: np.ndarray) -> None:
+        self.q = np.array(joint_pos, dtype=np.float64)
+
     def robot_description(self) -> dict[str, Any]:
         return {**upper_body_description(), "joints": list(self.joint_list)}
+

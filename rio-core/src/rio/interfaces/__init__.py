@@ -28,22 +28,45 @@ A camera may also publish its lens distortion (`CameraNode.declare_distortion()`
 A humanoid or hand on its low-level topics stops itself soft (kp = 0) when its state goes silent, it
 falls or its stream of commands stops: `rio.interfaces.damping`.
 
+What a driver's hardware has besides its kind is a part the node holds, not a class to inherit: faults it
+reports (`FaultHolder`), a connection that can drop (`LinkSupervisor`), damping stops (`DampingGuard`), a
+camera's grab thread (`Grabber`). Settings every network device or serial bus has are one model each
+(`NetworkDevice`, `ServoBus`, in `rio.interfaces.devices`); a vendor's family of arms is a `ModelTable`.
+
 Every sample also carries `timestamp` (added by the runtime). A value a driver cannot measure is
 published as NaN, never as a made-up number.
 """
 
 from rio.interfaces.arm import EEF, IDENTITY_POSE, JOINT, ArmNode
 from rio.interfaces.camera import CameraNode
-from rio.interfaces.damping import BodyDampingConfig, DampingConfig, DampingSafety, MotorGainsConfig, motor_gains
-from rio.interfaces.faults import FAULT_KEYS, Fault, FaultHolding
-from rio.interfaces.grabber import CameraError, Grabber, GrabbingCamera, SourceFinished, SourceLost
+from rio.interfaces.damping import BodyDampingConfig, DampingConfig, DampingGuard, MotorGainsConfig, motor_gains
+from rio.interfaces.devices import IPv4, NetworkDevice, ServoBus
+from rio.interfaces.faults import FAULT_KEYS, Fault, FaultHolder
+from rio.interfaces.grabber import CameraError, Grabber, SourceFinished, SourceLost
 from rio.interfaces.gripper import GripperNode
 from rio.interfaces.hand import HandNode, HumanoidNode
 from rio.interfaces.joints import JointNode
-from rio.interfaces.model_table import ModelTableArm
+from rio.interfaces.link import LinkSupervisor
+from rio.interfaces.model_table import ModelTable
 from rio.interfaces.teleop import TeleopNode
 
 __all__ = ["ArmNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "JointNode",
-           "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolding", "FAULT_KEYS", "ModelTableArm",
-           "Grabber", "GrabbingCamera", "CameraError", "SourceLost", "SourceFinished", "DampingSafety",
-           "DampingConfig", "BodyDampingConfig", "MotorGainsConfig", "motor_gains"]
+           "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolder", "FAULT_KEYS", "LinkSupervisor", "ModelTable",
+           "NetworkDevice", "ServoBus", "IPv4", "Grabber", "CameraError", "SourceLost", "SourceFinished",
+           "DampingGuard", "DampingConfig", "BodyDampingConfig", "MotorGainsConfig", "motor_gains"]
+
+
+#: Names this package had before its mixins became parts a node holds, and what a driver writes instead.
+_MOVED = {
+    "FaultHolding": "give the node a FaultHolder in setup(): self.faults = FaultHolder(self, device, ask=..., "
+                    "clear=...) (and a LinkSupervisor for a link that can drop)",
+    "DampingSafety": "give the node a DampingGuard and a FaultHolder asking it (rio.interfaces.damping)",
+    "ModelTableArm": "set `models = ModelTable(...)` on the ArmNode driver",
+    "GrabbingCamera": "make the grabber in open() as self.grabber: the camera kind publishes from it and stops it",
+}
+
+
+def __getattr__(name: str) -> object:
+    if name in _MOVED:
+        raise ImportError(f"rio.interfaces.{name} is gone: {_MOVED[name]} (docs/drivers.md)")
+    raise AttributeError(f"module 'rio.interfaces' has no attribute '{name}'")

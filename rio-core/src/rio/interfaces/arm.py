@@ -3,7 +3,9 @@ the end-effector pose.
 
 End-effector targets reach the hardware one of two ways:
 - the driver streams poses itself (`write_pose(pose)` defined, e.g. a vendor's Cartesian servo mode):
-  a `PoseCommander` (workspace box, `max_step_m` / `max_step_rad` per cycle, slerp, watchdog) feeds it;
+  a `PoseCommander` (workspace box, `max_tool_step_m` / `max_tool_step_rad` per cycle, slerp, watchdog)
+  feeds it;
+
 - otherwise the kind solves IK on the driver's `robot_description()` (shared IK, `rio.kinematics`),
   warm-started from the last joint target, and the joint commander takes it from there.
 
@@ -15,7 +17,7 @@ and deployed in end-effector space without any Cartesian code of its own (docs/d
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from pydantic import Field
@@ -25,6 +27,9 @@ from rio.control.commander import PoseCommander
 from rio.errors import InvalidRequest
 from rio.interfaces.joints import JointConfig, JointNode, as_vector, t_target
 from rio.runtime.node import client_side, remote
+
+if TYPE_CHECKING:
+    from rio.interfaces.model_table import ModelTable
 
 log = logging.getLogger("rio.interfaces")
 
@@ -37,12 +42,18 @@ _NAN_POSE = np.full(7, np.nan)
 
 class ArmNode(JointNode):
     class Config(JointConfig):
+        renamed = {"max_step_m": "max_tool_step_m", "max_step_eef_rad": "max_tool_step_rad"}
         workspace: tuple[tuple[float, float, float], tuple[float, float, float]] | None = Field(
             None, description="[[x, y, z] lower, [x, y, z] upper] (m, base frame) for end-effector targets; "
                               "unbounded if omitted")
-        max_step_m: float = Field(0.005, gt=0, description="largest end-effector travel per cycle (m), for "
-                                                           "drivers streaming poses")
-        max_step_eef_rad: float = Field(0.05, gt=0, description="largest end-effector rotation per cycle (rad)")
+        max_tool_step_m: float = Field(0.005, gt=0, description="largest tool travel per cycle (m), for drivers "
+                                                                "streaming poses")
+        max_tool_step_rad: float = Field(0.05, gt=0, description="largest tool rotation per cycle (rad), for "
+                                                                 "drivers streaming poses")
+
+    #: The vendor's table of arm models (`rio.interfaces.ModelTable`), for a driver serving a family of arms:
+    #: joints, home, limits and robot description are then those of the station's `model`.
+    models: ClassVar[ModelTable | None] = None
 
     # -- driver hooks (besides JointNode's) ---------------------------------------------------------
     def write_pose(self, eef_pose: np.ndarray) -> None:
@@ -53,8 +64,26 @@ class ArmNode(JointNode):
     def robot_description(self) -> dict[str, Any] | None:
         """The arm's kinematic model, or None:
         `{"format": "mjcf" | "urdf", "xml": <model text>, "frame": <tool frame>, "frame_type": "site" | "body"
-        (MJCF), "joints": [<names, in this node's joint order>], "home": [<rad>] (optional)}`."""
-        return None
+        (MJCF), "joints": [<names, in this node's joint order>], "home": [<rad>] (optional)}`. Default: the
+        model table's, if the driver has one."""
+        if self.models is None:
+            return None
+        return self.models.describe(self.config.model, getattr(self.config, "tcp_offset", None))
+
+    # -- from the model table, where the driver has one -----------------------------------------------
+    def default_joint_names(self) -> list[str]:
+        if self.models is None:
+            return super().default_joint_names()
+        return list(self.models.entry(self.config.model).joint_names)
+
+    def default_home(self) -> Any:
+        return None if self.models is None else [float(v) for v in self.models.entry(self.config.model).home]
+
+    def hardware_limits(self) -> Any:
+        if self.models is None:
+            return None
+        lim = np.asarray(self.models.entry(self.config.model).limits, dtype=np.float64)
+        return lim[:, 0], lim[:, 1]
 
     # -- contract -----------------------------------------------------------------------------------
     @property
@@ -75,7 +104,7 @@ class ArmNode(JointNode):
         super().opened()
         if self.streams_poses:
             ws = self.config.workspace or ((-np.inf,) * 3, (np.inf,) * 3)
-            self.poses = PoseCommander(ws[0], ws[1], self.config.max_step_m, self.config.max_step_eef_rad,
+            self.poses = PoseCommander(ws[0], ws[1], self.config.max_tool_step_m, self.config.max_tool_step_rad,
                                        self.config.watchdog_s, start=self._eef_of(self.read_joints()))
             self.poses.owner = f"node '{self.name}' (end-effector poses)"
 
@@ -103,16 +132,28 @@ class ArmNode(JointNode):
             return self.kinematics.fk(sample["joint_pos"])
         return _NAN_POSE
 
-    def read_state(self) -> dict[str, Any]:
-        sample = dict(self.read_joints())
-        sample["eef_pose"] = self._eef = self._eef_of(sample)
-        now = clock.now()
+    def cycle(self) -> dict[str, Any]:
+        """One tick at `rate_hz` (the runtime calls it): read the hardware, step the commander of the mode the
+        arm is in (joint targets, or end-effector poses the driver streams), write the goal it allows."""
+        sample = self.read_arm()
         if self.enabled and self.mode == EEF:
             assert self.poses is not None  # EEF mode is entered only where opened() made the pose commander
-            self.write_pose(self.poses.step(now))
+            self.write_pose(self.poses.step(clock.now()))
+        elif self.enabled:
+            self.write_joints(self.commander.step(clock.now()))
         else:
-            self.drive(now)
+            self.write_disabled()
         return self.complete(sample)
+
+    def read_state(self) -> dict[str, Any]:
+        """The arm now with the kind's keys: a read only, nothing is written (see `cycle()`)."""
+        return self.complete(self.read_arm())
+
+    def read_arm(self) -> dict[str, Any]:
+        """`read_joints()` and `eef_pose`: measured, else forward kinematics of the joints, else NaN."""
+        sample = dict(self.read_joints())
+        sample["eef_pose"] = self._eef = self._eef_of(sample)
+        return sample
 
     def complete(self, sample: dict[str, Any]) -> dict[str, Any]:
         sample = super().complete(sample)
@@ -136,6 +177,7 @@ class ArmNode(JointNode):
         self.mode = JOINT
 
     def command_eef(self, eef_pose: np.ndarray, t_cmd_target: float) -> None:
+        self.check_ready()
         if not self.enabled:
             raise InvalidRequest(self.name, "eef_pose", "the arm is disabled (call enable() first)")
         if np.linalg.norm(eef_pose[3:]) < 1e-9:

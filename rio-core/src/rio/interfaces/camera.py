@@ -4,15 +4,21 @@ A driver's `read_state()` returns `rgb` (H, W, 3) uint8 and `intrinsics` (3x3, p
 `depth` (H, W) uint16 and `depth_scale` (m per unit). A driver that knows its lens distortion declares it
 (`declare_distortion`) and also returns `distortion_model` and `distortion` (`distortion_fields`). Frames it
 could not grab are not published.
+
+A driver that grabs in a thread of its own makes a `rio.interfaces.Grabber` in `open()` as `self.grabber`:
+the kind then publishes each frame as it lands (the grabber's arrival event) rather than at `rate_hz`, and
+stops the grab thread before the driver's `close()`.
 """
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 import numpy as np
 from pydantic import Field
 
+from rio.interfaces.grabber import Grabber
 from rio.runtime.node import Node, NodeConfig, client_side
 from rio.schema import DISTORTION_MODELS, Camera, RingCamera, camera_meta
 
@@ -24,6 +30,9 @@ class CameraNode(Node):
         height: int = Field(480, ge=1, le=8192, description="image height (pixels)")
         depth: bool = Field(False, description="also publish metric depth")
 
+    #: The grab thread, where the driver grabs in one (made in `open()`).
+    grabber: Grabber | None = None
+
     def setup(self) -> None:
         c = self.config
         self.width, self.height, self.has_depth = int(c.width), int(c.height), bool(c.depth)
@@ -32,6 +41,14 @@ class CameraNode(Node):
         if self.has_depth:
             self.example_data["depth"] = np.zeros((self.height, self.width), np.uint16)
             self.example_data["depth_scale"] = 0.001
+
+    def arrival_event(self) -> threading.Event | None:
+        return self.grabber.arrived if self.grabber is not None else None
+
+    def closing(self) -> None:
+        if self.grabber is not None:
+            self.grabber.stop()
+            self.grabber = None
 
     @client_side
     def newest_frame(self) -> Camera:

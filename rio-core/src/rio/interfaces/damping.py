@@ -14,20 +14,29 @@ Why damping and not the kind's usual hold: a stiff hold of the last pose of a bo
 that a crashed policy left mid-step, fights the fall and the people catching it; kp = 0 with some
 damping lets it go down slowly. `on_stale = "hold"` keeps the kind's stiff hold for a stale stream.
 
-A driver mixes `DampingSafety` in ahead of its kind (`class G1(DampingSafety, HumanoidNode)`) and
-`DampingConfig` (or `BodyDampingConfig`, which adds the fall limit) into its `Config`, sets `t_state`
-(`rio.clock.now()`) whenever a state arrives, calls `watch_safety()` in `read_joints()` once it has read
-the state, and calls `check_device_fault()` in `set_enabled(True)`. What is the vendor's stays in its hooks:
+A driver mixes `DampingConfig` (or `BodyDampingConfig`, which adds the fall limit) into its `Config` and
+gives its node two parts in `setup()`, the guard and the fault holder the guard's faults are held by:
+
+    self.safety = DampingGuard(self, self.state_lost, tilt=self.tilt_deg, body="pelvis")
+    self.faults = FaultHolder(self, "the G1 on eth0", ask=self.safety.device_fault)
+
+It sets `self.safety.t_state` (`rio.clock.now()`) whenever a state arrives and calls `self.safety.watch()`
+in `read_joints()` once it has read the state; the kind refuses `enable()` while a cause lasts. What is the
+vendor's stays in the driver:
 
 - `state_lost(age)`: its named fault for the silence (`state_lost(...)` below, with its topic and address);
-- `tilt_deg()`: its base's tilt from its IMU (`tilt_from_quat` or `tilt_from_rpy`), None without one;
-- `send_damping()`: its soft command, sent every cycle the node is disabled or faulted;
-- its own mode changes (asking the robot for its damping mode) in `set_enabled(False)` / `on_fault()`.
+- `tilt`: its base's tilt from its IMU (`tilt_from_quat` or `tilt_from_rpy`), None without one;
+- `write_disabled()` (the joint kind's hook): its soft command, sent every cycle the node is disabled or
+  faulted;
+- its own mode changes (asking the robot for its damping mode) in `set_enabled(False)` and
+  `write_disabled()`.
 """
+
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
@@ -36,7 +45,7 @@ from pydantic import Field
 from rio import clock
 from rio.config import Config
 from rio.control.rotations import quat_to_matrix
-from rio.interfaces.faults import Fault, FaultHolding
+from rio.interfaces.faults import Fault
 
 #: `fault_code` of each stop (the same on every driver, so a script can match them across vendors).
 STATE_LOST, FALL, STALE_COMMANDS = 1, 2, 3
@@ -126,71 +135,50 @@ class BodyDampingConfig(DampingConfig):
                                                                         "beyond this from upright; None: off")
 
 
-# -- the mixin ----------------------------------------------------------------------------------------------
-class DampingSafety(FaultHolding):
-    """Mixed in ahead of a joint kind: the three stops, and damping every cycle while disabled."""
+# -- the part -----------------------------------------------------------------------------------------------
+class DampingGuard:
+    """The three stops of a device on low-level topics (the module docstring), a part its driver gives the
+    node. `state_lost(age)`: the driver's named fault for `age` seconds without a state; `tilt()`: the
+    base's tilt from upright now (deg), None without an IMU or before the first state; `body`: where the
+    IMU sits, as the fall fault names it; `device_noun`: what a cleared stale fault holds."""
 
-    config: Any
-    _commander: Any
-    #: `rio.clock.now()` of the last state the device sent (the driver sets it).
-    t_state: float = -math.inf
-    #: Where the IMU sits, as the fall fault names it.
-    body: str = "body"
-    #: What a cleared stale fault holds ("robot", "hand").
-    device_noun: str = "robot"
-    _holds_seen = 0
+    def __init__(self, node: Any, state_lost: Callable[[float], Fault], *,
+                 tilt: Callable[[], float | None] = lambda: None, body: str = "body", device_noun: str = "robot"):
+        self.node, self.state_lost, self.tilt = node, state_lost, tilt
+        self.body, self.device_noun = body, device_noun
+        #: `rio.clock.now()` of the last state the device sent (the driver sets it).
+        self.t_state = -math.inf
+        self._holds_seen = 0
 
-    # -- driver hooks -----------------------------------------------------------------------------------
-    def state_lost(self, age: float) -> Fault:
-        """The driver's named fault for `age` seconds without a state (built with `state_lost(...)`)."""
-        raise NotImplementedError(f"{type(self).__name__} must define state_lost(age)")
-
-    def tilt_deg(self) -> float | None:
-        """The base's tilt from upright now (deg), or None: no IMU, or no state yet."""
-        return None
-
-    def send_damping(self) -> None:
-        """Send the device's soft command (kp = 0); called every cycle the node is disabled or faulted."""
-        raise NotImplementedError(f"{type(self).__name__} must define send_damping()")
-
-    # -- shared -------------------------------------------------------------------------------------------
     @property
     def damps_on_stale(self) -> bool:
         """Whether a stream of commands that stops is damped (a fault) rather than held stiff."""
-        return bool(self.config.on_stale == "damp")
+        return bool(self.node.config.on_stale == "damp")
 
     def device_fault(self) -> Fault | None:
-        """The conditions that hold now (a stale stream is not one: it ends when commands come again)."""
+        """The conditions that hold now (a stale stream is not one: it ends when commands come again); the
+        fault holder's `ask`."""
+        c = self.node.config
         age = clock.now() - self.t_state
-        if age > self.config.state_timeout_s:
+        if age > c.state_timeout_s:
             return self.state_lost(age)
-        tilt = self.tilt_deg()
-        if tilt is not None and self.config.fall_tilt_deg is not None and tilt > self.config.fall_tilt_deg:
-            return fall(tilt, self.config.fall_tilt_deg, self.body)
+        tilt = self.tilt()
+        if tilt is not None and c.fall_tilt_deg is not None and tilt > c.fall_tilt_deg:
+            return fall(tilt, c.fall_tilt_deg, self.body)
         return None
 
-    def check_device_fault(self) -> None:
-        """Before enabling: refused while a cause lasts; a stream that went stale before now is forgotten."""
-        super().check_device_fault()
-        if self._commander is not None:
-            self._holds_seen = self._commander.watchdog_holds
-
-    def watch_safety(self) -> None:
-        """The driver's own stops, once per cycle after reading the state: the device's silence, a fall,
-        a stream of commands that stopped (the kind's watchdog held it) while `on_stale = "damp"`."""
-        if self.fault is not None and self.fault.code != STALE_COMMANDS:
+    def watch(self) -> None:
+        """The driver's own stops, once per cycle after reading the state: the device's silence, a fall, a
+        stream of commands that stopped (the kind's watchdog held it) while `on_stale = "damp"`. A watchdog
+        hold counts once, in the cycle after it: one from before a fault is not a reason to stop again."""
+        node, faults = self.node, self.node.faults
+        commander = node._commander
+        holds = commander.watchdog_holds if commander is not None else self._holds_seen
+        new_hold, self._holds_seen = holds > self._holds_seen, holds
+        if faults.fault is not None and faults.fault.code != STALE_COMMANDS:
             return
         fault = self.device_fault()
-        holds = self._commander.watchdog_holds if self._commander is not None else self._holds_seen
-        if fault is None and holds > self._holds_seen:
-            self._holds_seen = holds
-            if self.damps_on_stale and self.enabled:
-                fault = stale_commands(self.config.watchdog_s, self.device_noun)
+        if fault is None and new_hold and self.damps_on_stale and node.enabled:
+            fault = stale_commands(node.config.watchdog_s, self.device_noun)
         if fault is not None:
-            self.on_fault(fault)
-
-    def read_state(self) -> dict[str, Any]:
-        sample: dict[str, Any] = super().read_state()  # type: ignore[misc]  # the kind's
-        if not self.enabled:
-            self.send_damping()
-        return sample
+            faults.report(fault)

@@ -189,18 +189,3 @@ class Grabber:
                 source.close()
             except Exception as e:  # noqa: BLE001 - a device that fails to close is already gone
                 self.log.debug("%s: closing raised %s: %s", self.label, type(e).__name__, e)
-
-
-class GrabbingCamera:
-    """Mixed in ahead of `CameraNode` by a driver that grabs through a `Grabber` it makes in `open()` as
-    `self.grabber`: publishes each frame as it lands, and stops the grab thread on `close()`."""
-
-    grabber: Grabber | None = None
-
-    def arrival_event(self) -> threading.Event | None:
-        return self.grabber.arrived if self.grabber is not None else None
-
-    def close(self) -> None:
-        if self.grabber is not None:
-            self.grabber.stop()
-            self.grabber = None

@@ -2,7 +2,8 @@
 
 A driver writes `read_width() -> {"position": m, [extra keys declared in setup()]}` and
 `write_width(width, force)` (this cycle's goal, and the grip force in N where the hardware takes one,
-else NaN), plus `set_enabled(on)` where the hardware can switch. The kind owns the rest: targets are
+else NaN), plus `set_enabled(on)` where the hardware can switch; the kind's `cycle()` calls them (read,
+step the commander, write). The kind owns the rest: targets are
 clipped to `[0, max_width]`, interpolated to `t_cmd_target`, move at most `max_step_m` per cycle and are
 held by the watchdog, through the same `JointCommander` the arms use.
 """
@@ -54,10 +55,19 @@ class GripperNode(CommandedNode):
     def measured(self) -> np.ndarray:
         return np.array([float(self.read_width()["position"])])
 
-    def read_state(self) -> dict[str, Any]:
+    def cycle(self) -> dict[str, Any]:
+        """One tick at `rate_hz` (the runtime calls it): read the opening, step the commander, write the
+        opening it allows this cycle (and the grip force)."""
         sample = dict(self.read_width())
         if self.enabled:
             self.write_width(float(self.commander.step(clock.now())[0]), self.force)
+        return self.complete(sample)
+
+    def read_state(self) -> dict[str, Any]:
+        """The opening now with the kind's keys: a read only, nothing is written (see `cycle()`)."""
+        return self.complete(dict(self.read_width()))
+
+    def complete(self, sample: dict[str, Any]) -> dict[str, Any]:
         sample["max_width"] = self.width
         return self.status(sample)
 

@@ -10,10 +10,11 @@ A driver writes hardware logic only:
 - optionally `set_enabled(on)` (torque), `hardware_limits()` (read after `open()`, e.g. from a
   calibration), `default_home()`.
 
-The kind runs one cycle per tick (read, then write the commander's goal), so a driver never sees a raw
-command: every target is clipped to the limits (the hardware's, narrowed by the station's
-`joint_limits`), moves at most `max_step_rad` per cycle, and is held by the watchdog when commands stop
-coming mid-move. A disabled device refuses commands (they would otherwise be replayed on enable).
+The kind runs one `cycle()` per tick: `read_joints()`, `commander.step(now)`, `write_joints(goal)`, in
+that order, so a driver never sees a raw command: every target is clipped to the limits (the hardware's,
+narrowed by the station's `joint_limits`), moves at most `max_step_rad` per cycle, and is held by the
+watchdog when commands stop coming mid-move. A disabled device refuses commands (they would otherwise be
+replayed on enable) and gets `write_disabled()` instead of a goal.
 """
 
 from __future__ import annotations
@@ -72,6 +73,11 @@ class JointNode(CommandedNode):
     def write_joints(self, joint_pos: np.ndarray) -> None:
         raise NotImplementedError(f"{type(self).__name__} takes no joint targets")
 
+    def write_disabled(self) -> None:
+        """What the hardware gets in a cycle while the node is disabled. Default: nothing (the device holds
+        or goes limp by itself); a device that obeys its last command until told otherwise sends a soft one
+        here (a humanoid on its low-level topics: `rio.interfaces.damping`)."""
+
     # -- contract -----------------------------------------------------------------------------------
     def setup(self) -> None:
         super().setup()
@@ -108,15 +114,19 @@ class JointNode(CommandedNode):
     def measured(self) -> np.ndarray:
         return np.asarray(self.read_joints()["joint_pos"], dtype=np.float64)
 
-    def read_state(self) -> dict[str, Any]:
+    def cycle(self) -> dict[str, Any]:
+        """One tick at `rate_hz` (the runtime calls it): read the hardware, step the commander, write the goal
+        it allows this cycle; the sample is completed after the write, so `holding` is this cycle's."""
         sample = dict(self.read_joints())
-        self.drive(clock.now())
+        if self.enabled:
+            self.write_joints(self.commander.step(clock.now()))
+        else:
+            self.write_disabled()
         return self.complete(sample)
 
-    def drive(self, now: float) -> None:
-        """Send this cycle's goal (when enabled)."""
-        if self.enabled:
-            self.write_joints(self.commander.step(now))
+    def read_state(self) -> dict[str, Any]:
+        """The joints now with the kind's keys: a read only, nothing is written (see `cycle()`)."""
+        return self.complete(dict(self.read_joints()))
 
     def complete(self, sample: dict[str, Any]) -> dict[str, Any]:
         """The contract's keys on top of what the driver read: NaN for what it did not measure."""

@@ -1,53 +1,73 @@
-"""An arm whose joints, home, limits and robot model come from its vendor plugin's model table.
+"""A vendor's table of arm models: what differs per model and what a node of that vendor starts from.
 
 Industrial arms come in families (xArm 5/6/7, UR3e..UR30, FR3/Panda, Gen3/Gen3 lite) that one driver
-serves, picked by the station's `model` field. Each plugin keeps a table of what differs per model and a
-function building RIO's robot description from an entry; this mixin turns the table into the
-`JointNode`/`ArmNode` hooks, so a vendor driver names its table and writes only hardware logic:
+serves, picked by the station's `model`. The plugin keeps the facts in its `models.py`: a table of entries
+(each with `name`, `joint_names`, `home` (rad) and `limits` ((lower, upper) rad per joint)), the defaults
+a node starts from (its rate and step limits, which the vendor's controller dictates) and the highest rate
+the controller takes. The driver names them once, and the arm kind (`ArmNode.models`) does the rest:
 
-    class XArm(ControllerLink, ModelTableArm, ArmNode):
-        lookup_model = staticmethod(get_arm)        # model name -> entry
-        describe_model = staticmethod(description)  # (model name, tcp_offset) -> robot description
+    MODELS = ModelTable(ARMS, description, default="xarm7", defaults=NODE_DEFAULTS, max_rate_hz=500.0)
 
-An entry has `name`, `joint_names`, `home` (rad) and `limits` ((lower, upper) rad per joint); the
-driver's config has `model` and `tcp_offset`. The station's own `joint_names`, `home` and
-`joint_limits` still win (the kind applies them over these defaults).
+    class XArm(ArmNode):
+        models = MODELS
+
+        class Config(NetworkDevice, ArmNode.Config):
+            defaults = MODELS.defaults      # the kind's fields, the vendor's values (`rio.config.Config`)
+            model: str = MODELS.field()     # one of the table's names; default and description from it
+
+From the station's model's entry the kind takes `default_joint_names()`, `default_home()`,
+`hardware_limits()` and `robot_description()` (`description(name, tcp_offset)` builds it); the station's
+own `joint_names`, `home` and `joint_limits` still win.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any, ClassVar
+from collections.abc import Callable, Mapping
+from typing import Annotated, Any
 
-import numpy as np
+from pydantic import AfterValidator, Field
+from pydantic.fields import FieldInfo
 
-from rio.runtime.node import remote
 
+class ModelTable:
+    def __init__(self, models: Mapping[str, Any], describe: Callable[[str, Any], dict[str, Any] | None], *,
+                 default: str, defaults: Mapping[str, Any] | None = None, max_rate_hz: float | None = None):
+        if default not in models:
+            raise KeyError(f"default model '{default}' is not in the table ({', '.join(models)})")
+        self.models, self.default = dict(models), default
+        self._describe = describe
+        self.defaults_given = dict(defaults or {})
+        self.max_rate_hz = max_rate_hz
 
-class ModelTableArm:
-    """Mixed in ahead of `ArmNode`; see the module docstring."""
+    def entry(self, name: str) -> Any:
+        """The entry of model `name` (a KeyError naming the known models otherwise)."""
+        if name not in self.models:
+            raise KeyError(f"unknown model '{name}'; known: {', '.join(self.models)}")
+        return self.models[name]
 
-    config: Any
-    #: The plugin's table lookup: model name -> entry (raises naming the known models).
-    lookup_model: ClassVar[Callable[[str], Any]]
-    #: The plugin's robot description of a model: (model name, tcp_offset or None) -> description.
-    describe_model: ClassVar[Callable[[str, Any], dict[str, Any] | None]]
+    def describe(self, name: str, tcp_offset: Any = None) -> dict[str, Any] | None:
+        """RIO's robot description of model `name` with the tool at `tcp_offset` (None: the flange)."""
+        return self._describe(self.entry(name).name, tcp_offset)
 
     @property
-    def model_entry(self) -> Any:
-        """This node's table entry (from the config, so it is there before `setup()` finishes)."""
-        return type(self).lookup_model(self.config.model)
+    def defaults(self) -> dict[str, Any]:
+        """The config `defaults` of a node of this vendor: its own, `rate_hz` bounded by `max_rate_hz`."""
+        out: dict[str, Any] = dict(self.defaults_given)
+        if self.max_rate_hz is not None:
+            rate = out.get("rate_hz")
+            out["rate_hz"] = Field(le=self.max_rate_hz) if rate is None else Field(rate, le=self.max_rate_hz)
+        return out
 
-    def default_joint_names(self) -> list[str]:
-        return list(self.model_entry.joint_names)
+    def field(self) -> Any:
+        """The `model` field: one of the table's names (checked when the config is validated), the table's
+        default, a description listing them."""
+        names = tuple(self.models)
 
-    def default_home(self) -> list[float]:
-        return [float(v) for v in self.model_entry.home]
+        def known(name: str) -> str:
+            if name not in self.models:
+                raise ValueError(f"unknown model '{name}'; known: {', '.join(names)}")
+            return name
 
-    def hardware_limits(self) -> tuple[np.ndarray, np.ndarray]:
-        lim = np.asarray(self.model_entry.limits, dtype=np.float64)
-        return lim[:, 0], lim[:, 1]
-
-    @remote
-    def robot_description(self) -> dict[str, Any] | None:
-        return type(self).describe_model(self.model_entry.name, getattr(self.config, "tcp_offset", None))
+        info = FieldInfo.from_annotation(Annotated[str, AfterValidator(known)])  # type: ignore[arg-type]
+        return FieldInfo.merge_field_infos(info, default=self.default, description=f"which model: {', '.join(names)}",
+                                           json_schema_extra={"enum": list(names)})

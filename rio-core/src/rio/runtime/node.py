@@ -8,6 +8,8 @@ A node author writes only hardware logic:
   object to learn the layout and the client-side methods.
 - `open()` / `close()`: acquire and release the device (server side only).
 - `read_state() -> dict`: one sample, for publishing loops.
+- `cycle() -> dict`: what the runtime calls at `rate_hz` in a publishing loop: `read_state()` unless the
+  node's kind says otherwise (the commanded kinds read, step their commander and write there).
 - `handle_request(req: dict)`: apply one command, for request loops.
 - methods marked `@remote` run inside the node when a client calls them (return values and exceptions
   carried back); methods marked `@client_side` run in the client's process against its local ring
@@ -27,7 +29,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypeVar
 
 from pydantic import Field
 
-from rio.config import Config, Configurable
+from rio.config import Config, validate_config
 from rio.runtime.layout import Layout
 
 LoopShape = Literal["pub", "req", "pubreq"]
@@ -63,7 +65,10 @@ def is_client_side(cls: type, method: str) -> bool:
     return api_kind(cls, method) == "client"
 
 
-class Node(Configurable):
+class Node:
+    """Validates its `Config` into `self.config` and calls `setup()`, as `rio.config.Configurable` does for
+    other components, without inheriting it: a driver's class chain is its kind's plus its own, nothing more."""
+
     class Config(Config):
         """Fields every node accepts."""
 
@@ -96,10 +101,13 @@ class Node(Configurable):
                             "@client_side instead (the API is derived from them)")
         cls.__api__ = tuple(sorted(m for m in dir(cls) if api_kind(cls, m) is not None))
 
+    config: Any
+
     def __init__(self, config: Any = None, /, **fields: Any):
         self.name = type(self).__name__.lower()
         self.exit_event = threading.Event()
-        super().__init__(config, **fields)
+        self.config = validate_config(type(self).Config, config, fields)
+        self.setup()
 
     @property
     def rate_hz(self) -> float:
@@ -125,6 +133,12 @@ class Node(Configurable):
     def read_state(self) -> Mapping[str, Any] | None:
         """This cycle's sample, or None to publish nothing this cycle (a camera with no new frame)."""
         raise NotImplementedError(f"{type(self).__name__} publishes but does not define read_state()")
+
+    def cycle(self) -> Mapping[str, Any] | None:
+        """One tick of a publishing loop, what the runtime calls at `rate_hz`; returns the sample to publish.
+        A node that only reads is its `read_state()`; a commanded kind (`rio.interfaces`) reads the hardware,
+        steps its commander and writes the goal here, in that order."""
+        return self.read_state()
 
     def arrival_event(self) -> threading.Event | None:
         """For a node whose samples come from a thread of its own (a camera's grab thread): an Event it sets

@@ -3,7 +3,7 @@
 Hardware logic only; the arm kind (`rio.interfaces.ArmNode`) owns the cycle and the safety (clip, step
 limit, watchdog). Each node cycle reads `robot.state` once and hands franky the cycle's goal as an
 asynchronous motion that replaces the running one (`JointMotion` for joint goals, `CartesianMotion`
-for end-effector goals; `eef_control = "ik"` solves IK on RIO's model instead). franky plans each
+for end-effector goals, `eef_control = "native"`; "ik" solves IK on RIO's model instead). franky plans each
 motion with Ruckig inside libfranka's 1 kHz loop, under `relative_dynamics_factor`, so the arm moves
 smoothly between the node's (slower) goals. Reflexes and link drops become named, held faults
 (`link.py`, `faults.py`).
@@ -17,33 +17,29 @@ import numpy as np
 from pydantic import Field
 
 from rio import clock
-from rio.interfaces import FAULT_KEYS, ArmNode, Fault, ModelTableArm
+from rio.interfaces import ArmNode, Fault, FaultHolder, LinkSupervisor, ModelTable
 
 from ..backend import connect_robot
 from ..description import description
 from ..faults import USER_STOPPED, fault_of, fault_of_state
-from ..link import FrankaLink, LinkConfig, log
-from ..models import ARMS, get_arm
+from ..link import FrankaConfig, FrankaConnection, log
+from ..models import ARMS, MAX_RATE_HZ, NODE_DEFAULTS, get_arm
 from ..pose import ee_target, offset_pose, to_affine, tool_pose
 
-Model = Literal["fr3", "panda"]
+MODELS = ModelTable(ARMS, description, default="fr3", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ)
 
 
-class FrankaArm(FrankaLink, ModelTableArm, ArmNode):
-    lookup_model = staticmethod(get_arm)
-    describe_model = staticmethod(description)
+class FrankaArm(ArmNode):
+    models = MODELS
 
-    class Config(LinkConfig, ArmNode.Config):
-        model: Model = Field("fr3", description=f"which arm: {', '.join(ARMS)}")
-        rate_hz: float = Field(100.0, gt=0, le=1000, description="node cycles per second (goals handed to franky; "
-                                                                 "libfranka interpolates at 1 kHz)")
-        max_step_rad: float = Field(0.02, gt=0, description="largest joint goal change per cycle (rad)")
-        max_step_m: float = Field(0.005, gt=0, description="largest tool travel per cycle (m)")
-        max_step_eef_rad: float = Field(0.02, gt=0, description="largest tool rotation per cycle (rad)")
+    class Config(FrankaConfig, ArmNode.Config):
+        defaults = MODELS.defaults
+        renamed_values = {"eef_control": {"franka": "native"}}
+        model: str = MODELS.field()
         relative_dynamics_factor: float = Field(0.2, gt=0, le=1, description="scales Franka's velocity, "
                                                                              "acceleration and jerk limits")
-        eef_control: Literal["franka", "ik"] = Field(
-            "franka", description='end-effector targets as franky Cartesian motions ("franka") or RIO\'s IK on '
+        eef_control: Literal["native", "ik"] = Field(
+            "native", description='end-effector targets as franky Cartesian motions ("native") or RIO\'s IK on '
                                   'the arm model then joint motions ("ik")')
         tcp_offset: tuple[float, float, float, float, float, float] | None = Field(
             None, description="tool centre point from the flange [x, y, z (m), roll, pitch, yaw (rad)]; the Franka "
@@ -67,7 +63,10 @@ class FrankaArm(FrankaLink, ModelTableArm, ArmNode):
         super().setup()
         self.arm = get_arm(self.config.model)
         self.offset = offset_pose(self.config.tcp_offset)
-        self.example_data = {**self.example_data, **FAULT_KEYS}
+        self.conn = FrankaConnection(self, self.connect, self.on_connected)
+        self.faults = FaultHolder(self, f"Franka at {self.config.ip}", ask=self.device_fault,
+                                  clear=lambda: self.conn.handle.recover_from_errors())  # libfranka's recovery
+        self.link = LinkSupervisor(self.faults, up=lambda: self.conn.handle is not None, reconnect=self.conn.retry)
         self._q, self._dq = np.array(self.arm.home), np.zeros(7)
         self._f_t_ee: Any = None
         self._sent: tuple[str, np.ndarray] | None = None  # the goal the running motion holds
@@ -75,7 +74,7 @@ class FrankaArm(FrankaLink, ModelTableArm, ArmNode):
 
     @property
     def streams_poses(self) -> bool:
-        return self.config.eef_control == "franka"
+        return self.config.eef_control == "native"
 
     # -- connection -----------------------------------------------------------------------------
     def connect(self) -> Any:
@@ -93,41 +92,36 @@ class FrankaArm(FrankaLink, ModelTableArm, ArmNode):
             robot.set_cartesian_impedance(list(c.cartesian_impedance))
 
     def open(self) -> None:
-        self.open_link()
+        self.conn.open(self.config.connect_timeout_s)
 
-    # -- FaultHolding hooks ---------------------------------------------------------------------
+    def close(self) -> None:
+        self.conn.close()
+
     def device_fault(self) -> Fault | None:
         """The robot's fault now (its state's error flags and mode); the last one while the link is down."""
-        if self.handle is None:
-            return self.fault
+        if self.conn.handle is None:
+            return self.faults.fault
         try:
-            st = self.handle.state
+            st = self.conn.handle.state
         except Exception:
             return None
         return fault_of_state(st)
 
-    def clear_device_faults(self) -> None:
-        self.handle.recover_from_errors()  # libfranka's automatic error recovery
-
     def set_enabled(self, enabled: bool) -> None:
         self._sent = None
-        if self.handle is None:
-            return
-        if enabled:
-            self.check_device_fault()  # raises, naming the fault, while the robot still reports one
-        else:
-            self.guarded(self.handle.stop)  # the running motion ends; the arm holds where it is
+        if self.conn.handle is not None and not enabled:
+            self.conn.call(self.conn.handle.stop)  # the running motion ends; the arm holds where it is
 
     # -- the cycle ------------------------------------------------------------------------------
     def read_joints(self) -> dict[str, Any]:
-        self.link_status()  # retries a dropped link
+        self.link.watch()  # retries a dropped link
         sample: dict[str, Any] = {"joint_pos": self._q, "joint_vel": self._dq}
-        robot = self.handle
+        robot = self.conn.handle
         if robot is not None:
             try:
                 st = robot.state
             except Exception as e:
-                self.classify(e)
+                self.conn.classify(e)
                 st = None
             if st is not None:
                 self._q, self._dq = np.asarray(st.q, dtype=np.float64), np.asarray(st.dq, dtype=np.float64)
@@ -136,35 +130,36 @@ class FrankaArm(FrankaLink, ModelTableArm, ArmNode):
                 if self.streams_poses:
                     sample["eef_pose"] = tool_pose(st.O_T_EE, st.F_T_EE, self.offset)
                 fault = fault_of_state(st)
-                if fault is not None and self.fault is None and (self.enabled or fault is not USER_STOPPED):
-                    self.on_fault(fault)
+                if fault is not None and self.faults.fault is None and (self.enabled or fault is not USER_STOPPED):
+                    self.faults.report(fault)
                     self._fault_t = clock.now()
                 self._auto_recover()
-        return {**sample, "connected": self.handle is not None, **self.fault_status()}
+        return sample
 
     def _auto_recover(self) -> None:
-        if (self.fault is not None and self.config.auto_recover and self.fault is not USER_STOPPED
+        held = self.faults.fault
+        if (held is not None and self.config.auto_recover and held is not USER_STOPPED
                 and clock.now() - self._fault_t >= self.config.auto_recover_delay_s):
             self._fault_t = clock.now()  # at most one try per delay
             try:
                 self.clear_faults()
             except Exception as e:  # still faulted (e.g. the obstacle is still there): try again later
-                self.fault = self.fault or fault_of(["joint_reflex"])
+                self.faults.fault = self.faults.fault or fault_of(["joint_reflex"])
                 self.enabled = False
                 log.warning("node '%s': automatic recovery failed: %s", self.name, e)
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
-        if self.handle is None or self._same("q", joint_pos):
+        if self.conn.handle is None or self._same("q", joint_pos):
             return  # holding: the running motion already holds this goal
         import franky
 
         motion = franky.JointMotion(franky.JointState(np.asarray(joint_pos, dtype=np.float64)),
                                     return_when_finished=False)
         self._sent = ("q", np.array(joint_pos, dtype=np.float64))
-        self.guarded(self.handle.move, motion, True)
+        self.conn.call(self.conn.handle.move, motion, True)
 
     def write_pose(self, eef_pose: np.ndarray) -> None:
-        if self.handle is None or self._f_t_ee is None:
+        if self.conn.handle is None or self._f_t_ee is None:
             return
         if self._same("pose", eef_pose):
             return
@@ -172,8 +167,8 @@ class FrankaArm(FrankaLink, ModelTableArm, ArmNode):
 
         target = to_affine(ee_target(np.asarray(eef_pose, dtype=np.float64), self._f_t_ee, self.offset))
         self._sent = ("pose", np.array(eef_pose, dtype=np.float64))
-        self.guarded(self.handle.move, franky.CartesianMotion(franky.RobotPose(target), return_when_finished=False),
-                     True)
+        self.conn.call(self.conn.handle.move,
+                       franky.CartesianMotion(franky.RobotPose(target), return_when_finished=False), True)
 
     def _same(self, kind: str, goal: np.ndarray) -> bool:
         return self._sent is not None and self._sent[0] == kind and float(np.abs(goal - self._sent[1]).max()) < 1e-9

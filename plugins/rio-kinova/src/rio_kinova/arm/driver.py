@@ -5,7 +5,7 @@ reads `BaseCyclic.RefreshFeedback` and sends one goal:
 - high level (default): joint speeds (`SendJointSpeedsCommand`), the step to this cycle's goal per
   cycle plus a proportional correction on the measured position, within the model's speed limits;
   the base keeps its own safety (limits, collision detection) and its Cartesian control is reached with
-  `eef_control = "controller"` (twists, `SendTwistCommand`);
+  `eef_control = "native"` (twists, `SendTwistCommand`);
 - low level (`low_level = true`): `SetServoingMode(LOW_LEVEL_SERVOING)` and one position per actuator
   per cycle through `BaseCyclic.Refresh(command)`; run it at a high rate (the base expects 1 kHz).
 
@@ -22,14 +22,14 @@ import numpy as np
 from pydantic import Field
 
 from rio.control import quat_conj, quat_mul, quat_to_rotvec
-from rio.interfaces import FAULT_KEYS, ArmNode, ModelTableArm
+from rio.interfaces import ArmNode, ModelTable
 
 from ..description import description
-from ..link import KortexLink, LinkConfig
-from ..models import ARMS, get_arm
+from ..link import KortexConfig, close_session, guarded, hold_faults_and_drops, open_session, watch
+from ..models import ARMS, MAX_RATE_HZ, NODE_DEFAULTS, get_arm
 from ..pose import from_kinova
 
-Model = Literal["gen3", "gen3_6dof", "gen3_lite"]
+MODELS = ModelTable(ARMS, description, default="gen3", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ)
 _TWO_PI = 2 * math.pi
 
 
@@ -38,31 +38,29 @@ def wrap(x):
     return np.pi - np.mod(np.pi - np.asarray(x, dtype=np.float64), _TWO_PI)
 
 
-class KinovaArm(KortexLink, ModelTableArm, ArmNode):
-    lookup_model = staticmethod(get_arm)
-    describe_model = staticmethod(description)
+class KinovaArm(ArmNode):
+    models = MODELS
 
-    class Config(LinkConfig, ArmNode.Config):
-        model: Model = Field("gen3", description=f"which arm: {', '.join(ARMS)} (checked against the actuator count)")
-        rate_hz: float = Field(100.0, gt=0, le=1000, description="cycles per second (1000 in low-level mode)")
-        max_step_rad: float = Field(0.01, gt=0, description="largest joint goal change per cycle (rad): 1 rad/s "
-                                                            "at 100 Hz")
+    class Config(KortexConfig, ArmNode.Config):
+        defaults = MODELS.defaults
+        renamed_values = {"eef_control": {"controller": "native"}}
+        model: str = MODELS.field()
         low_level: bool = Field(False, description="low-level servoing: positions to the actuators at the cycle "
                                                    "rate, bypassing the base's trajectory control (expert use)")
         gain: float = Field(8.0, ge=0, description="high level: joint speed per rad of tracking error (1/s)")
-        eef_control: Literal["ik", "controller"] = Field(
+        eef_control: Literal["ik", "native"] = Field(
             "ik", description='end-effector targets by RIO\'s IK on the arm model ("ik") or the base\'s Cartesian '
-                              'twist control ("controller", high level only; its tool configuration applies)')
+                              'twist control ("native", high level only; its tool configuration applies)')
         tcp_offset: tuple[float, float, float, float, float, float] | None = Field(
             None, description="tool centre point from the flange [x, y, z (m), roll, pitch, yaw (rad)] for RIO's model "
-                              "(set the same tool on the base in the web app for eef_control = 'controller')")
+                              "(set the same tool on the base in the web app for eef_control = 'native')")
 
     def setup(self) -> None:
         super().setup()
         self.kinova = get_arm(self.config.model)
-        if self.config.low_level and self.config.eef_control == "controller":
-            raise ValueError("eef_control = 'controller' needs the base's high-level control: set low_level = false")
-        self.example_data = {**self.example_data, **FAULT_KEYS}
+        if self.config.low_level and self.config.eef_control == "native":
+            raise ValueError("eef_control = 'native' needs the base's high-level control: set low_level = false")
+        hold_faults_and_drops(self)
         self._q: np.ndarray | None = None
         self._last: dict[str, Any] = {}  # the last sample read (stands while the session is lost)
         self._goal: np.ndarray | None = None
@@ -70,11 +68,11 @@ class KinovaArm(KortexLink, ModelTableArm, ArmNode):
 
     @property
     def streams_poses(self) -> bool:
-        return self.config.eef_control == "controller"
+        return self.config.eef_control == "native"
 
     # -- hardware -----------------------------------------------------------------------------------
     def open(self) -> None:
-        s = self.open_session()
+        s = open_session(self)
         n = len(s.cyclic.RefreshFeedback().actuators)
         if n != self.kinova.dof:
             self.close()
@@ -82,12 +80,14 @@ class KinovaArm(KortexLink, ModelTableArm, ArmNode):
                              f"{self.kinova.dof}: set model")
         self._last = self.read_joints()
 
+    def close(self) -> None:
+        close_session(self)
+
     def set_enabled(self, enabled: bool) -> None:
         s = self.session
         assert s is not None
         mode = s.pb.Base_pb2.ServoingModeInformation()
         if enabled:
-            self.check_device_fault()
             mode.servoing_mode = (s.pb.Base_pb2.LOW_LEVEL_SERVOING if self.config.low_level
                                   else s.pb.Base_pb2.SINGLE_LEVEL_SERVOING)
             s.base.SetServoingMode(mode)
@@ -95,35 +95,33 @@ class KinovaArm(KortexLink, ModelTableArm, ArmNode):
         else:
             if self.config.low_level:  # hand control back to the base, which holds the arm
                 mode.servoing_mode = s.pb.Base_pb2.SINGLE_LEVEL_SERVOING
-                self.guarded(s.base.SetServoingMode, mode)
-            self.guarded(s.base.Stop)
+                guarded(self, s.base.SetServoingMode, mode)
+            guarded(self, s.base.Stop)
 
     def read_joints(self) -> dict[str, Any]:
         s = self.session
         assert s is not None
-        status = self.link_status()
-        fb = self.guarded(s.cyclic.RefreshFeedback) if s.alive else None
+        watch(self)  # a lost session is noticed and reopened here
+        fb = guarded(self, s.cyclic.RefreshFeedback) if s.alive else None
         if fb is None:  # no answer: the last reading stands, the sample says the link is down
-            return {**self._last, "joint_vel": np.zeros(self.kinova.dof), **self.fault_status()}
+            return {**self._last, "joint_vel": np.zeros(self.kinova.dof)}
         raw = np.radians([a.position for a in fb.actuators])
         q = wrap(raw)
         if self._q is not None:  # continuous joints: the turn nearest the last reading
             cont = np.array(self.kinova.continuous)
             q = np.where(cont, self._q + wrap(q - self._q), q)
         self._q = q
-        sample: dict[str, Any] = {"joint_pos": q, "joint_vel": np.radians([a.velocity for a in fb.actuators]),
-                                  **status}
+        sample: dict[str, Any] = {"joint_pos": q, "joint_vel": np.radians([a.velocity for a in fb.actuators])}
         if self.streams_poses:
             b = fb.base
             sample["eef_pose"] = from_kinova([b.tool_pose_x, b.tool_pose_y, b.tool_pose_z, b.tool_pose_theta_x,
                                               b.tool_pose_theta_y, b.tool_pose_theta_z])
-        if self.fault is None and self.enabled:
+        if self.faults.fault is None and self.enabled:
             state = s._name(s.pb.Common_pb2.ArmState, fb.base.active_state)
             if state == "ARMSTATE_IN_FAULT":  # a missed notification: the cyclic feedback says so too
-                fault = self.device_fault()
+                fault = self.faults.ask()
                 if fault is not None:
-                    self.on_fault(fault)
-                    sample["fault_code"] = fault.code
+                    self.faults.report(fault)
         self._last = sample
         return sample
 
@@ -137,7 +135,7 @@ class KinovaArm(KortexLink, ModelTableArm, ArmNode):
             for qi in joint_pos:
                 a = cmd.actuators.add()
                 a.command_id, a.flags, a.position = self._frame, 1, math.degrees(float(qi)) % 360.0
-            self.guarded(s.cyclic.Refresh, cmd)
+            guarded(self, s.cyclic.Refresh, cmd)
             return
         prev = joint_pos if self._goal is None else self._goal
         self._goal = joint_pos.copy()
@@ -148,7 +146,7 @@ class KinovaArm(KortexLink, ModelTableArm, ArmNode):
         for i, v in enumerate(speed):
             js = msg.joint_speeds.add()
             js.joint_identifier, js.value, js.duration = i, math.degrees(float(v)), 0
-        self.guarded(s.base.SendJointSpeedsCommand, msg)
+        guarded(self, s.base.SendJointSpeedsCommand, msg)
 
     def write_pose(self, eef_pose: np.ndarray) -> None:
         s = self.session
@@ -163,5 +161,5 @@ class KinovaArm(KortexLink, ModelTableArm, ArmNode):
         t = cmd.twist
         t.linear_x, t.linear_y, t.linear_z = (float(v) for v in lin)
         t.angular_x, t.angular_y, t.angular_z = (math.degrees(float(v)) for v in ang)
-        self.guarded(s.base.SendTwistCommand, cmd)
+        guarded(self, s.base.SendTwistCommand, cmd)
 

@@ -12,46 +12,46 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from rio.interfaces import FAULT_KEYS, GripperNode
+from rio.interfaces import GripperNode
 
-from ..link import KortexLink, LinkConfig
+from ..link import KortexConfig, close_session, guarded, hold_faults_and_drops, open_session, watch
 from ..models import ARMS, get_arm
 
 Model = Literal["gen3", "gen3_6dof", "gen3_lite"]
 
 
-class KinovaRobotiq(KortexLink, GripperNode):
-    class Config(LinkConfig, GripperNode.Config):
+class KinovaRobotiq(GripperNode):
+    class Config(KortexConfig, GripperNode.Config):
+        defaults = {"rate_hz": Field(20.0, le=100), "max_width": 0.085}  # one base round trip a cycle; the 2F-85
         model: Model = Field("gen3", description=f"the arm it is mounted on: {', '.join(ARMS)}")
-        rate_hz: float = Field(20.0, gt=0, le=100, description="cycles per second (one base round trip each)")
-        max_width: float = Field(0.085, gt=0, description="full opening (m): 0.085 for the 2F-85")
         deadband_m: float = Field(0.001, ge=0, description="re-send the goal only when it changed more than this (m)")
 
     def setup(self) -> None:
         super().setup()
         self.kinova = get_arm(self.config.model)
-        self.example_data = {**self.example_data, **FAULT_KEYS}
+        hold_faults_and_drops(self)
         self._sent: float | None = None
         self._last = float(self.config.max_width)
 
     def open(self) -> None:
-        self.open_session()
+        open_session(self)
+
+    def close(self) -> None:
+        close_session(self)
 
     def set_enabled(self, enabled: bool) -> None:
-        if enabled:
-            self.check_device_fault()
         self._sent = None
 
     def read_width(self) -> dict[str, Any]:
         s = self.session
         assert s is not None
-        status = self.link_status()
+        watch(self)  # a lost session is noticed and reopened here
         req = s.pb.Base_pb2.GripperRequest()
         req.mode = s.pb.Base_pb2.GRIPPER_POSITION
-        g = self.guarded(s.base.GetMeasuredGripperMovement, req)
+        g = guarded(self, s.base.GetMeasuredGripperMovement, req)
         if g is not None and len(g.finger):
             self._last = (1.0 - float(g.finger[0].value)) * self.width
-        return {"position": self._last, **status, **self.fault_status()}
+        return {"position": self._last}
 
     def write_width(self, width: float, force: float) -> None:
         if self._sent is not None and abs(width - self._sent) <= self.config.deadband_m:
@@ -63,5 +63,5 @@ class KinovaRobotiq(KortexLink, GripperNode):
         cmd.mode = s.pb.Base_pb2.GRIPPER_POSITION
         finger = cmd.gripper.finger.add()
         finger.finger_identifier, finger.value = 1, 1.0 - width / self.width
-        self.guarded(s.base.SendGripperCommand, cmd)
+        guarded(self, s.base.SendGripperCommand, cmd)
 

@@ -23,11 +23,12 @@ from typing import Any, Literal
 from pydantic import Field, model_validator
 
 from rio import clock
+from rio.interfaces import GripperNode, ServoBus
 from rio.runtime.node import remote
 
 from .. import virtual
 from ..errors import ActivationError, GripperFault
-from ..linked import LinkedGripper, model_width
+from ..linked import close_device, model_width, open_device
 from ..models import DH_MODELS, dh_force_pct, dh_permille, dh_speed_pct, dh_width
 from ..rtu import RtuClient
 from .registers import (
@@ -48,13 +49,11 @@ DEFAULT_FORCE_PCT = 50
 _POLL_S = 0.02
 
 
-class DhGripper(LinkedGripper):
-    class Config(LinkedGripper.Config):
-        port: str = Field(description='serial port of the RS-485 adapter (e.g. /dev/ttyUSB0), or "virtual" for an '
-                                      "emulated gripper")
+class DhGripper(GripperNode):
+    class Config(ServoBus, GripperNode.Config):
+        defaults = {"baudrate": 115200}  # DH's
         model: Literal["ag95", "ag105"] = Field("ag95", description="ag95 (AG-160-95) or ag105 (AG-105-145)")
         slave_id: int = Field(DEFAULT_SLAVE_ID, ge=1, le=247, description="Modbus slave id (DH's default: 1)")
-        baudrate: int = Field(115200, gt=0, description="baud rate (DH's default: 115200)")
         timeout_s: float = Field(0.2, gt=0, description="how long to wait for an answer (s)")
         #: None until validated, then the model's stroke (so the base's float type holds for the kind)
         max_width: float | None = Field(  # type: ignore[assignment]
@@ -74,7 +73,8 @@ class DhGripper(LinkedGripper):
         super().setup()
         self.spec = DH_MODELS[self.config.model]
         self.example_data = {**(self.example_data or {}), "object_detected": False, "object_dropped": False}
-        self.link: RtuClient | None = None
+        self.device: RtuClient | None = None  # the open Modbus client, None while closed
+        self._virtual: Any = None  # the private emulator behind a "virtual" port
         self._sent: dict[int, int] = {}  # register -> last value written
 
     # -- lifecycle --------------------------------------------------------------------------------------
@@ -83,18 +83,22 @@ class DhGripper(LinkedGripper):
         if virtual.is_virtual(path):
             self._virtual = virtual.dh_rtu(c.model, c.slave_id)
             path = self._virtual.port
-        return RtuClient(path, c.slave_id, baudrate=c.baudrate, timeout_s=c.timeout_s, label=self.spec.label).open()
+        return RtuClient(path, c.slave_id, baudrate=c.baudrate, timeout_s=c.timeout_s, retries=c.retries,
+                         label=self.spec.label).open()
 
-    def bring_up(self) -> None:
-        self._initialize(force=False)
+    def open(self) -> None:
+        open_device(self, self.connect, lambda: self._initialize(force=False))
+
+    def close(self) -> None:
+        close_device(self)
 
     # -- driver hooks -----------------------------------------------------------------------------------
     def read_width(self) -> dict[str, Any]:
-        assert self.link is not None
-        init, grip, permille = self.link.read(INIT_STATE, 3)
+        assert self.device is not None
+        init, grip, permille = self.device.read(INIT_STATE, 3)
         if init != INIT_DONE:
             self._hold()
-            raise GripperFault(f"{self.spec.label} on {self.link.where} lost its initialization (init state "
+            raise GripperFault(f"{self.spec.label} on {self.device.where} lost its initialization (init state "
                                f"{init}: {INIT_STATES.get(init, 'unknown')}), as after a power cut; the fingers are no "
                                "longer commanded: call reset_fault() (or restart the node) to initialize it again",
                                code=init)
@@ -108,9 +112,9 @@ class DhGripper(LinkedGripper):
 
     def set_enabled(self, enabled: bool) -> None:
         """No stop bit: on and off both command the measured position, so the fingers stay."""
-        assert self.link is not None
+        assert self.device is not None
         self._sent.pop(POSITION, None)
-        self._write(POSITION, self.link.read(INIT_STATE, 3)[2])
+        self._write(POSITION, self.device.read(INIT_STATE, 3)[2])
 
     # -- remote API -------------------------------------------------------------------------------------
     @remote
@@ -123,22 +127,22 @@ class DhGripper(LinkedGripper):
 
     # -- helpers ----------------------------------------------------------------------------------------
     def _write(self, register: int, value: int) -> None:
-        assert self.link is not None
+        assert self.device is not None
         if self._sent.get(register) != value:
-            self.link.write_one(register, value)
+            self.device.write_one(register, value)
             self._sent[register] = value
 
     def _initialize(self, force: bool) -> None:
-        assert self.link is not None
+        assert self.device is not None
         self._sent.clear()
-        if force or self.link.read(INIT_STATE, 1)[0] != INIT_DONE:
-            self.link.write_one(INIT, 1)
+        if force or self.device.read(INIT_STATE, 1)[0] != INIT_DONE:
+            self.device.write_one(INIT, 1)
             t_end = time.monotonic() + float(self.config.init_timeout_s)
             time.sleep(_POLL_S)  # the state may still read 1 from before the request
-            while (state := self.link.read(INIT_STATE, 1)[0]) != INIT_DONE:
+            while (state := self.device.read(INIT_STATE, 1)[0]) != INIT_DONE:
                 if time.monotonic() > t_end:
                     raise ActivationError(
-                        f"{self.spec.label} on {self.link.where} did not finish initializing within "
+                        f"{self.spec.label} on {self.device.where} did not finish initializing within "
                         f"{self.config.init_timeout_s:.3g} s (init state {state}: "
                         f"{INIT_STATES.get(state, 'unknown')}); check the 24 V supply and that the fingers can move "
                         "freely")

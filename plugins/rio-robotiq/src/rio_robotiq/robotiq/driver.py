@@ -30,12 +30,13 @@ from typing import Any, Literal
 from pydantic import Field, model_validator
 
 from rio import clock
+from rio.interfaces import GripperNode, NetworkDevice, ServoBus
 from rio.runtime.node import remote
 
 from .. import virtual
 from ..errors import ActivationError, CommunicationError, RobotiqFault
 from ..faults import MAJOR, MINOR, fault_class, fault_meaning, is_major
-from ..linked import LinkedGripper, model_width
+from ..linked import close_device, model_width, open_device
 from ..models import ROBOTIQ_MODELS, robotiq_counts, robotiq_width, scale_to_byte
 from .registers import CURRENT_PER_COUNT, DEFAULT_SLAVE_ID, STA_ACTIVE, STA_RESET, RobotiqStatus
 
@@ -46,10 +47,10 @@ DEFAULT_FORCE_BYTE = 128
 _POLL_S = 0.02
 
 
-class RobotiqBase(LinkedGripper):
-    """What both transports share. Subclasses say how to connect (`connect()`)."""
+class RobotiqBase(GripperNode):
+    """What both transports share. Subclasses say how to connect (`connect()`: the link, `self.device`)."""
 
-    class Config(LinkedGripper.Config):
+    class Config(GripperNode.Config):
         model: Literal["2f85", "2f140", "hande"] = Field("2f85", description="2f85, 2f140 or hande")
         #: None until validated, then the model's stroke (so the base's float type holds for the kind)
         max_width: float | None = Field(  # type: ignore[assignment]
@@ -74,9 +75,14 @@ class RobotiqBase(LinkedGripper):
             return self
 
     # -- transport: `connect()` returns the link (`status`, `activate`, `go`, `stop`, `close`, `where`) ---------
+    def connect(self) -> Any:
+        raise NotImplementedError
+
     # -- contract ---------------------------------------------------------------------------------------
     def setup(self) -> None:
         super().setup()
+        self.device: Any = None  # the open link, None while closed
+        self._virtual: Any = None  # the private emulator behind a "virtual" address
         self.spec = ROBOTIQ_MODELS[self.config.model]
         self.example_data = {**(self.example_data or {}), "object_detected": False, "fault": 0, "current": 0.0}
         c = self.config
@@ -86,11 +92,14 @@ class RobotiqBase(LinkedGripper):
         self._sent: tuple[int, int, int] | None = None  # the last go() request, so unchanged ones are not resent
         self._minor = 0  # the minor fault last logged
 
-    def bring_up(self) -> None:
-        self._activate(force=False)
+    def open(self) -> None:
+        open_device(self, self.connect, lambda: self._activate(force=False))
+
+    def close(self) -> None:
+        close_device(self)
 
     def read_width(self) -> dict[str, Any]:
-        st = self.link.status(full=False)
+        st = self.device.status(full=False)
         self._check_fault(st.gFLT)
         return {"position": self._width(st.gPO), "object_detected": st.object_detected, "fault": int(st.gFLT),
                 "current": math.nan if st.gCU is None else st.gCU * CURRENT_PER_COUNT}
@@ -101,11 +110,11 @@ class RobotiqBase(LinkedGripper):
     def set_enabled(self, enabled: bool) -> None:
         self._sent = None
         if enabled:  # go to where the fingers are: activated and following, nothing moves
-            st = self.link.status(full=False)
+            st = self.device.status(full=False)
             self._check_fault(st.gFLT)
             self._go(st.gPO, self.force)
         else:
-            self.link.stop()
+            self.device.stop()
 
     # -- remote API -------------------------------------------------------------------------------------
     @remote
@@ -130,49 +139,50 @@ class RobotiqBase(LinkedGripper):
     def _go(self, counts: int, force: float) -> None:
         request = (int(counts), self._speed_byte, self._force_byte(force))
         if request != self._sent:
-            self.link.go(*request)
+            self.device.go(*request)
             self._sent = request
 
     def _check_fault(self, code: int) -> None:
         kind = fault_class(code)
         if kind == MAJOR:
             self._hold()
-            raise RobotiqFault(self.spec.label, self.link.where, code)
+            raise RobotiqFault(self.spec.label, self.device.where, code)
         if kind == MINOR and code != self._minor:
-            log.warning("%s on %s: minor fault 0x%02X: %s", self.spec.label, self.link.where, code, fault_meaning(code))
+            log.warning("%s on %s: minor fault 0x%02X: %s", self.spec.label, self.device.where, code,
+                        fault_meaning(code))
         self._minor = code if kind == MINOR else 0
 
     def _hold(self) -> None:
         """Stop the fingers and freeze the kind's goal: nothing moves until a reset and a new command."""
         self._sent = None
         try:
-            self.link.stop()
+            self.device.stop()
         except CommunicationError as e:
-            log.warning("%s on %s: could not stop after a fault: %s", self.spec.label, self.link.where, e)
+            log.warning("%s on %s: could not stop after a fault: %s", self.spec.label, self.device.where, e)
         if self._commander is not None:
             self._commander.hold(clock.now())
 
     def _activate(self, force: bool) -> None:
         """rACT 0 (reset, clears faults), rACT 1, then wait for gSTA == 3; skipped when already active."""
-        st = self.link.status(full=True)
+        st = self.device.status(full=True)
         if not force and st.activated and not is_major(st.gFLT):
             return
-        self.link.activate(False)
+        self.device.activate(False)
         self._wait(lambda s: s.gSTA == STA_RESET, 2.0, "resetting")
-        self.link.activate(True)
+        self.device.activate(True)
         st = self._wait(lambda s: s.gSTA == STA_ACTIVE, float(self.config.activation_timeout_s), "activating")
         if is_major(st.gFLT):
-            raise RobotiqFault(self.spec.label, self.link.where, st.gFLT)
+            raise RobotiqFault(self.spec.label, self.device.where, st.gFLT)
 
     def _wait(self, done: Callable[[RobotiqStatus], bool], timeout: float, what: str) -> RobotiqStatus:
         t_end = time.monotonic() + timeout
         while True:
-            st = self.link.status(full=True)
+            st = self.device.status(full=True)
             if done(st) or is_major(st.gFLT):
                 return st
             if time.monotonic() > t_end:
                 raise ActivationError(
-                    f"{self.spec.label} on {self.link.where} did not finish {what} within {timeout:.3g} s (gACT "
+                    f"{self.spec.label} on {self.device.where} did not finish {what} within {timeout:.3g} s (gACT "
                     f"{st.gACT}, gSTA {st.gSTA}, fault 0x{st.gFLT:02X}: {fault_meaning(st.gFLT)}); check the 24 V "
                     "supply and that the fingers can move freely")
             time.sleep(_POLL_S)
@@ -181,11 +191,9 @@ class RobotiqBase(LinkedGripper):
 class RobotiqGripper(RobotiqBase):
     """A Robotiq 2F-85, 2F-140 or Hand-E on a Modbus RTU line (115200 8N1, slave id 9 by default)."""
 
-    class Config(RobotiqBase.Config):
-        port: str = Field(description='serial port of the RS-485 adapter (e.g. /dev/ttyUSB0), or "virtual" for '
-                                      "an emulated gripper")
+    class Config(ServoBus, RobotiqBase.Config):
+        defaults = {"baudrate": 115200}  # Robotiq's
         slave_id: int = Field(DEFAULT_SLAVE_ID, ge=1, le=247, description="Modbus slave id (Robotiq's default: 9)")
-        baudrate: int = Field(115200, gt=0, description="baud rate (Robotiq's default: 115200)")
         timeout_s: float = Field(0.2, gt=0, description="how long to wait for an answer (s)")
 
     def connect(self) -> Any:
@@ -195,24 +203,24 @@ class RobotiqGripper(RobotiqBase):
         if virtual.is_virtual(path):
             self._virtual = virtual.robotiq_rtu(c.model, c.slave_id)
             path = self._virtual.port
-        return RobotiqRtuLink(path, c.slave_id, baudrate=c.baudrate, timeout_s=c.timeout_s,
+        return RobotiqRtuLink(path, c.slave_id, baudrate=c.baudrate, timeout_s=c.timeout_s, retries=c.retries,
                               label=self.spec.label).open()
 
 
 class RobotiqUrcapGripper(RobotiqBase):
     """A Robotiq gripper on a UR arm, through the Robotiq URCap's socket on the controller."""
 
-    class Config(RobotiqBase.Config):
-        host: str = Field(description='address of the UR controller, or "virtual" for an emulated URCap')
+    class Config(NetworkDevice, RobotiqBase.Config):
+        renamed = {"host": "ip"}
+        ip: str = Field(description='the UR controller\'s address (an IPv4 address or a host name), or "virtual" '
+                                    "for an emulated URCap")  # a socket's address: host names too
         port: int = Field(63352, ge=1, le=65535, description="the URCap's gripper socket")
         timeout_s: float = Field(1.0, gt=0, description="how long to wait for a reply (s)")
-        connect_timeout_s: float = Field(5.0, ge=0, description="keep trying to connect this long at start (s): "
-                                                                "a controller still booting answers after a while")
 
     def connect(self) -> Any:
         from .urcap_link import RobotiqUrcapLink
 
-        c, host, port = self.config, self.config.host, self.config.port
+        c, host, port = self.config, self.config.ip, self.config.port
         if virtual.is_virtual(host):
             self._virtual = virtual.robotiq_urcap(c.model)
             host, port = self._virtual.host, self._virtual.port

@@ -9,8 +9,8 @@ from .registers import INPUT_ADDRESS, OUTPUT_ADDRESS, USED_REGISTERS, RobotiqSta
 
 
 class RobotiqRtuLink:
-    def __init__(self, port: str, slave_id: int, *, baudrate: int, timeout_s: float, label: str):
-        self.client = RtuClient(port, slave_id, baudrate=baudrate, timeout_s=timeout_s, label=label)
+    def __init__(self, port: str, slave_id: int, *, baudrate: int, timeout_s: float, label: str, retries: int = 2):
+        self.client = RtuClient(port, slave_id, baudrate=baudrate, timeout_s=timeout_s, retries=retries, label=label)
         self.where = self.client.where
         self._last = (0, 0, 0)  # rPR, rSP, rFR of the last command: a stop keeps them
 

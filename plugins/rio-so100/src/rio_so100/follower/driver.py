@@ -17,37 +17,44 @@ from pydantic import Field
 from rio.interfaces import ArmNode
 
 from ..models import ARM_JOINTS
-from ..servo_node import ServoConfig, ServoDriver
+from ..servo_node import ServoConfig, Servos
 
 
-class So100Follower(ServoDriver, ArmNode):
+class So100Follower(ArmNode):
     class Config(ServoConfig, ArmNode.Config):
+        defaults = {"rate_hz": Field(100.0, le=500)}  # bus cycles per second: one sync read + one write each
         p_gain: int = Field(16, ge=0, le=255, description="servo P gain (16 instead of the factory 32: less shaking)")
         i_gain: int = Field(0, ge=0, le=255)
         d_gain: int = Field(32, ge=0, le=255)
         max_torque: float = Field(1.0, gt=0, le=1.0, description="output torque limit, fraction of the maximum")
-        rate_hz: float = Field(100.0, gt=0, le=500, description="bus cycles per second (one sync read + one write)")
-
-    device = "follower"
 
     def default_joint_names(self) -> list[str]:
         return list(ARM_JOINTS)
 
     def setup(self) -> None:
         super().setup()
+        self.servos = Servos(self.config, "follower")
         n = self.dof
         self.example_data = {**self.example_data, "load": np.zeros(n), "temperature": np.zeros(n),
                              "voltage": np.zeros(n), "error": np.zeros(n, np.int64)}
 
     def open(self) -> None:
         c = self.config
-        self.open_group(self.joint_list)
-        self.group.configure(c.p_gain, c.i_gain, c.d_gain, torque_limit=c.max_torque)
+        self.servos.open(self.joint_list).configure(c.p_gain, c.i_gain, c.d_gain, torque_limit=c.max_torque)
+
+    def close(self) -> None:
+        self.servos.close()
+
+    def hardware_limits(self) -> Any:
+        return self.servos.group.limits_rad()
+
+    def set_enabled(self, enabled: bool) -> None:
+        self.servos.group.set_torque(bool(enabled))  # on holds the present position: nothing jumps
 
     def read_joints(self) -> dict[str, Any]:
-        s = self.read_group()
+        s = self.servos.read(hold=self.enabled)
         return {"joint_pos": s["joint_pos"], "joint_vel": s["joint_vel"], "load": s["load"],
                 "temperature": s["temperature"], "voltage": s["voltage"], "error": s["error"]}
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
-        self.group.write_rad(joint_pos)
+        self.servos.group.write_rad(joint_pos)

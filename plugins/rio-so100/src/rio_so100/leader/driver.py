@@ -18,27 +18,27 @@ from rio.interfaces import TeleopNode
 from rio.runtime.node import client_side, remote
 
 from ..models import ARM_JOINTS, GRIPPER
-from ..servo_node import ServoConfig, ServoDriver
+from ..servo_node import ServoConfig, Servos
 
 _ZERO_TWIST = np.zeros(6)
 
 
-class So100Leader(ServoDriver, TeleopNode):
+class So100Leader(TeleopNode):
     client_state = ("joint_list",)
 
     class Config(ServoConfig, TeleopNode.Config):
+        defaults = {"rate_hz": Field(100.0, le=500)}
         joints: list[str] = Field(default_factory=lambda: list(ARM_JOINTS), description="arm joints, in order")
         gripper: str | None = Field(GRIPPER, description="the jaw joint (its opening is published as `gripper`), "
                                                          "or none")
-        rate_hz: float = Field(100.0, gt=0, le=500)
         virtual_motion: Literal["none", "wave"] = Field("none", description='with port = "virtual": a scripted '
                                                                            'hand moving the arm ("wave")')
 
-    device = "leader"
     leader_arm = True  # `rio teleop` mirrors it joint by joint
 
     def setup(self) -> None:
         super().setup()
+        self.servos = Servos(self.config, "leader")
         self.joint_list, self.gripper_joint = list(self.config.joints), self.config.gripper
         n = len(self.joint_list)
         self.example_data = {**self.example_data, "joint_pos": np.zeros(n), "joint_vel": np.zeros(n),
@@ -47,13 +47,15 @@ class So100Leader(ServoDriver, TeleopNode):
 
     def open(self) -> None:
         names = self.joint_list + ([self.gripper_joint] if self.gripper_joint else [])
-        self.open_group(names, virtual_motion=self.config.virtual_motion)
-        self.group.set_torque(False)
+        self.servos.open(names, virtual_motion=self.config.virtual_motion).set_torque(False)
+
+    def close(self) -> None:
+        self.servos.close()
 
     def read_state(self) -> dict[str, Any]:
-        s = self.read_group()
+        s = self.servos.read(hold=False)  # moved by hand: never frozen
         n = len(self.joint_list)
-        grip = self.group.cal[n].fraction(s["steps"][n]) if self.gripper_joint else 1.0
+        grip = self.servos.group.cal[n].fraction(s["steps"][n]) if self.gripper_joint else 1.0
         return {"twist": _ZERO_TWIST, "gripper": grip, "buttons": self._no_buttons, "joint_pos": s["joint_pos"][:n],
                 "joint_vel": s["joint_vel"][:n], "error": s["error"]}
 
@@ -68,5 +70,5 @@ class So100Leader(ServoDriver, TeleopNode):
     @remote
     def torque(self, enabled: bool = False) -> bool:
         """A leader with torque on holds its pose (e.g. to park it); off again to teleoperate."""
-        self.group.set_torque(bool(enabled))
+        self.servos.group.set_torque(bool(enabled))
         return bool(enabled)

@@ -34,7 +34,7 @@ from pydantic import Field, field_validator
 from rio import clock
 from rio.control.rotations import matrix_to_quat
 from rio.errors import RioError
-from rio.interfaces import TeleopNode
+from rio.interfaces import NetworkDevice, TeleopNode
 from rio.interfaces.teleop import HAND_JOINTS, TeleopConfig, hand_tracker_sample, pinch_opening
 from rio.runtime.node import remote
 
@@ -82,14 +82,14 @@ def _is_rotation(m: np.ndarray) -> bool:
 class VisionProTeleop(TeleopNode):
     hand_tracker = True
 
-    class Config(TeleopConfig):
+    class Config(NetworkDevice, TeleopConfig):
+        # open() waits for the first sample from the app this long
+        defaults = {"connect_timeout_s": Field(10.0, gt=0, le=300)}
         ip: str = Field(description="the Vision Pro's address, as Tracking Streamer shows it under 'Local Network' "
-                                    "(an IPv4 address, or a host name that resolves to one)")
+                                    "(an IPv4 address, or a host name that resolves to one)")  # host names too
         hand: Literal["right", "left"] = Field("right", description="the hand whose pinch is the gripper")
         stale_s: float = Field(0.25, gt=0, le=5, description="no new sample, or a hand's pose unchanged, for this "
                                                              "long: that hand is not tracked")
-        connect_timeout_s: float = Field(10.0, gt=0, le=300, description="open(): how long to wait for the first "
-                                                                         "sample from the app")
         yaw_deg: float = Field(0.0, ge=-360, le=360, description="turns the published frame about the vertical "
                                                                  "(operator not facing the robot's x axis)")
         rate_hz: float = Field(90.0, gt=0, description="samples published per second (hand tracking runs at 90 Hz)")

@@ -19,7 +19,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from rio.interfaces import TeleopNode
+from rio.interfaces import ServoBus, TeleopNode
 from rio.runtime.node import client_side, remote
 
 from . import control_table as T
@@ -34,19 +34,15 @@ _ZERO_TWIST = np.zeros(6)
 class GelloLeader(TeleopNode):
     client_state = ("joint_list",)
 
-    class Config(TeleopNode.Config):
-        port: str = Field(description='the U2D2\'s serial port (best a /dev/serial/by-id/usb-FTDI_... path), or '
-                                      '"virtual" for an emulated leader')
+    class Config(ServoBus, TeleopNode.Config):
+        # the XL330s' factory baud rate (1000000 reads 8 servos in ~2 ms); the port is the U2D2's
+        defaults = {"baudrate": 57600, "rate_hz": Field(100.0, le=1000)}
         layout: Literal[tuple(LAYOUTS)] = Field(description="which GELLO design: " + ", ".join(LAYOUTS))  # type: ignore[valid-type]
         calibration: str = Field("default", description="calibration name (in $XDG_CONFIG_HOME/rio/calibration/"
                                                         "gello-<layout>/) or a .json path")
-        baudrate: int = Field(57600, description="the servos' baud rate (XL330 factory setting 57600; 1000000 "
-                                                 "reads 8 servos in ~2 ms)")
-        retries: int = Field(2, ge=0, le=10, description="retries of a failed exchange before it is an error")
         gripper: bool = Field(True, description="read the trigger and publish it as `gripper`")
         trigger_current_ma: float = Field(0.0, ge=0, le=1750, description="> 0: the trigger servo holds its "
                                           "released position with this current (a spring); 0: torque off")
-        rate_hz: float = Field(100.0, gt=0, le=1000)
         virtual_motion: Literal["none", "wave"] = Field("none", description='with port = "virtual": a scripted '
                                                                            'hand moving the leader ("wave")')
 

@@ -1,10 +1,10 @@
-"""`ufactory.xarm5|xarm6|xarm7|xarm850|lite6`: a UFACTORY arm on its controller, through the xArm SDK.
+"""`ufactory.xarm5|xarm6|xarm7|xarm850|lite6`: a UFACTORY arm on its control box, through the xArm SDK.
 
 Hardware logic only; the arm kind (`rio.interfaces.ArmNode`) owns the cycle and the safety. Each tick
 reads the latest real-time report (no command round trip) and streams one servo target: joint goals
-with `set_servo_angle_j`, end-effector goals with `set_servo_cartesian` (the controller's own Cartesian
-servo; `eef_control = "ik"` solves IK on RIO's model instead). Servo mode (mode 1) executes only the
-newest target, so the kind's commander (clip, step limit, watchdog) is what shapes the motion.
+with `set_servo_angle_j`, end-effector goals with `set_servo_cartesian` (the box's own Cartesian servo;
+`eef_control = "ik"` solves IK on RIO's model instead). Servo mode (mode 1) executes only the newest
+target, so the kind's commander (clip, step limit, watchdog) is what shapes the motion.
 """
 
 from __future__ import annotations
@@ -14,87 +14,85 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from rio.interfaces import FAULT_KEYS, ArmNode, ModelTableArm
+from rio.interfaces import ArmNode, ModelTable, NetworkDevice
 
-from ..controller import STOPPED as STOPPED_STATE
+from ..connection import STOPPED as STOPPED_STATE
+from ..connection import XArmConnection
 from ..description import description
 from ..faults import STOPPED
-from ..link import ControllerLink, LinkConfig
-from ..models import ARMS, get_arm
+from ..link import guarded, hold_faults_and_drops
+from ..models import ARMS, MAX_RATE_HZ, NODE_DEFAULTS
 from ..pose import from_xarm, to_xarm
 
-Model = Literal["xarm5", "xarm6", "xarm7", "xarm850", "lite6"]
+MODELS = ModelTable(ARMS, description, default="xarm7", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ)
 
 
-class XArm(ControllerLink, ModelTableArm, ArmNode):
-    lookup_model = staticmethod(get_arm)
-    describe_model = staticmethod(description)
+class XArm(ArmNode):
+    models = MODELS
 
-    class Config(LinkConfig, ArmNode.Config):
-        model: Model = Field("xarm7", description=f"which arm: {', '.join(ARMS)} (checked against the controller)")
-        rate_hz: float = Field(250.0, gt=0, le=500, description="servo targets per second (the controller's "
-                                                                "servo loop runs at 250 Hz)")
-        max_step_rad: float = Field(0.01, gt=0, description="largest joint goal change per cycle (rad): 2.5 rad/s "
-                                                            "at 250 Hz")
-        max_step_m: float = Field(0.002, gt=0, description="largest tool travel per cycle (m): 0.5 m/s at 250 Hz")
-        max_step_eef_rad: float = Field(0.01, gt=0, description="largest tool rotation per cycle (rad)")
-        eef_control: Literal["controller", "ik"] = Field(
-            "controller", description='end-effector targets through the controller\'s Cartesian servo '
-                                      '("controller", its TCP offset applies) or RIO\'s IK on the arm model ("ik")')
+    class Config(NetworkDevice, ArmNode.Config):
+        defaults = MODELS.defaults
+        renamed_values = {"eef_control": {"controller": "native"}}
+        model: str = MODELS.field()
+        eef_control: Literal["native", "ik"] = Field(
+            "native", description='end-effector targets through the control box\'s Cartesian servo ("native", '
+                                  'its TCP offset applies) or RIO\'s IK on the arm model ("ik")')
         tcp_offset: tuple[float, float, float, float, float, float] | None = Field(
             None, description="tool centre point from the flange [x, y, z (m), roll, pitch, yaw (rad)], set on the "
-                              "controller at start (its Cartesian servo and reported pose use it) and used by RIO's "
-                              "model; default: the flange, and the controller's offset left as it is")
-        collision_sensitivity: int | None = Field(None, ge=0, le=5, description="controller collision detection "
-                                                                                 "0 (off) .. 5; default: as set")
+                              "control box at start (its Cartesian servo and reported pose use it) and used by RIO's "
+                              "model; default: the flange, and the box's offset left as it is")
+        collision_sensitivity: int | None = Field(None, ge=0, le=5, description="collision detection of the control "
+                                                                                 "box, 0 (off) .. 5; default: as set")
 
     def setup(self) -> None:
         super().setup()
-        self.arm = get_arm(self.config.model)
-        self.model_name = self.arm.name
-        self.example_data = {**self.example_data, **FAULT_KEYS, "report_age": 0.0}
+        self.conn: XArmConnection | None = None
+        hold_faults_and_drops(self)
+        self.example_data = {**self.example_data, "report_age": 0.0}
 
     @property
     def streams_poses(self) -> bool:
-        return self.config.eef_control == "controller"
+        return self.config.eef_control == "native"
 
     # -- hardware -----------------------------------------------------------------------------------
     def open(self) -> None:
-        ctl = self.open_controller()
-        off = self.config.tcp_offset
-        if off is not None:
-            ctl.call("set_tcp_offset", [*(np.asarray(off[:3]) * 1000.0).tolist(), *off[3:]], is_radian=True)
-        if self.config.collision_sensitivity is not None:
-            ctl.call("set_collision_sensitivity", self.config.collision_sensitivity)
+        c = self.config
+        self.conn = conn = XArmConnection.acquire(c.ip, model=c.model, connect_timeout_s=c.connect_timeout_s)
+        if c.tcp_offset is not None:
+            off = c.tcp_offset
+            conn.call("set_tcp_offset", [*(np.asarray(off[:3]) * 1000.0).tolist(), *off[3:]], is_radian=True)
+        if c.collision_sensitivity is not None:
+            conn.call("set_collision_sensitivity", c.collision_sensitivity)
+
+    def close(self) -> None:
+        if self.conn is not None:
+            self.conn.release()
+            self.conn = None
 
     def set_enabled(self, enabled: bool) -> None:
-        assert self.ctl is not None
+        assert self.conn is not None
         if enabled:
-            self.check_device_fault()
-            self.ctl.enable_servo()
-            self.ctl.wait_report(0.5)  # hold from a position measured after the controller is ready
+            self.conn.enable_servo()
+            self.conn.wait_report(0.5)  # hold from a position measured after the control box is ready
         else:
-            self.ctl.call("motion_enable", enable=False)  # brakes on: the arm stays where it is
+            self.conn.call("motion_enable", enable=False)  # brakes on: the arm stays where it is
 
     def read_joints(self) -> dict[str, Any]:
-        assert self.ctl is not None
-        ctl = self.ctl
-        status = self.link_status()
-        q, v = ctl.joints(self.dof)
-        sample = {"joint_pos": q, "joint_vel": v, **status, "report_age": ctl.report_age}
-        if self.streams_poses:  # the controller's TCP (its configured offset included) is the eef
-            sample["eef_pose"] = from_xarm(ctl.tcp_pose())
-        if self.enabled and ctl.connected and ctl.api.state == STOPPED_STATE and self.fault is None:
-            fault = ctl.fault() or STOPPED  # stopped with no error: something else stopped it
-            self.on_fault(fault)
-            sample["fault_code"] = fault.code
+        conn = self.conn
+        assert conn is not None
+        self.link.watch()  # a dropped socket is noticed and retried here
+        q, v = conn.joints(self.dof)
+        sample = {"joint_pos": q, "joint_vel": v, "report_age": conn.report_age}
+        if self.streams_poses:  # the control box's TCP (its configured offset included) is the eef
+            sample["eef_pose"] = from_xarm(conn.tcp_pose())
+        if self.enabled and conn.connected and conn.api.state == STOPPED_STATE and self.faults.fault is None:
+            self.faults.report(conn.fault() or STOPPED)  # stopped with no error: something else stopped it
         return sample
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
-        assert self.ctl is not None
-        self.guarded(self.ctl.call, "set_servo_angle_j", joint_pos.tolist())
+        assert self.conn is not None
+        guarded(self, self.conn.call, "set_servo_angle_j", joint_pos.tolist())
 
     def write_pose(self, eef_pose: np.ndarray) -> None:
-        assert self.ctl is not None
-        self.guarded(self.ctl.call, "set_servo_cartesian", to_xarm(eef_pose))
-
+        assert self.conn is not None
+        guarded(self, self.conn.call, "set_servo_cartesian", to_xarm(eef_pose))

@@ -10,7 +10,7 @@ moves a model of the arm (or a rio-sim arm) and the gripper on its tool port.
 """
 
 from .codes import FAULTS, Err
-from .controller import GRIPPERS, XArmEmulator
+from .control_box import GRIPPERS, XArmEmulator
 from .serve import serve
 
 __all__ = ["FAULTS", "GRIPPERS", "Err", "XArmEmulator", "serve"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import signal
 import threading
 
-from .controller import XArmEmulator
+from .control_box import XArmEmulator
 
 
 def serve(model: str = "xarm7", host: str = "127.0.0.1", backend: str = "model", gripper: str | None = "xarm",

@@ -1,8 +1,8 @@
-"""What every gripper on an xArm's tool connector shares: the controller connection of the arm it is
-mounted on (one SDK connection per process, see `controller.py`), the held-on-fault behaviour of
+"""What every gripper on an xArm's tool connector shares: the control box connection of the arm it is
+mounted on (one SDK connection per process, see `connection.py`), the held-on-fault behaviour of
 `link.py`, and goals sent only when they change.
 
-The tool RS-485 is slow (each exchange is a round trip through the controller, ~5-10 ms) and shared
+The tool RS-485 is slow (each exchange is a round trip through the control box, ~5-10 ms) and shared
 with the arm's command socket, so a gripper node runs at a modest rate and re-sends a goal only when
 it moved by more than `deadband_m` or the force changed: a held gripper costs one read per cycle.
 A device writes four hooks: `start_device()`, `enable_device(on)`, `read_device() -> (opening m,
@@ -16,15 +16,16 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from rio.interfaces import FAULT_KEYS, GripperNode
+from rio.interfaces import GripperNode, NetworkDevice
 
+from ..connection import XArmConnection
 from ..faults import XArmFault, XArmLost
-from ..link import ControllerLink, LinkConfig
+from ..link import guarded, hold_faults_and_drops
 
 
-class ToolGripper(ControllerLink, GripperNode):
-    class Config(LinkConfig, GripperNode.Config):
-        rate_hz: float = Field(20.0, gt=0, le=100, description="cycles per second (one tool RS-485 read each)")
+class ToolGripper(GripperNode):
+    class Config(NetworkDevice, GripperNode.Config):
+        defaults = {"rate_hz": Field(20.0, le=100)}  # one tool RS-485 read per cycle
         deadband_m: float = Field(0.001, ge=0, description="re-send the goal only when it changed more than this (m)")
 
     # -- device hooks -------------------------------------------------------------------------------
@@ -43,31 +44,36 @@ class ToolGripper(ControllerLink, GripperNode):
     # -- shared -------------------------------------------------------------------------------------
     def setup(self) -> None:
         super().setup()
-        self.example_data = {**self.example_data, **FAULT_KEYS, "object_detected": False}
+        self.example_data = {**self.example_data, "object_detected": False}
+        self.conn: XArmConnection | None = None
+        hold_faults_and_drops(self)
         self._sent: tuple[float, float] | None = None
         self._last = (float(self.config.max_width), False)
 
     def open(self) -> None:
-        self.open_controller()
+        c = self.config
+        self.conn = XArmConnection.acquire(c.ip, connect_timeout_s=c.connect_timeout_s)
         self.start_device()
+
+    def close(self) -> None:
+        if self.conn is not None:
+            self.conn.release()
+            self.conn = None
 
     def set_enabled(self, enabled: bool) -> None:
         self.enable_device(bool(enabled))
         self._sent = None
 
     def read_width(self) -> dict[str, Any]:
-        status = self.link_status()
-        if status["connected"]:
+        if self.link.watch():  # a dropped socket is noticed and retried here
             try:
                 self._last = self.read_device()
             except XArmFault as e:
-                self.on_fault(e.fault)
-                status["fault_code"] = e.fault.code
+                self.faults.report(e.fault)
             except XArmLost:
-                self.on_lost()
-                status["connected"] = False
+                self.link.lost()
         width, obj = self._last
-        return {"position": float(width), "object_detected": bool(obj), **status}
+        return {"position": float(width), "object_detected": bool(obj)}
 
     def write_width(self, width: float, force: float) -> None:
         sent = self._sent
@@ -75,5 +81,5 @@ class ToolGripper(ControllerLink, GripperNode):
         if sent is not None and same_force and abs(width - sent[0]) <= self.config.deadband_m:
             return
         self._sent = (width, force)
-        self.guarded(self.send_goal, width, force)
+        guarded(self, self.send_goal, width, force)
 

@@ -17,21 +17,21 @@ CATCH = 2  # status & 0x03
 
 class BioGripper(ToolGripper):
     class Config(ToolGripper.Config):
-        max_width: float = Field((OPEN_MM - CLOSED_MM) / 1000.0, gt=0, description="full opening (m)")
+        defaults = {"max_width": (OPEN_MM - CLOSED_MM) / 1000.0}
         speed: int = Field(2000, ge=500, le=4500, description="finger speed (pulses/s)")
 
     def enable_device(self, on: bool) -> None:
-        assert self.ctl is not None
-        self.ctl.call("set_bio_gripper_enable", on, wait=True, timeout=3)
+        assert self.conn is not None
+        self.conn.call("set_bio_gripper_enable", on, wait=True, timeout=3)
 
     def read_device(self) -> tuple[float, bool]:
-        assert self.ctl is not None
-        mm = float(self.ctl.call("get_bio_gripper_g2_position"))
-        status = int(self.ctl.call("get_bio_gripper_status"))
+        assert self.conn is not None
+        mm = float(self.conn.call("get_bio_gripper_g2_position"))
+        status = int(self.conn.call("get_bio_gripper_status"))
         return max(mm - CLOSED_MM, 0.0) / 1000.0, (status & 0x03) == CATCH
 
     def send_goal(self, width: float, force: float) -> None:
-        assert self.ctl is not None
+        assert self.conn is not None
         pct = 100 if np.isnan(force) else int(np.clip(force, 1, 100))
-        self.ctl.call("set_bio_gripper_g2_position", CLOSED_MM + width * 1000.0, speed=self.config.speed,
+        self.conn.call("set_bio_gripper_g2_position", CLOSED_MM + width * 1000.0, speed=self.config.speed,
                       force=pct, wait=False)

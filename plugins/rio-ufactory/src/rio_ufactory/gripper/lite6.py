@@ -16,8 +16,7 @@ from .base import ToolGripper
 
 class Lite6Gripper(ToolGripper):
     class Config(ToolGripper.Config):
-        max_width: float = Field(0.03, gt=0, description="opening when open (m)")
-        deadband_m: float = Field(0.0, ge=0)
+        defaults = {"max_width": 0.03, "deadband_m": 0.0}  # open or closed: every change is sent
 
     def setup(self) -> None:
         super().setup()
@@ -27,20 +26,20 @@ class Lite6Gripper(ToolGripper):
         return (0.0 if self._closed else self.width), False
 
     def send_goal(self, width: float, force: float) -> None:
-        assert self.ctl is not None
+        assert self.conn is not None
         closed = width < self.width / 2
         if closed != self._closed:
-            self.ctl.call("close_lite6_gripper" if closed else "open_lite6_gripper")
+            self.conn.call("close_lite6_gripper" if closed else "open_lite6_gripper")
             self._closed = closed
 
     def enable_device(self, on: bool) -> None:
-        if not on and self.ctl is not None and self.ctl.connected:
-            self.ctl.call("stop_lite6_gripper")
+        if not on and self.conn is not None and self.conn.connected:
+            self.conn.call("stop_lite6_gripper")
 
 
 class VacuumGripper(ToolGripper):
     class Config(ToolGripper.Config):
-        max_width: float = Field(0.01, gt=0, description="'opening' that means suction off (m)")
+        defaults = {"max_width": 0.01}  # the "opening" that means suction off
         hardware_version: int = Field(1, ge=1, le=2, description="vacuum gripper hardware version (tool IO 0/1 "
                                                                  "for 1, 3/4 for 2)")
 
@@ -49,13 +48,13 @@ class VacuumGripper(ToolGripper):
         self._on: bool | None = None  # unknown until the first goal is sent
 
     def read_device(self) -> tuple[float, bool]:
-        assert self.ctl is not None
-        held = self.ctl.call("get_vacuum_gripper", hardware_version=self.config.hardware_version)
+        assert self.conn is not None
+        held = self.conn.call("get_vacuum_gripper", hardware_version=self.config.hardware_version)
         return (0.0 if self._on else self.width), bool(held == 1)
 
     def send_goal(self, width: float, force: float) -> None:
-        assert self.ctl is not None
+        assert self.conn is not None
         on = width < self.width / 2
         if on != self._on:
-            self.ctl.call("set_vacuum_gripper", on, wait=False, hardware_version=self.config.hardware_version)
+            self.conn.call("set_vacuum_gripper", on, wait=False, hardware_version=self.config.hardware_version)
             self._on = on

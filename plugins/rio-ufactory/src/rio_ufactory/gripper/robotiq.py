@@ -30,33 +30,33 @@ def _robotiq() -> Any:
 
 class XArmRobotiq(ToolGripper):
     class Config(ToolGripper.Config):
+        defaults = {"max_width": 0.085}  # the 2F-85's; the model sets the stroke the kind clips to
         model: Literal["2f85", "2f140"] = Field("2f85", description="Robotiq model (sets the stroke)")
-        max_width: float = Field(0.085, gt=0, description="full opening (m); set by the model")
         speed: int = Field(255, ge=0, le=255, description="finger speed, Robotiq units 0..255")
 
     def setup(self) -> None:
         super().setup()
-        self.models, self.faults = _robotiq()
-        self.spec = self.models.ROBOTIQ_MODELS[self.config.model]
+        self.robotiq, self.robotiq_faults = _robotiq()  # rio-robotiq's models and fault table
+        self.spec = self.robotiq.ROBOTIQ_MODELS[self.config.model]
         self.width = self.spec.stroke  # the kind clips to [0, width]
 
     def start_device(self) -> None:
-        assert self.ctl is not None
-        self.ctl.call("robotiq_reset")
-        self.ctl.call("robotiq_set_activate", wait=True, timeout=5)
+        assert self.conn is not None
+        self.conn.call("robotiq_reset")
+        self.conn.call("robotiq_set_activate", wait=True, timeout=5)
 
     def read_device(self) -> tuple[float, bool]:
-        assert self.ctl is not None
-        self.ctl.call("robotiq_get_status", number_of_registers=3)
-        st = self.ctl.api.robotiq_status
+        assert self.conn is not None
+        self.conn.call("robotiq_get_status", number_of_registers=3)
+        st = self.conn.api.robotiq_status
         code = int(st.get("gFLT", 0))
-        if self.faults.is_major(code):
-            raise XArmError(self.ctl.ip, "robotiq", f"{self.spec.label} fault 0x{code:02X}: "
-                            f"{self.faults.fault_meaning(code)}")
-        return self.models.robotiq_width(int(st.get("gPO", 0)), self.spec.stroke), st.get("gOBJ", 0) in (1, 2)
+        if self.robotiq_faults.is_major(code):
+            raise XArmError(self.conn.ip, "robotiq", f"{self.spec.label} fault 0x{code:02X}: "
+                            f"{self.robotiq_faults.fault_meaning(code)}")
+        return self.robotiq.robotiq_width(int(st.get("gPO", 0)), self.spec.stroke), st.get("gOBJ", 0) in (1, 2)
 
     def send_goal(self, width: float, force: float) -> None:
-        assert self.ctl is not None
-        pos = self.models.robotiq_counts(width, self.spec.stroke)
-        f = 255 if np.isnan(force) else self.models.scale_to_byte(force, *self.spec.force_range)
-        self.ctl.call("robotiq_set_position", pos, speed=self.config.speed, force=f, wait=False)
+        assert self.conn is not None
+        pos = self.robotiq.robotiq_counts(width, self.spec.stroke)
+        f = 255 if np.isnan(force) else self.robotiq.scale_to_byte(force, *self.spec.force_range)
+        self.conn.call("robotiq_set_position", pos, speed=self.config.speed, force=f, wait=False)

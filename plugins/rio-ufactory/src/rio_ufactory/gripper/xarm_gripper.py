@@ -20,28 +20,28 @@ STALL_S = 0.3  # no motion for this long short of a closing goal: something is b
 
 class XArmGripper(ToolGripper):
     class Config(ToolGripper.Config):
-        max_width: float = Field(0.085, gt=0, description="full opening (m)")
+        defaults = {"max_width": 0.085}
         speed: float = Field(5000, gt=0, le=5000, description="finger speed (G1: r/min of its motor)")
         generation: int = Field(1, ge=1, le=2, description="1: xArm Gripper, 2: xArm Gripper G2")
 
     def start_device(self) -> None:
-        assert self.ctl is not None
+        assert self.conn is not None
         if self.config.generation == 1:
-            self.ctl.call("set_gripper_mode", 0)
-            self.ctl.call("set_gripper_speed", self.config.speed)
+            self.conn.call("set_gripper_mode", 0)
+            self.conn.call("set_gripper_speed", self.config.speed)
         self._moved = (np.inf, time.monotonic())
 
     def enable_device(self, on: bool) -> None:
-        assert self.ctl is not None
-        self.ctl.call("set_gripper_enable", on)
+        assert self.conn is not None
+        self.conn.call("set_gripper_enable", on)
 
     def read_device(self) -> tuple[float, bool]:
-        assert self.ctl is not None
+        assert self.conn is not None
         c = self.config
         if c.generation == 1:
-            width = float(self.ctl.call("get_gripper_position")) / G1_OPEN_PULSES * c.max_width
+            width = float(self.conn.call("get_gripper_position")) / G1_OPEN_PULSES * c.max_width
         else:
-            width = float(self.ctl.call("get_gripper_g2_position")) / 1000.0
+            width = float(self.conn.call("get_gripper_g2_position")) / 1000.0
         now = time.monotonic()
         if abs(width - self._moved[0]) > 0.0005:
             self._moved = (width, now)
@@ -50,11 +50,11 @@ class XArmGripper(ToolGripper):
         return width, bool(stalled and goal < width - 0.002)
 
     def send_goal(self, width: float, force: float) -> None:
-        assert self.ctl is not None
+        assert self.conn is not None
         c = self.config
         if c.generation == 1:
-            self.ctl.call("set_gripper_position", round(width / c.max_width * G1_OPEN_PULSES), wait=False)
+            self.conn.call("set_gripper_position", round(width / c.max_width * G1_OPEN_PULSES), wait=False)
         else:
             pct = 50 if np.isnan(force) else int(np.clip(force, 1, 100))
-            self.ctl.call("set_gripper_g2_position", round(width * 1000.0), speed=min(c.speed, 225), force=pct,
+            self.conn.call("set_gripper_g2_position", round(width * 1000.0), speed=min(c.speed, 225), force=pct,
                           wait=False)

@@ -1,8 +1,9 @@
-"""One SDK connection to one xArm controller, shared by every node of a process that addresses it.
+"""`XArmConnection`: one SDK connection to one xArm control box, shared by every node of a process that
+addresses it.
 
 The arm and its grippers are separate nodes (a gripper can be swapped without touching the arm), but
-they are one controller: in one process they share one `XArmAPI` (one command socket, one real-time
-report stream). Nodes in other processes open their own connection; the controller accepts several.
+they are one control box: in one process they share one `XArmAPI` (one command socket, one real-time
+report stream). Nodes in other processes open their own connection; the control box accepts several.
 
 State comes from the controller's real-time report (port 30003, `report_type="real"`): the SDK's report
 thread hands every report to a callback here, stamped on RIO's clock on arrival, so a node reads the
@@ -40,8 +41,8 @@ STOPPED = 4
 SERVO_MODE = 1
 
 
-class Controller:
-    _shared: dict[str, Controller] = {}
+class XArmConnection:
+    _shared: dict[str, XArmConnection] = {}
     _guard = threading.Lock()
 
     def __init__(self, ip: str, connect_timeout_s: float):
@@ -59,7 +60,7 @@ class Controller:
 
     # -- sharing ------------------------------------------------------------------------------------
     @classmethod
-    def acquire(cls, ip: str, *, model: str | None = None, connect_timeout_s: float = 5.0) -> Controller:
+    def acquire(cls, ip: str, *, model: str | None = None, connect_timeout_s: float = 5.0) -> XArmConnection:
         """The process's connection to `ip`, opened on first use; `model` is checked against the
         controller's own identity."""
         with cls._guard:

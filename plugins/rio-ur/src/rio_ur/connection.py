@@ -1,4 +1,4 @@
-"""One arm's connections: the RTDE receive stream (state), the control interface (servo targets, see
+"""`URConnection`, one arm's connections: the RTDE receive stream (state), the control interface (servo targets, see
 `control.py`) and the Dashboard Server (power, brakes, protective stop), opened and re-opened here.
 
 ur-rtde's receive interface runs its own thread filling the latest state at 500 Hz, so reading a sample
@@ -24,7 +24,7 @@ OUTPUTS = ["timestamp", "actual_q", "actual_qd", "actual_TCP_pose", "target_q", 
            "safety_status_bits", "runtime_state", "speed_scaling"]
 
 
-class URLink:
+class URConnection:
     def __init__(self, ip: str, control: str, rate_hz: float, connect_timeout_s: float):
         self.ip, self.kind, self.rate_hz, self.connect_timeout_s = ip, control, rate_hz, connect_timeout_s
         self.recv: Any = None
