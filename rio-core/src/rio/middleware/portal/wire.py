@@ -1,7 +1,7 @@
 """Portal's wire format (danijar's portal 3.8), restricted to what RIO sends: one `bytes` per message.
 
-The one copy of the framing, used by both ends of the portal middleware (`portal.py`: the client,
-`portal_server.py`: the server); written from the format, not from portal's code.
+The one copy of the framing, used by both ends of the portal middleware (the client in `__init__`, the
+server in `server`); written from the format, not from portal's code.
 
 - A connection starts with the client sending the 16 bytes ``portal_handshake``.
 - Then every message, both ways, is a u64 length (little-endian, as every integer here) and a body.
@@ -58,9 +58,11 @@ def request_frame(reqnum: int, method: bytes, arg: bytes | memoryview) -> bytes:
     return b"".join([_HEAD.pack(size, reqnum, len(method)), *parts])
 
 
-def reply_frame(reqnum: int, result: bytes | memoryview) -> bytes:
-    parts = _packlib(_RESULT_TREE, result)
-    return b"".join([_HEAD.pack(MIN_BODY + sum(len(p) for p in parts), reqnum, 0), *parts])
+def reply_frame(reqnum: int, *result: bytes | memoryview) -> bytes:
+    """The whole answer returning the concatenation of `result` (one copy, here)."""
+    n = sum(len(p) for p in result)
+    head = [_SIZES.pack(3, len(_RESULT_TREE), len(_SPECS), n), _RESULT_TREE, _SPECS]
+    return b"".join([_HEAD.pack(MIN_BODY + sum(len(p) for p in head) + n, reqnum, 0), *head, *result])
 
 
 def error_frame(reqnum: int, status: int, text: str) -> bytes:
