@@ -42,7 +42,7 @@ from rio import clock
 from rio.errors import ConfigError, NodeDiedError
 from rio.middleware.protocol import NetworkClient, NetworkConfig, NetworkServer, is_loopback
 from rio.middleware.protocol.client import POLL_S
-from rio.middleware.protocol.messages import ACK, CALL, REPLY, REQUEST, REQUEST_ID
+from rio.middleware.protocol.messages import ACK, CALL, REPLY, REQUEST
 from rio.runtime.node import Node
 from rio.runtime.transport import Middleware, NodeLayouts
 
@@ -54,7 +54,6 @@ log = logging.getLogger("rio.zenoh")
 
 _CID = re.compile(r"^[0-9a-f]{1,32}$")
 _KEYS = {REQUEST: "req", CALL: "call", ACK: "ack", REPLY: "reply"}  # a message's kind -> its key
-_REQ_ID = REQUEST_ID  # (the name tests and older callers use)
 
 
 def _zenoh() -> Any:
