@@ -34,6 +34,7 @@ import queue
 import re
 import socket
 import threading
+from collections import OrderedDict
 from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import model_validator
@@ -54,6 +55,7 @@ log = logging.getLogger("rio.zenoh")
 
 _CID = re.compile(r"^[0-9a-f]{1,32}$")
 _KEYS = {REQUEST: "req", CALL: "call", ACK: "ack", REPLY: "reply"}  # a message's kind -> its key
+_PUBS_MAX = 128  # answer publishers a server keeps declared (for the clients it knows, the newest)
 
 
 def _zenoh() -> Any:
@@ -221,6 +223,8 @@ class ZenohServer(NetworkServer):
         self._hb_pub = self.session.declare_publisher(
             f"{self.prefix}/hb", congestion_control=cc.DROP, priority=prio.REAL_TIME)
         self._answer = {"congestion_control": cc.BLOCK, "priority": prio.INTERACTIVE_HIGH}
+        self._pubs: OrderedDict[tuple[bytes, str], Any] = OrderedDict()  # (kind, client id) -> its publisher
+        self._pubs_lock = threading.Lock()
         self._subs: list[Any] = []
 
     def _open_session(self) -> tuple[Any, list[str]]:
@@ -270,7 +274,18 @@ class ZenohServer(NetworkServer):
 
     def _send(self, peer: Any, kind: bytes, body: bytes, tag: Any = None) -> None:
         try:
-            self.session.put(f"{self.prefix}/{_KEYS[kind]}/{peer}", body, **self._answer)
+            pub = self._pubs.get((kind, peer))
+            if pub is not None:  # a known client's: routed once, ~10 us less per answer than session.put
+                pub.put(body)
+            elif self._knows(peer):
+                with self._pubs_lock:
+                    self._pubs[kind, peer] = pub = self.session.declare_publisher(
+                        f"{self.prefix}/{_KEYS[kind]}/{peer}", **self._answer)
+                    if len(self._pubs) > _PUBS_MAX:
+                        _undeclare(self._pubs.popitem(last=False)[1])
+                pub.put(body)
+            else:
+                self.session.put(f"{self.prefix}/{_KEYS[kind]}/{peer}", body, **self._answer)
         except Exception:
             if not self.closed:
                 log.exception("node '%s': could not answer client %s", self.name, peer)
@@ -286,7 +301,7 @@ class ZenohServer(NetworkServer):
                 raise
 
     def _shut(self, busy: bool) -> None:
-        _undeclare(*self._subs, self._state_pub, self._hb_pub)
+        _undeclare(*self._subs, *self._pubs.values(), self._state_pub, self._hb_pub)
         self._subs.clear()
         _close(self.session)
 

@@ -1,18 +1,15 @@
-"""Portal middleware: danijar's portal RPC protocol (as in the RIO paper), served by our own code. It carries
-RIO's network protocol (`rio.middleware.protocol`); portal being request/reply only, every channel is a
-method of the node's server (`server`): `hello`, `req`, `call`, and `poll`, the long poll that carries the
-state stream and its heartbeats. Every argument and result is one `bytes` value that RIO encodes itself.
+"""Portal middleware: danijar's portal RPC (as in the RIO paper) carrying RIO's network protocol
+(`rio.middleware.protocol`). Portal is request/reply only, so every channel is a method of the node's
+server (`server`): `hello`, `req`, `call`, and `poll`, the long poll that carries the state stream.
 
 Both ends are ours and speak portal 3.8's wire format (`wire`), so danijar's `portal.Client` can still call
-a node; the `portal` package itself is not used (its server ended the whole process on a malformed length
-prefix or a burst of messages, allocated what a peer's length claimed before checking it, and attached
-shared memory named by a peer). Nor is its client: in portal 3.8 its socket thread can keep a stale
-wake-up byte and busy-loop (~1 CPU core per idle client), `Future.wait` can miss a wake-up, and an
-unexpected exception in its threads ends the program with `os._exit(1)`. Here, sends go out from the
-calling thread under a lock and one reader thread blocks in recv.
+a node; the `portal` package is not used: its server ended the whole process on a malformed length prefix
+or a burst of messages, allocated what a peer's length claimed before checking it and attached shared
+memory named by a peer; its client could busy-loop on a stale wake-up byte (~1 CPU core per idle client)
+and ends the program (`os._exit(1)`) on an unexpected exception in its threads.
 
-There is no authentication: servers bind loopback by default (`host`); `keys` are refused. Expose a node
-beyond loopback only to trusted peers (`insecure = true`), better through a tunnel.
+No authentication: servers bind loopback by default and `keys` are refused; beyond loopback only with
+`insecure = true`, better through a tunnel.
 """
 
 from __future__ import annotations
@@ -44,89 +41,7 @@ log = logging.getLogger("rio.middleware.portal")
 
 #: on_answer(error text or None, result or None): the answer to one message, or why it will never come.
 OnAnswer = Callable[[str | None, Any], None]
-
-
-class _Connection:
-    """Client end of one portal connection (`wire`): sends from the caller's thread, one reader thread."""
-
-    def __init__(self, host: str, port: int, name: str, config: PortalConfig, max_message_bytes: int,
-                 heard: Callable[[], None], lost: Callable[[str], None]):
-        self.sock = socket.create_connection((host, port), timeout=config.connect_timeout)
-        try:
-            self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            self.sock.settimeout(max(config.call_timeout, 1.0))  # bounds a send to a peer that stopped reading
-            self.sock.sendall(pw.HANDSHAKE)
-        except OSError:
-            self.sock.close()
-            raise
-        self.name, self.max_message_bytes, self._heard, self._on_lost = name, max_message_bytes, heard, lost
-        self._lock = threading.Lock()
-        self._ids = itertools.count(1)
-        self._pending: dict[int, OnAnswer] = {}
-        self.lost: str | None = None
-        self._closing = False
-        self._reader = threading.Thread(target=self._read_loop, name=f"rio-{name}-portal-recv", daemon=True)
-        self._reader.start()
-
-    def send(self, method: bytes, payload: bytes | memoryview, on_answer: OnAnswer) -> None:
-        """Send one message; `on_answer` gets its answer (or the lost connection) from the reader thread."""
-        with self._lock:
-            if self.lost is not None:
-                raise NodeDiedError(self.name, self.lost)
-            reqnum = next(self._ids)
-            frame = pw.request_frame(reqnum, method, payload)
-            if len(frame) - 8 > self.max_message_bytes:  # the server would drop the connection
-                raise ValueError(f"node '{self.name}': a '{method.decode()}' message of {len(frame) - 8} bytes is "
-                                 f"over max_message_bytes ({self.max_message_bytes})")
-            self._pending[reqnum] = on_answer
-            try:
-                self.sock.sendall(frame)
-            except OSError as e:  # a timeout leaves a partial message: the connection is unusable
-                self._lose(f"send failed: {type(e).__name__}: {e}", locked=True)
-                raise NodeDiedError(self.name, str(self.lost)) from e
-
-    def _recv_into(self, view: memoryview) -> int:
-        while True:
-            try:
-                k = self.sock.recv_into(view)
-            except TimeoutError:  # idle connection; the timeout is there for sends
-                if self._closing:
-                    raise ConnectionError("closed") from None
-                continue
-            self._heard()  # any bytes count: a large answer on a slow link is not silence
-            return k
-
-    def _read_loop(self) -> None:
-        try:
-            while True:
-                reqnum, error, data = pw.parse_reply(pw.read_frame(self._recv_into, 1 << 31))
-                on_answer = self._pending.pop(reqnum, None)
-                if on_answer is not None:
-                    on_answer(error, data)
-        except Exception as e:
-            self._lose("client closed" if self._closing else f"connection to the portal server lost ({e})")
-
-    def _lose(self, detail: str, locked: bool = False) -> None:
-        if not locked:
-            with self._lock:
-                return self._lose(detail, locked=True)
-        if self.lost is None:
-            self.lost = detail
-            if not self._closing:
-                self._on_lost(detail)
-        pending, self._pending = self._pending, {}
-        for on_answer in pending.values():
-            on_answer(self.lost, None)
-        return None
-
-    def close(self) -> None:
-        self._closing = True
-        try:
-            self.sock.shutdown(socket.SHUT_RDWR)  # wakes the reader
-        except OSError:
-            pass
-        self._reader.join(1.0)
-        self.sock.close()
+Answer = tuple[str | None, Any]
 
 
 class PortalClient(NetworkClient):
@@ -136,19 +51,23 @@ class PortalClient(NetworkClient):
         host, port = str(address["host"]), int(address["port"])
         super().__init__(node, layouts, address, config)
         self._closing = False
-        self._answers: dict[bytes, queue.SimpleQueue[tuple[str | None, Any]]] = {
-            REPLY: queue.SimpleQueue(), ACK: queue.SimpleQueue()}
-        self._poller: threading.Thread | None = None
-        self._conn: _Connection | None = None
+        self._answers: dict[bytes, queue.SimpleQueue[Answer]] = {k: queue.SimpleQueue() for k in (ACK, REPLY)}
+        self._pending: dict[int, OnAnswer] = {}  # reqnum -> who takes its answer
+        self._reqnums = itertools.count(1)
+        self._lock = threading.Lock()
+        self._threads: list[threading.Thread] = []
         try:
-            self._conn = _Connection(host, port, self.name, config, config.message_limit(layouts), self._heard,
-                                     self._lose)
+            sock = socket.create_connection((host, port), timeout=config.connect_timeout)
+            sock.sendall(pw.HANDSHAKE)
         except OSError as e:
             super().close()
             raise NodeDiedError(self.name, f"no portal server answers at {host}:{port} ({e})") from e
+        self._link = pw.Link(sock, f"{host}:{port}", self.name, max(config.call_timeout, 1.0), self._heard)
+        self._limit = config.message_limit(layouts)
         try:
-            box: queue.SimpleQueue[tuple[str | None, Any]] = queue.SimpleQueue()
-            self._conn.send(b"hello", b"\0", lambda error, data: box.put((error, data)))
+            self._spawn(self._read_loop, "recv")
+            box: queue.SimpleQueue[Answer] = queue.SimpleQueue()
+            self._ask(b"hello", b"\0", lambda error, data: box.put((error, data)))
             try:
                 error, hello = box.get(timeout=config.connect_timeout)
             except queue.Empty:
@@ -159,15 +78,48 @@ class PortalClient(NetworkClient):
         except BaseException:
             self.close()
             raise
-        self._poller = threading.Thread(target=self._poll_loop, name=f"rio-{self.name}-portal-poll", daemon=True)
-        self._poller.start()
+        self._spawn(self._poll_loop, "poll")
+
+    def _spawn(self, target: Callable[[], None], what: str) -> None:
+        t = threading.Thread(target=target, name=f"rio-{self.name}-portal-{what}", daemon=True)
+        t.start()
+        self._threads.append(t)
+
+    def _ask(self, method: bytes, arg: bytes | memoryview, on_answer: OnAnswer) -> None:
+        """Send one message; `on_answer` gets its answer (or the lost connection) from the reader thread."""
+        with self._lock:
+            if self._link.closed:
+                raise NodeDiedError(self.name, self._gone or "connection to the portal server lost")
+            reqnum = next(self._reqnums)
+            frame = pw.request_frame(reqnum, method, arg)
+            if len(frame) - 8 > self._limit:  # the server would drop the connection
+                raise ValueError(f"node '{self.name}': a '{method.decode()}' message of {len(frame) - 8} bytes "
+                                 f"is over max_message_bytes ({self._limit})")
+            self._pending[reqnum] = on_answer
+            self._link.send(frame)
+
+    def _read_loop(self) -> None:
+        try:
+            while True:
+                reqnum, error, data = pw.parse_reply(pw.read_frame(self._link.recv_into, 1 << 31))
+                with self._lock:
+                    on_answer = self._pending.pop(reqnum, None)
+                if on_answer is not None:  # else a message we gave up on
+                    on_answer(error, data)
+        except Exception as e:  # the peer left, broke the framing, or we are closing
+            why = "client closed" if self._closing else f"connection to the portal server lost ({e})"
+            self._link.close(why)
+            with self._lock:
+                pending, self._pending = self._pending, {}
+            if not self._closing:
+                self._lose(why)
+            for on_answer in pending.values():
+                on_answer(why, None)
 
     def _send(self, kind: bytes, body: bytes) -> None:
-        assert self._conn is not None
         answers = self._answers[ACK if kind == REQUEST else REPLY]
         if kind != REQUEST:
-            self._conn.send(b"call", body, lambda error, data: answers.put((error, data)))
-            return
+            return self._ask(b"call", body, lambda error, data: answers.put((error, data)))
         rid = REQUEST_ID.unpack_from(body)[0]
 
         def ack(error: str | None, data: Any) -> None:  # the protocol's acknowledgement, with our id
@@ -175,7 +127,7 @@ class PortalClient(NetworkClient):
                 data = pack_ack(rid, OK) if data == TAKEN else pack_ack(rid, *wire.unpack(data)[1:])
             answers.put((error, data))
 
-        self._conn.send(b"req", memoryview(body)[REQUEST_ID.size:], ack)
+        return self._ask(b"req", memoryview(body)[REQUEST_ID.size:], ack)
 
     def _recv(self, kind: bytes) -> Any:
         try:
@@ -184,27 +136,26 @@ class PortalClient(NetworkClient):
             return None
         if error is None:
             return data
-        if self._conn is not None and self._conn.lost is not None:
-            raise NodeDiedError(self.name, self._gone or self._conn.lost)
+        if self._link.closed:
+            raise NodeDiedError(self.name, self._gone or error)
         raise NodeError(self.name, "PortalError", error)
 
     def _poll_loop(self) -> None:
         """The state stream: one long poll at a time, each answered with the messages after our newest."""
         size = self.layouts.data.itemsize if self.layouts.data else 0
-        box: queue.SimpleQueue[tuple[str | None, Any]] = queue.SimpleQueue()
+        box: queue.SimpleQueue[Answer] = queue.SimpleQueue()
         try:
-            while not self._closing and self._gone is None and self._conn is not None:
-                self._conn.send(b"poll", self._seq.to_bytes(8, "little"), lambda e, d: box.put((e, d)))
+            while not self._link.closed and self._gone is None:
+                self._ask(b"poll", self._seq.to_bytes(8, "little"), lambda error, data: box.put((error, data)))
                 error, data = box.get()
                 if error is not None:
                     return
-                pos, end = 0, len(data)
-                while pos + STREAM_HEAD.size <= end:
-                    head = data[pos:pos + STREAM_HEAD.size]
-                    pos += STREAM_HEAD.size
-                    record = data[pos:pos + size] if head[:1] == STATE else None
-                    pos += size if record is not None else 0
-                    self._on_stream(head, record)
+                pos = 0
+                while pos + STREAM_HEAD.size <= len(data):
+                    head, pos = data[pos:pos + STREAM_HEAD.size], pos + STREAM_HEAD.size
+                    n = size if head[:1] == STATE else 0
+                    self._on_stream(head, data[pos:pos + n] if n else None)
+                    pos += n
         except NodeDiedError:
             pass
         except Exception as e:  # a malformed answer: stop mirroring and say so on the next read
@@ -213,10 +164,13 @@ class PortalClient(NetworkClient):
 
     def close(self) -> None:
         self._closing = True
-        if self._conn is not None:
-            self._conn.close()
-        if self._poller is not None:
-            self._poller.join(1.0)
+        link = getattr(self, "_link", None)
+        if link is not None:
+            link.close("client closed")
+            for t in [link.writer, *self._threads]:
+                if t is not threading.current_thread():
+                    t.join(1.0)
+            link.sock.close()
         super().close()
 
 

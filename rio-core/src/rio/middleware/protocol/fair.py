@@ -12,10 +12,13 @@ QueueFull): nothing is dropped without its sender hearing of it.
 
 from __future__ import annotations
 
+import queue
 import threading
 from collections import OrderedDict, deque
 from collections.abc import Callable, Hashable
 from typing import Any
+
+from rio import clock
 
 
 class FairQueue:
@@ -24,14 +27,17 @@ class FairQueue:
         self._queues: OrderedDict[Hashable, deque[Any]] = OrderedDict()  # in turn order
         self._n = 0
         self._closed = False
-        self._cv = threading.Condition()
+        self._lock = threading.Lock()
+        #: One token per item queued (and one on close) wakes `get`: a SimpleQueue hands over ~2 us faster
+        #: than a Condition. Tokens of items that left otherwise (refused, dropped) only cost a look.
+        self._tokens: queue.SimpleQueue[None] = queue.SimpleQueue()
 
     def __len__(self) -> int:
         return self._n
 
     def put(self, peer: Hashable, item: Any) -> tuple[Hashable, Any] | None:
         """Queue `item` for `peer`; returns what was refused instead, (peer, item), or None."""
-        with self._cv:
+        with self._lock:
             q = self._queues.get(peer)
             mine = 0 if q is None else len(q)
             if mine >= self.per_peer or self._closed:
@@ -49,8 +55,8 @@ class FairQueue:
                 q = self._queues[peer] = deque()
             q.append(item)
             self._n += 1
-            self._cv.notify()
-            return refused
+        self._tokens.put(None)
+        return refused
 
     def _victim(self, mine: int, known: bool) -> Hashable | None:
         """Who gives way to a newcomer holding `mine` items (None: nobody, the newcomer is refused)."""
@@ -60,26 +66,32 @@ class FairQueue:
 
     def get(self, timeout: float | None = None) -> tuple[Hashable, Any] | None:
         """The next item in turn, (peer, item); None when closed, or after `timeout` with nothing."""
-        with self._cv:
-            while not self._n and not self._closed:
-                if not self._cv.wait(timeout):
-                    break
-            if not self._n or self._closed:
+        deadline = None if timeout is None else clock.now() + timeout
+        while True:
+            try:
+                self._tokens.get(timeout=None if deadline is None else max(deadline - clock.now(), 0.0))
+            except queue.Empty:
                 return None
-            peer, q = next(iter(self._queues.items()))
-            item = q.popleft()
-            self._n -= 1
-            if q:
-                self._queues.move_to_end(peer)  # its next item waits for everyone else's turn
-            else:
-                del self._queues[peer]
-            return peer, item
+            with self._lock:
+                if self._closed:
+                    self._tokens.put(None)  # for the next waiter
+                    return None
+                if not self._n:
+                    continue  # the token of an item that left otherwise
+                peer, q = next(iter(self._queues.items()))
+                item = q.popleft()
+                self._n -= 1
+                if q:
+                    self._queues.move_to_end(peer)  # its next item waits for everyone else's turn
+                else:
+                    del self._queues[peer]
+                return peer, item
 
-    def expire(self, older: Any) -> list[tuple[Hashable, Any]]:
-        """Remove and return the items for which `older(item)` is true, oldest first per peer (each peer's
-        queue is in arrival order, so its expired items are at its front)."""
+    def expire(self, older: Callable[[Any], bool]) -> list[tuple[Hashable, Any]]:
+        """Remove and return the items for which `older(item)` is true (each peer's queue is in arrival
+        order, so its expired items are at its front)."""
         out = []
-        with self._cv:
+        with self._lock:
             for peer in list(self._queues):
                 q = self._queues[peer]
                 while q and older(q[0]):
@@ -91,17 +103,17 @@ class FairQueue:
 
     def drop(self, peer: Hashable) -> list[Any]:
         """Remove and return a peer's waiting items (it has left: its work is not done for nobody)."""
-        with self._cv:
+        with self._lock:
             q = self._queues.pop(peer, None) or deque()
             self._n -= len(q)
             return list(q)
 
     def close(self) -> list[tuple[Hashable, Any]]:
         """Refuse from now on and wake every waiting `get`; returns what was still waiting."""
-        with self._cv:
+        with self._lock:
             self._closed = True
             left = [(p, item) for p, q in self._queues.items() for item in q]
             self._queues.clear()
             self._n = 0
-            self._cv.notify_all()
-            return left
+        self._tokens.put(None)
+        return left

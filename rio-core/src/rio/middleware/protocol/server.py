@@ -20,7 +20,6 @@ from __future__ import annotations
 import logging
 import os
 import threading
-from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from typing import Any, ClassVar
 
@@ -55,8 +54,8 @@ class NetworkServer(ServerTransport):
         self.request_queue = (RequestQueue(layouts.request, layouts.request_capacity)
                               if layouts.request else None)
         self._stop, self._wake = threading.Event(), threading.Event()
-        #: Peers that finished a handshake or were served (the newest `_KNOWN_MAX`): they outrank strangers.
-        self._known: OrderedDict[Hashable, None] = OrderedDict()
+        #: Peers that finished a handshake or were served: they outrank strangers.
+        self._known: dict[Hashable, None] = {}
         self._known_lock = threading.Lock()
         self._calls = FairQueue(config.max_pending_per_peer, config.max_pending, self._knows)
         self._intake = RequestIntake(self.name, self.request_queue, self._ack,
@@ -142,11 +141,11 @@ class NetworkServer(ServerTransport):
 
     def vouch(self, peer: Hashable) -> None:
         """`peer` has finished a handshake, or was served: it outranks strangers (`FairQueue`)."""
-        with self._known_lock:
-            self._known[peer] = None
-            self._known.move_to_end(peer)
-            if len(self._known) > _KNOWN_MAX:
-                self._known.popitem(last=False)
+        if peer not in self._known:  # (the newest `_KNOWN_MAX` to arrive are kept)
+            with self._known_lock:
+                self._known[peer] = None
+                if len(self._known) > _KNOWN_MAX:
+                    del self._known[next(iter(self._known))]
 
     def _knows(self, peer: Hashable) -> bool:
         return peer in self._known
