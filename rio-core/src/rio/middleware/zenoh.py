@@ -1,28 +1,17 @@
-"""Zenoh middleware: a node reachable through eclipse-zenoh 1.x, on one machine or across many. It carries
-RIO's network protocol (`rio.middleware.protocol`) and authenticates; the protocol does the rest.
+"""Zenoh middleware: eclipse-zenoh 1.x carrying RIO's network protocol (`rio.middleware.protocol`), on one
+machine or across many (through routers). Keys under `rio/<station>/<node>`, `<cid>` a client's random id:
+`state` (STATE: the record, its stream header as attachment) and `hb` (BEAT, BYE: top priority, they
+overtake queued frames); `req/<cid>` and `call/<cid>` from a client, `ack/<cid>` and `reply/<cid>` back;
+`hello`, a queryable (the query carries the client's id).
 
-Key expressions, under `rio/<station>/<node>`; a client picks a random id `<cid>` (the protocol's peer):
-
-- `state`, `hb`    the state stream: STATE (the record as payload, the stream header as attachment) on
-                   `state`; BEAT and BYE on `hb`, at top priority so they overtake queued frames.
-- `req/<cid>`, `call/<cid>`    a client's requests and API calls (message bodies; the key is the kind).
-- `ack/<cid>`, `reply/<cid>`   their answers, to that client only.
-- `hello`          a queryable: the handshake.
-
-Why pub/sub for calls and requests rather than a queryable: measured here, a publisher pair is ~45 us
-faster per half round trip than `Querier.get` + `Query.reply`. Zenoh drops what is put before the peer's
-subscription has propagated, so a client uses its publishers only once zenoh reports a matching subscriber,
-and declares its `ack` and `reply` subscriptions before its handshake (they reach the node first: same
-link, in order). Answers are `session.put`s: nothing is kept per client, so made-up client ids cost no state.
-
-With the station's keys (`keys`, `rio.machine.keys`) every link is mutual TLS (`tls/` endpoints only, the
-station's CA on both sides) and zenoh's access control lets through only machines this one trusts
-(their certificates' common names, `peers/`), only under `rio/<station>/**`: see `_secure`. A message over
-the node's limit is refused by zenoh itself (`transport/link/rx/max_message_size`) before it is reassembled.
-
-Sessions are heavy (their own links and routing tables), so clients in one process share one
-session per set of endpoints (and keys), reference-counted and closed with the last client. The
-lowlatency transport is deliberately not enabled: it has no fragmentation and silently drops large frames.
+Pub/sub rather than queries for calls: measured, ~45 us less per half round trip. Zenoh drops what is put
+before the peer's subscription has propagated, so a client declares its answer subscriptions before its
+handshake and uses its publishers only once zenoh reports them matched. A node answers a client it knows
+through a publisher of its own (~4.5 us less than `session.put`), anyone else by `session.put` (a made-up
+client id costs no state). A message over the node's limit is dropped by zenoh before reassembly
+(`transport/link/rx/max_message_size`). With `keys` every link is mutual TLS and zenoh's access control
+admits only trusted machines (`_secure`). Clients in one process share one session per set of endpoints
+(and keys). The lowlatency transport stays off: it has no fragmentation and silently drops large frames.
 """
 
 from __future__ import annotations
@@ -55,7 +44,9 @@ log = logging.getLogger("rio.zenoh")
 
 _CID = re.compile(r"^[0-9a-f]{1,32}$")
 _KEYS = {REQUEST: "req", CALL: "call", ACK: "ack", REPLY: "reply"}  # a message's kind -> its key
-_PUBS_MAX = 128  # answer publishers a server keeps declared (for the clients it knows, the newest)
+_PUBS_MAX = 128  # answer publishers a node keeps declared (for the clients it knows, the newest)
+#: What RIO's traffic is made of, in zenoh's access-control terms (no deletes, no liveliness).
+_ACL_MESSAGES = ["put", "declare_subscriber", "query", "declare_queryable", "reply"]
 
 
 def _zenoh() -> Any:
@@ -63,78 +54,53 @@ def _zenoh() -> Any:
     try:
         import zenoh
     except ImportError as e:  # pragma: no cover - depends on the environment
-        raise ImportError(
-            "the 'zenoh' middleware needs eclipse-zenoh: pip install 'rio-core[zenoh]'"
-        ) from e
+        raise ImportError("the 'zenoh' middleware needs eclipse-zenoh: pip install 'rio-core[zenoh]'") from e
     return zenoh
 
 
 def _config(mode: str, listen: list[str], connect: list[str], connect_timeout: float,
             keys: MachineKeys | None = None, station: str = "", max_message: int | None = None) -> Any:
-    """A session config with scouting off: RIO always knows whom to connect to, and multicast or
-    gossip discovery would reach beyond loopback and across unrelated stations. With `keys`: mutual
-    TLS and access control for `station` (`_secure`)."""
-    z = _zenoh()
-    c = z.Config()
-    c.insert_json5("mode", json.dumps(mode))
-    c.insert_json5("scouting/multicast/enabled", "false")
-    c.insert_json5("scouting/gossip/enabled", "false")
-    # Zenoh's shared-memory transport leaves segments in /dev/shm after a SIGKILL (RIO promises to
-    # leave nothing behind); loopback TCP is what every measurement here was taken with.
-    c.insert_json5("transport/shared_memory/enabled", "false")
-    c.insert_json5("listen/endpoints", json.dumps(listen))
-    c.insert_json5("connect/endpoints", json.dumps(connect))
+    """A session config. Scouting off: RIO knows whom to connect to, and discovery would reach beyond
+    loopback and across stations. Zenoh's shared memory off: it leaves segments in /dev/shm after a SIGKILL."""
+    c = _zenoh().Config()
+    options: dict[str, Any] = {"mode": mode, "scouting/multicast/enabled": False, "scouting/gossip/enabled": False,
+                               "transport/shared_memory/enabled": False, "listen/endpoints": listen,
+                               "connect/endpoints": connect}
     if connect:  # fail at open with a clear error instead of retrying silently in the background
-        c.insert_json5("connect/exit_on_failure", "true")
-        c.insert_json5("connect/timeout_ms", str(int(connect_timeout * 1000)))
+        options.update({"connect/exit_on_failure": True, "connect/timeout_ms": int(connect_timeout * 1000)})
     if max_message is not None:  # a node's session: zenoh refuses a bigger message before reassembling it
-        c.insert_json5("transport/link/rx/max_message_size", str(max_message))
+        options["transport/link/rx/max_message_size"] = max_message
     if keys is not None:
-        _secure(c, keys, station)
+        options.update(_secure(keys, station))
+    for key, value in options.items():
+        c.insert_json5(key, json.dumps(value))
     return c
 
 
-#: What RIO's traffic is made of, in zenoh's access-control terms (no deletes, no liveliness).
-_ACL_MESSAGES = ["put", "declare_subscriber", "query", "declare_queryable", "reply"]
-
-
-def _secure(c: Any, keys: MachineKeys, station: str) -> None:
+def _secure(keys: MachineKeys, station: str) -> dict[str, Any]:
     """Mutual TLS on every link, and access control: only machines this one trusts, only RIO's keys.
 
-    - `transport/link/protocols = ["tls"]`: no other kind of link is opened or accepted (a `tcp/` peer
-      cannot even connect).
-    - `transport/link/tls`: the station's CA is the only root (`root_ca_certificate`), this machine's
-      certificate and key for both directions (`listen_*`, `connect_*`), `enable_mtls`: each side proves
-      itself. `verify_name_on_connect` is off: clients connect to whatever address a node advertises (an
-      IP, this machine's host name for a wildcard bind) and a certificate names only the machine, localhost,
-      127.0.0.1 and the addresses given to `rio keys generate`, so checking names would refuse working
-      stations (measured: connecting by an address not in the certificate fails). What authenticates is
-      the private CA plus the common-name access control below, not the address.
-    - `access_control`: deny by default; allow, in both directions, RIO's message kinds under
-      `rio/<station>/**`, only to and from peers whose certificate common name is one of this machine's
-      trusted machines (`peers/`). A certificate from the station's CA for a machine since removed from
-      `peers/` connects but sees and sends nothing.
-    """
+    Only `tls` links are opened or accepted. The station's CA is the only root, this machine's certificate
+    serves both directions and each side proves itself (`enable_mtls`). Names are not verified: clients
+    connect to whatever address a node advertises, and a certificate names only the machine and the
+    addresses given to `rio keys generate` (measured: another address fails); what authenticates is the
+    private CA plus the access control: deny by default, allow RIO's message kinds under `rio/<station>/**`
+    only to and from certificates whose common name is a machine in `peers/` (one removed from `peers/`
+    connects but sees and sends nothing)."""
     tls = {"root_ca_certificate": str(keys.ca), "enable_mtls": True, "verify_name_on_connect": False,
            "listen_certificate": str(keys.tls_cert), "listen_private_key": str(keys.tls_key),
            "connect_certificate": str(keys.tls_cert), "connect_private_key": str(keys.tls_key)}
-    acl = {
-        "enabled": True,
-        "default_permission": "deny",
-        "rules": [{"id": "rio", "permission": "allow", "flows": ["ingress", "egress"], "messages": _ACL_MESSAGES,
-                   "key_exprs": [f"rio/{station}/**"]}],
-        "subjects": [{"id": "trusted", "cert_common_names": sorted(keys.peers)}],
-        "policies": [{"id": "trusted", "rules": ["rio"], "subjects": ["trusted"]}],
-    }
-    c.insert_json5("transport/link/protocols", json.dumps(["tls"]))
-    c.insert_json5("transport/link/tls", json.dumps(tls))
-    c.insert_json5("access_control", json.dumps(acl))
+    acl = {"enabled": True, "default_permission": "deny",
+           "rules": [{"id": "rio", "permission": "allow", "flows": ["ingress", "egress"], "messages": _ACL_MESSAGES,
+                      "key_exprs": [f"rio/{station}/**"]}],
+           "subjects": [{"id": "trusted", "cert_common_names": sorted(keys.peers)}],
+           "policies": [{"id": "trusted", "rules": ["rio"], "subjects": ["trusted"]}]}
+    return {"transport/link/protocols": ["tls"], "transport/link/tls": tls, "access_control": acl}
 
 
 def _free_port(host: str) -> int:
     """A currently free TCP port (zenoh cannot report the port it picked for `:0`)."""
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    with socket.socket(family, socket.SOCK_STREAM) as s:
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind((host, 0))
         return s.getsockname()[1]
 
@@ -153,44 +119,47 @@ def _tls(endpoints: list[str]) -> list[str]:
     return [f"tls/{e.split('/', 1)[1]}" if _proto(e) == "tcp" else e for e in endpoints]
 
 
-# -- shared client sessions --------------------------------------------------------------------------
+def _prefix(station: str, node: str) -> str:
+    for part in (station, node):
+        if not part or any(ch in part for ch in "/*$?#"):
+            raise ConfigError(f"zenoh middleware: '{part}' cannot be part of a key expression "
+                              "(station and node names must not contain / * $ ? #)")
+    return f"rio/{station}/{node}"
+
+
 class _Sessions:
-    """One zenoh session per set of endpoints in this process, closed when its last user leaves."""
+    """One zenoh session per set of endpoints (and keys, and station) in this process, reference-counted."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._open: dict[tuple[str, ...], list[Any]] = {}  # endpoints (+ keys) -> [session, refcount]
+        self._open: dict[tuple[str, ...], list[Any]] = {}  # key -> [session, users]
 
     def acquire(self, endpoints: list[str], timeout: float, keys: MachineKeys | None = None,
                 station: str = "") -> tuple[tuple[str, ...], Any]:
         eps = tuple(sorted(endpoints))
-        # a keyed session is also bound to its keys and its station (its access control names both)
-        key = eps if keys is None else (*eps, f"keys={keys.dir}", f"station={station}")
+        key = eps if keys is None else (*eps, f"keys={keys.dir}", f"station={station}")  # (both in its ACL)
         with self._lock:
             entry = self._open.get(key)
             if entry is None or entry[0].is_closed():
-                entry = [_zenoh().open(_config("peer", [], list(eps), timeout, keys, station)), 0]
-                self._open[key] = entry
+                entry = self._open[key] = [_zenoh().open(_config("peer", [], list(eps), timeout, keys, station)), 0]
             entry[1] += 1
             return key, entry[0]
 
     def release(self, key: tuple[str, ...]) -> None:
         with self._lock:
             entry = self._open.get(key)
-            if entry is None:
-                return
-            entry[1] -= 1
-            if entry[1] <= 0:
-                del self._open[key]
-                _close(entry[0])
+            if entry is not None:
+                entry[1] -= 1
+                if entry[1] <= 0:
+                    del self._open[key]
+                    _close(entry[0])
 
 
 _SESSIONS = _Sessions()
 
 
 def _close(session: Any) -> None:
-    """Close a session; one whose link is gone (a pulled cable) can only time out: that is no error
-    of the caller's (who is usually already reporting the lost node)."""
+    """A session whose link is gone (a pulled cable) can only time out closing: no error of the caller's."""
     try:
         session.close()
     except Exception as e:
@@ -199,14 +168,12 @@ def _close(session: Any) -> None:
 
 def _undeclare(*entities: Any) -> None:
     for e in entities:
-        if e is not None:
-            try:
-                e.undeclare()
-            except Exception:  # already gone with a closed session
-                pass
+        try:
+            e.undeclare()
+        except Exception:  # already gone with a closed session
+            pass
 
 
-# -- server ------------------------------------------------------------------------------------------
 class ZenohServer(NetworkServer):
     mw = "zenoh"
 
@@ -218,10 +185,10 @@ class ZenohServer(NetworkServer):
         self.session, self.endpoints = self._open_session()
         cc, prio = z.CongestionControl, z.Priority
         # State: DROP, so a slow or stuck subscriber never stalls the node loop (newest wins anyway).
-        self._state_pub = self.session.declare_publisher(
-            f"{self.prefix}/state", congestion_control=cc.DROP, priority=prio.DATA)
-        self._hb_pub = self.session.declare_publisher(
-            f"{self.prefix}/hb", congestion_control=cc.DROP, priority=prio.REAL_TIME)
+        self._state_pub = self.session.declare_publisher(f"{self.prefix}/state", congestion_control=cc.DROP,
+                                                         priority=prio.DATA)
+        self._hb_pub = self.session.declare_publisher(f"{self.prefix}/hb", congestion_control=cc.DROP,
+                                                      priority=prio.REAL_TIME)
         self._answer = {"congestion_control": cc.BLOCK, "priority": prio.INTERACTIVE_HIGH}
         self._pubs: OrderedDict[tuple[bytes, str], Any] = OrderedDict()  # (kind, client id) -> its publisher
         self._pubs_lock = threading.Lock()
@@ -230,27 +197,23 @@ class ZenohServer(NetworkServer):
     def _open_session(self) -> tuple[Any, list[str]]:
         o, keys = self.config, self._keys
         connect, proto = (list(o.connect), "tcp") if keys is None else (_tls(o.connect), "tls")
-        limit = self.max_message_bytes
         if o.mode == "client":
             if not connect:
                 raise ConfigError("zenoh middleware: mode 'client' needs at least one router in 'connect'")
-            return _zenoh().open(_config("client", [], connect, o.connect_timeout, keys, self.station, limit)), connect
+            return _zenoh().open(_config("client", [], connect, o.connect_timeout, keys, self.station,
+                                         self.max_message_bytes)), connect
         for attempt in range(5):  # a port picked free may be taken before zenoh binds it
             port = o.port if o.port is not None else _free_port(o.host)
             try:
                 session = _zenoh().open(_config("peer", [_endpoint(o.host, port, proto)], connect,
-                                                o.connect_timeout, keys, self.station, limit))
+                                                o.connect_timeout, keys, self.station, self.max_message_bytes))
             except Exception:
                 if o.port is not None or attempt == 4:
                     raise
                 continue
-            return session, [_endpoint(self._advertised_host(), port, proto)]
+            wildcard = o.host.strip("[]") in ("0.0.0.0", "::", "")  # clients then reach this machine's name
+            return session, [_endpoint(socket.getfqdn() if wildcard else o.host, port, proto)]
         raise AssertionError("unreachable")
-
-    def _advertised_host(self) -> str:
-        """What clients connect to: the bound host, or this machine's name for a wildcard bind."""
-        host = self.config.host
-        return socket.getfqdn() if host.strip("[]") in ("0.0.0.0", "::", "") else host
 
     def _open(self) -> dict[str, Any]:
         s, p = self.session, self.prefix
@@ -268,21 +231,20 @@ class ZenohServer(NetworkServer):
 
     def _on_hello(self, query: Any) -> None:
         cid = query.payload.to_bytes().decode("ascii", "replace") if query.payload is not None else ""
-        if _CID.match(cid):  # the client's id, so that its calls outrank strangers' (`FairQueue`)
+        if _CID.match(cid):  # its calls outrank strangers' (`FairQueue`)
             self.vouch(cid)
         query.reply(f"{self.prefix}/hello", self.hello())
 
     def _send(self, peer: Any, kind: bytes, body: bytes, tag: Any = None) -> None:
         try:
             pub = self._pubs.get((kind, peer))
-            if pub is not None:  # a known client's: routed once, ~10 us less per answer than session.put
-                pub.put(body)
-            elif self._knows(peer):
+            if pub is None and self._knows(peer):
                 with self._pubs_lock:
-                    self._pubs[kind, peer] = pub = self.session.declare_publisher(
+                    pub = self._pubs[kind, peer] = self.session.declare_publisher(
                         f"{self.prefix}/{_KEYS[kind]}/{peer}", **self._answer)
                     if len(self._pubs) > _PUBS_MAX:
                         _undeclare(self._pubs.popitem(last=False)[1])
+            if pub is not None:
                 pub.put(body)
             else:
                 self.session.put(f"{self.prefix}/{_KEYS[kind]}/{peer}", body, **self._answer)
@@ -302,24 +264,21 @@ class ZenohServer(NetworkServer):
 
     def _shut(self, busy: bool) -> None:
         _undeclare(*self._subs, *self._pubs.values(), self._state_pub, self._hb_pub)
-        self._subs.clear()
         _close(self.session)
 
 
-# -- client ------------------------------------------------------------------------------------------
 class ZenohClient(NetworkClient):
     mw = "zenoh"
 
     def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], config: ZenohConfig,
                  station: str = "rio"):
         try:
-            self.prefix = str(address["prefix"])
-            endpoints = list(address["endpoints"])
+            self.prefix, endpoints = str(address["prefix"]), list(address["endpoints"])
         except (KeyError, TypeError) as e:
             raise ConfigError(f"node '{node.name}': zenoh address lacks {e} (got {address!r})") from None
         keys = config.machine_keys()
         tls = [_proto(e) == "tls" for e in endpoints]
-        if keys is None and any(tls):  # said at once, not a connect timeout
+        if keys is None and any(tls):  # a mismatch is said at once, not as a connect timeout
             raise ConfigError(f"node '{node.name}' serves over mutual TLS ({', '.join(endpoints)}): this client "
                               "needs the station's keys (keys = \"...\" in [middleware], this machine's "
                               "directory made by `rio keys generate`)")
@@ -331,7 +290,7 @@ class ZenohClient(NetworkClient):
         self.station = station
         self._session_key: tuple[str, ...] | None = None
         self._entities: list[Any] = []
-        self._answers: dict[bytes, queue.SimpleQueue[bytes]] = {ACK: queue.SimpleQueue(), REPLY: queue.SimpleQueue()}
+        self._answers: dict[bytes, queue.SimpleQueue[Any]] = {ACK: queue.SimpleQueue(), REPLY: queue.SimpleQueue()}
         try:
             self._connect(endpoints, keys)
         except BaseException:
@@ -339,34 +298,33 @@ class ZenohClient(NetworkClient):
             raise
 
     def _connect(self, endpoints: list[str], keys: MachineKeys | None) -> None:
-        z = _zenoh()
-        p = self.prefix
+        z, p, timeout = _zenoh(), self.prefix, self.config.connect_timeout
         try:
-            self._session_key, self.session = _SESSIONS.acquire(endpoints, self.config.connect_timeout, keys,
-                                                                self.station)
+            self._session_key, self.session = _SESSIONS.acquire(endpoints, timeout, keys, self.station)
         except Exception as e:
             why = (" (with keys: is this machine's certificate from the node's station CA, and does the node's "
                    "machine trust it?)" if keys is not None else "")
             raise NodeDiedError(self.name, f"cannot reach zenoh endpoints {endpoints}: {e}{why}") from None
-        declare = self._declare
+        s, cid = self.session, os.urandom(8).hex()
         if self.ring_buffer is not None:
-            declare(self.session.declare_subscriber(f"{p}/state", self._on_state))
-        declare(self.session.declare_subscriber(f"{p}/hb", lambda s: self._on_stream(s.payload.to_bytes(), None)))
-        cid = os.urandom(8).hex()
+            self._declare(s.declare_subscriber(f"{p}/state", self._on_state))
+        self._declare(s.declare_subscriber(f"{p}/hb", lambda smp: self._on_stream(smp.payload.to_bytes(), None)))
         for kind in (ACK, REPLY):
-            declare(self.session.declare_subscriber(f"{p}/{_KEYS[kind]}/{cid}", self._answers[kind].put))
+            self._declare(s.declare_subscriber(f"{p}/{_KEYS[kind]}/{cid}", self._answers[kind].put))
         # BLOCK: a request or call is never dropped silently; zenoh keeps one publisher's order.
         options = {"congestion_control": z.CongestionControl.BLOCK, "priority": z.Priority.INTERACTIVE_HIGH}
-        self._call_pub = declare(self.session.declare_publisher(f"{p}/call/{cid}", **options))
-        self._req_pub = declare(self.session.declare_publisher(f"{p}/req/{cid}", **options))
-        querier = declare(self.session.declare_querier(f"{p}/hello", timeout=self.config.connect_timeout))
-        self._wait_matching(querier, f"{p}/hello")
+        self._call_pub = self._declare(s.declare_publisher(f"{p}/call/{cid}", **options))
+        self._req_pub = self._declare(s.declare_publisher(f"{p}/req/{cid}", **options))
+        querier = s.declare_querier(f"{p}/hello", timeout=timeout)
         try:
+            self._wait_matching(querier, f"{p}/hello")
             body = querier.get(payload=cid).recv().ok.payload.to_bytes()
+        except NodeDiedError:
+            raise
         except Exception as e:
             raise NodeDiedError(self.name, f"no handshake reply from the zenoh server: {e}") from None
-        _undeclare(querier)
-        self._entities.remove(querier)
+        finally:
+            _undeclare(querier)
         self._handshake(body, ", ".join(endpoints))
         for pub in (self._call_pub, self._req_pub):
             self._wait_matching(pub, str(pub.key_expr))
@@ -388,9 +346,8 @@ class ZenohClient(NetworkClient):
             clock.precise_wait(clock.now() + 0.001)
 
     def _on_state(self, sample: Any) -> None:
-        head = sample.attachment
-        if head is not None:
-            self._on_stream(head.to_bytes(), sample.payload.to_bytes())
+        if sample.attachment is not None:
+            self._on_stream(sample.attachment.to_bytes(), sample.payload.to_bytes())
 
     def _send(self, kind: bytes, body: bytes) -> None:
         (self._req_pub if kind == REQUEST else self._call_pub).put(body)
@@ -410,23 +367,16 @@ class ZenohClient(NetworkClient):
         super().close()
 
 
-def _prefix(station: str, node: str) -> str:
-    for part in (station, node):
-        if not part or any(ch in part for ch in "/*$?#"):
-            raise ConfigError(f"zenoh middleware: '{part}' cannot be part of a key expression "
-                              "(station and node names must not contain / * $ ? #)")
-    return f"rio/{station}/{node}"
-
-
 class ZenohMiddleware(Middleware):
     name = "zenoh"
+
     class Config(NetworkConfig):
-        #: TCP port to listen on; None picks a free one (each node needs its own, so only fix it for
-        #: a station that serves a single node with these options).
+        #: TCP port to listen on; None picks a free one (each node needs its own, so only fix it for a
+        #: station that serves a single node with these options).
         port: int | None = None
         #: Extra endpoints the server connects to, e.g. a zenoh router `tcp/10.0.0.2:7447` (with `keys`
-        #: reached as `tls/10.0.0.2:7447`: the router needs a certificate from the station's CA whose
-        #: machine name this machine trusts, and enforces its own access control for what it forwards).
+        #: reached as `tls/...`: the router needs a certificate from the station's CA whose machine name this
+        #: machine trusts, and enforces its own access control for what it forwards).
         connect: list[str] = []
         #: "peer": listen on host:port, clients connect directly. "client": no listening socket; the
         #: server is reached only through the routers in `connect` (clients then connect there too).
@@ -438,19 +388,17 @@ class ZenohMiddleware(Middleware):
 
         @model_validator(mode="after")
         def _tls_routers(self) -> ZenohMiddleware.Config:
-            if self.keys is not None:
-                other = [e for e in self.connect if _proto(e) not in ("tcp", "tls")]
-                if other:
-                    raise ValueError(f"with keys every zenoh link is TLS: connect to routers as tcp/HOST:PORT "
-                                     f"or tls/HOST:PORT, not {', '.join(other)}")
+            other = [e for e in self.connect if _proto(e) not in ("tcp", "tls")] if self.keys is not None else []
+            if other:
+                raise ValueError(f"with keys every zenoh link is TLS: connect to routers as tcp/HOST:PORT "
+                                 f"or tls/HOST:PORT, not {', '.join(other)}")
             return self
 
     def placed(self, node: str, index: int, machine: str, section: MachineSection
                ) -> tuple[dict[str, Any], dict[str, Any]]:
         """One fixed port per node from the machine's `port` (peer mode), or the routers in `connect`
         (client mode); `tls/` with keys. The address has no pid: clients there go by heartbeats."""
-        prefix = _prefix(self.station, node)
-        keyed = self.config.keys is not None
+        prefix, keyed = _prefix(self.station, node), self.config.keys is not None
         if self.config.mode == "client":
             routers = _tls(self.config.connect) if keyed else list(self.config.connect)
             return {}, {"prefix": prefix, "endpoints": routers}

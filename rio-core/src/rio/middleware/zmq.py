@@ -222,6 +222,7 @@ class ZmqClient(NetworkClient):
                 self._call_sock.connect(f"tcp://{host}:{rpc_port}")
                 self._req_sock.connect(f"tcp://{host}:{rpc_port}")
                 self._hello(monitor, curve is not None)
+                self._send(HELLO, b"", self._req_sock)  # the request socket is a peer of its own: known too
             finally:
                 self._call_sock.disable_monitor()
                 monitor.close(linger=0)
@@ -261,10 +262,10 @@ class ZmqClient(NetworkClient):
             s.curve_serverkey, s.curve_publickey, s.curve_secretkey = curve
         return s
 
-    def _send(self, kind: bytes, body: bytes) -> None:
+    def _send(self, kind: bytes, body: bytes, sock: zmq.Socket | None = None) -> None:
         """Non-blocking, retried while the connection is (re)establishing or the pipe is full, checking
         liveness: a dead server is an error, never a hang."""
-        sock, msg = (self._req_sock if kind == REQUEST else self._call_sock), kind + body
+        sock, msg = sock or (self._req_sock if kind == REQUEST else self._call_sock), kind + body
         deadline = None
         while True:
             try:

@@ -66,7 +66,7 @@ class PortalServer(NetworkServer):
 
     def _ack(self, peer: Any, rid: int, status: int, a: Any, b: Any, tag: Any) -> None:
         if status == OK:  # what a portal client expects: one byte
-            self.vouch(peer)
+            self.vouch(peer, new=False)
             peer.send(pw.reply_frame(tag, TAKEN))
         else:
             super()._ack(peer, rid, status, a, b, tag)

@@ -20,6 +20,7 @@ from __future__ import annotations
 import logging
 import os
 import threading
+from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from typing import Any, ClassVar
 
@@ -54,8 +55,8 @@ class NetworkServer(ServerTransport):
         self.request_queue = (RequestQueue(layouts.request, layouts.request_capacity)
                               if layouts.request else None)
         self._stop, self._wake = threading.Event(), threading.Event()
-        #: Peers that finished a handshake or were served: they outrank strangers.
-        self._known: dict[Hashable, None] = {}
+        #: Peers that finished a handshake: they outrank strangers.
+        self._known: OrderedDict[Hashable, None] = OrderedDict()
         self._known_lock = threading.Lock()
         self._calls = FairQueue(config.max_pending_per_peer, config.max_pending, self._knows)
         self._intake = RequestIntake(self.name, self.request_queue, self._ack,
@@ -139,13 +140,16 @@ class NetworkServer(ServerTransport):
         self._calls.drop(peer)
         self._intake.drop(peer)
 
-    def vouch(self, peer: Hashable) -> None:
-        """`peer` has finished a handshake, or was served: it outranks strangers (`FairQueue`)."""
-        if peer not in self._known:  # (the newest `_KNOWN_MAX` to arrive are kept)
-            with self._known_lock:
+    def vouch(self, peer: Hashable, new: bool = True) -> None:
+        """`peer` finished a handshake (`new`), or, known already, was served again: it outranks strangers
+        (`FairQueue`). The `_KNOWN_MAX` most recent are kept."""
+        with self._known_lock:
+            if peer in self._known:
+                self._known.move_to_end(peer)
+            elif new:
                 self._known[peer] = None
                 if len(self._known) > _KNOWN_MAX:
-                    del self._known[next(iter(self._known))]
+                    self._known.popitem(last=False)
 
     def _knows(self, peer: Hashable) -> bool:
         return peer in self._known
@@ -158,7 +162,7 @@ class NetworkServer(ServerTransport):
 
     def _ack(self, peer: Hashable, rid: int, status: int, a: Any, b: Any, tag: Any) -> None:
         if status == m.OK:
-            self.vouch(peer)
+            self.vouch(peer, new=False)
         self._send(peer, m.ACK, m.pack_ack(rid, status, a, b), tag)
 
     def _too_many(self, peer: Hashable, item: tuple) -> None:
@@ -183,7 +187,7 @@ class NetworkServer(ServerTransport):
                                                                f"past call_timeout ({timeout:.3g} s)", ""])
             else:
                 reply = self._run(body)
-                self.vouch(peer)
+                self.vouch(peer, new=False)
             try:
                 self._send(peer, m.REPLY, reply, tag)
             except Exception:  # the transport is closing, or the peer has gone
