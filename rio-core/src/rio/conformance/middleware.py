@@ -85,12 +85,13 @@ class _Flooder:
         self.client = connect(EchoNode, mw, name=name, rate_hz=20)
         self.kind, self.burst, self.refused, self.sent = kind, burst, 0, 0
         self.error: BaseException | None = None
-        t = self.client._transport
+        t = self.client._transport  # type: ignore[attr-defined]  # (a NodeClient, typed as the node)
         if not isinstance(t, NetworkClient):
             self.client.close()
             pytest.skip("floods are sent through rio.middleware.protocol: this middleware does not use it")
-        record = EchoNode(rate_hz=20).layouts()[1].encode({"q": np.zeros(6), "client": -1, "seq": 0},
-                                                            fill_timestamp=0.0).tobytes()
+        layout = EchoNode(rate_hz=20).layouts()[1]
+        assert layout is not None
+        record = layout.encode({"q": np.zeros(6), "client": -1, "seq": 0}, fill_timestamp=0.0).tobytes()
         self._body = ((lambda i: msg.REQUEST_ID.pack(i) + record) if kind == "requests"
                       else (lambda i: wire.pack_call(i, "sleep", [0.02], {})))
         self._stop = threading.Event()

@@ -176,6 +176,7 @@ def _undeclare(*entities: Any) -> None:
 
 class ZenohServer(NetworkServer):
     mw = "zenoh"
+    config: ZenohConfig
 
     def __init__(self, node: Node, layouts: NodeLayouts, config: ZenohConfig, station: str = "rio"):
         super().__init__(node, layouts, config)
@@ -269,6 +270,7 @@ class ZenohServer(NetworkServer):
 
 class ZenohClient(NetworkClient):
     mw = "zenoh"
+    config: ZenohConfig
 
     def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], config: ZenohConfig,
                  station: str = "rio"):

@@ -64,6 +64,7 @@ def _hwm(msg_bytes: int) -> int:
 
 class ZmqServer(NetworkServer):
     mw = "zmq"
+    config: ZmqConfig
 
     def __init__(self, node: Node, layouts: NodeLayouts, config: ZmqConfig):
         super().__init__(node, layouts, config)
@@ -196,6 +197,7 @@ class ZmqServer(NetworkServer):
 
 class ZmqClient(NetworkClient):
     mw = "zmq"
+    config: ZmqConfig
 
     def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], config: ZmqConfig):
         try:

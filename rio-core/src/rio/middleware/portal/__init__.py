@@ -46,6 +46,7 @@ Answer = tuple[str | None, Any]
 
 class PortalClient(NetworkClient):
     mw = "portal"
+    config: PortalConfig
 
     def __init__(self, node: Node, layouts: NodeLayouts, address: dict[str, Any], config: PortalConfig):
         host, port = str(address["host"]), int(address["port"])

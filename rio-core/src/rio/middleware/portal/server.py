@@ -22,7 +22,7 @@ import threading
 import time
 from typing import TYPE_CHECKING, Any
 
-from rio.middleware.portal import wire as pw
+import rio.middleware.portal.wire as pw
 from rio.middleware.protocol import NetworkServer
 from rio.middleware.protocol.messages import CALL, HELLO, OK, STREAM_HEAD
 from rio.runtime.node import Node
@@ -41,6 +41,7 @@ _ACCEPT_WAKE_S = 0.2  # how often the accept thread looks at its stop flag
 
 class PortalServer(NetworkServer):
     mw = "portal"
+    config: PortalConfig
 
     def __init__(self, node: Node, layouts: NodeLayouts, config: PortalConfig):
         super().__init__(node, layouts, config)

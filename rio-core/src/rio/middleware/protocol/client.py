@@ -1,24 +1,17 @@
-"""The protocol's client side for one node, whatever carries the bytes.
+"""The protocol's client side for one node. An adapter subclasses `NetworkClient`, supplies `_send(kind,
+body)` and `_recv(kind)` (the next answer of that kind, waiting at most `POLL_S`, so a waiting caller looks
+at the server's liveness that often), passes the server's HELLO answer to `_handshake` and every
+state-stream message to `_on_stream`. This class does the rest:
 
-An adapter subclasses `NetworkClient` and supplies `_send(kind, body)` (to the server) and `_recv(kind)`
-(the next answer of that kind, waiting at most `POLL_S`: a waiting caller looks at the server's liveness
-that often), connects, gets the server's HELLO answer to `_handshake`, and feeds every state-stream message
-it receives to `_on_stream`. This class does the rest:
-
-- handshake: the protocol version and both layouts' fingerprints must match (a ConfigError naming the
-  node says what differs); the mirror is seeded with the server's newest sample, so the first read needs no
-  wait, and the server's epoch is noted.
-- state stream: a local ring buffer mirrors the node's. A sample enters only if its sequence number is
-  newer than the mirror's (never backwards, never twice); one of another epoch means the server restarted:
-  the client reports the node gone and must connect again (its layout may have changed).
-- liveness (`check_alive`, on every read): where the address shows the server's process on this machine,
-  its exit (`ProcessWatch`: exact and cheap); elsewhere every message heard counts, and after
-  `heartbeat_timeout` (at least 5 of the server's heartbeats) of silence the node is reported dead by name
-  (not for good: a server that speaks again, same epoch, is the same server). BYE, an exit, another epoch
-  or a lost connection are for good.
-- calls: one at a time per client, each with a new id; answers of other ids (late replies of calls that
-  timed out) are dropped; NodeTimeout after `call_timeout`, NodeDiedError as soon as the server is gone.
-- requests: `RequestFlow` (`rio.middleware.protocol.requests`).
+- handshake: the protocol version and both layouts' fingerprints must match (else a ConfigError naming the
+  node); the server's newest sample seeds the mirror, so the first read needs no wait.
+- state stream: a sample enters the local mirror only if it is newer than the newest there (never
+  backwards, never twice); one of another epoch means the server restarted: the node is gone for this client.
+- liveness (`check_alive`, on every read): the server's process where the address shows it on this
+  machine (exact, cheap); elsewhere any message counts, and `heartbeat_timeout` of silence reports the node
+  dead by name, until the same server speaks again. BYE, an exit, another epoch or a lost link are final.
+- calls, one at a time per client, each with a new id: answers of other ids (late replies of calls that
+  timed out) are dropped. Requests: `RequestFlow` (`requests`).
 """
 
 from __future__ import annotations

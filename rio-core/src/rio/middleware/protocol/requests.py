@@ -1,17 +1,15 @@
-"""Request flow control, both ends in one place: what a server does with a request, what a client does
-with the answer. (Credit-based flow control, where the server grants queue slots in its acknowledgements
-and a client with none fails at once, changes only this module: OK acks already carry the free slots.)
+"""Request flow control, both ends in one place (credit-based flow control, where acknowledgements grant
+queue slots and a client with none fails at once, would change only this module: OK already carries the
+free slots).
 
-Server (`RequestIntake`): a request is checked against the layout on arrival (INVALID at once, naming
-the field). While the node's queue has room and nobody waits, it enters the queue at once (OK; the answer
-leaves before the node loop wakes). Otherwise it waits in a `FairQueue` (a few per peer, a bound in all:
-beyond either, FULL at once) from which `feed` moves requests into the queue round-robin across peers as
-the node makes room, each answered OK then, or FULL once it has waited the queue's `put_timeout`. So a
-peer flooding requests gets FULL, and every other peer's request takes the next free slot in turn.
+Server (`RequestIntake`): a record is checked on arrival (INVALID at once, naming the field). While the
+node's queue has room and nobody waits it enters at once (the OK leaves before the node loop wakes); else
+it waits in a `FairQueue` (FULL at once beyond its bounds), from which `feed` moves requests round-robin
+across peers as the node makes room (OK), or answers FULL after the queue's `put_timeout`. So a peer
+flooding requests hears FULL, and every other peer's request takes the next free slot in turn.
 
-Client (`RequestFlow`): one request in flight per client (the sender's order is the node's order); it
-waits for that request's answer and returns on OK, or raises what the answer stands for (QueueFull,
-InvalidRequest naming the node and field), NodeTimeout when none comes, NodeDiedError when the server dies.
+Client (`RequestFlow`): one request in flight per client, so the node sees them in the sender's order; it
+returns on OK, raises QueueFull / InvalidRequest naming the node, NodeTimeout when no answer comes.
 """
 
 from __future__ import annotations

@@ -1,18 +1,14 @@
-"""The protocol's server side for one node, whatever carries the bytes.
+"""The protocol's server side for one node. An adapter (zmq, zenoh, portal) subclasses `NetworkServer`,
+supplies the transport (`_open`, `_send`, `_broadcast`, `_shut`), hands every message it receives to
+`on_message` with the peer it came from, and says `peer_gone` when a peer has left.
 
-An adapter (zmq, zenoh, portal) subclasses `NetworkServer` and supplies the transport: `_open` (bind,
-start receiving; returns the address), `_send` (one message to one peer, from any thread), `_broadcast`
-(a state-stream message to every client) and `_shut`. It hands every message it receives to `on_message`
-(or `take_request`) with the peer it came from, and says `peer_gone` when it knows a peer has left.
-
-What this class does with them: answers handshakes; takes requests (`RequestIntake`); queues API calls
-fairly (`FairQueue`: at most `max_pending_per_peer` per peer and `max_pending` in all, beyond which a call
-is answered TooManyCalls at once, naming the node) for one API thread that runs them one at a time and
-skips a call that waited past `call_timeout` (its caller has given up: running it would only delay the
-calls behind it) and the calls of a peer that has left; publishes each sample with its sequence number
-and the server's epoch; beats every `heartbeat_s` from its own thread, so a client hears from a live server
-even while the node publishes nothing or runs a slow call; says BYE on a clean close. Replies that leave
-the machine carry an error's type and message only (`wire.remote_error_payload`), never a traceback.
+This class answers handshakes, takes requests (`RequestIntake`) and queues API calls fairly (`FairQueue`:
+beyond `max_pending_per_peer` per peer or `max_pending` in all a call is answered TooManyCalls at once) for
+one API thread. That thread runs no call whose caller has given up (it waited past `call_timeout`: running
+it would only delay the calls behind it) nor those of a peer that has left. Samples are published with the
+server's epoch and their sequence number; heartbeats go out every `heartbeat_s` from a thread of their own,
+so a client hears from a live server while the node publishes nothing or runs a slow call; a clean close
+says BYE. An error reply carries the exception's type and message only (`wire.remote_error_payload`).
 """
 
 from __future__ import annotations
@@ -36,12 +32,11 @@ from rio.runtime.transport import NodeLayouts, ServerTransport
 
 log = logging.getLogger("rio.middleware.protocol")
 
-_KNOWN_MAX = 1024
+_KNOWN_MAX = 1024  # peers remembered as known (the most recently seen)
 
 
 class NetworkServer(ServerTransport):
-    #: The middleware's name, for thread names and messages.
-    mw: ClassVar[str] = "network"
+    mw: ClassVar[str] = "network"  # the middleware's name, for thread names and messages
 
     def __init__(self, node: Node, layouts: NodeLayouts, config: NetworkConfig):
         self.name, self.layouts, self.config = node.name, layouts, config
@@ -50,17 +45,15 @@ class NetworkServer(ServerTransport):
         self._epoch = int.from_bytes(os.urandom(4), "little")
         self._last: tuple[int, bytes] | None = None  # the newest sample (seq, record), for handshakes
         self._stream_lock = threading.Lock()  # the node loop, SDK callbacks and the heartbeat share the stream
-        self.ring_buffer = (RingBuffer(layouts.data, layouts.buffer_capacity, on_put=self._publish)
-                            if layouts.data else None)
-        self.request_queue = (RequestQueue(layouts.request, layouts.request_capacity)
-                              if layouts.request else None)
+        self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity, on_put=self._publish) \
+            if layouts.data else None
+        self.request_queue = RequestQueue(layouts.request, layouts.request_capacity) if layouts.request else None
         self._stop, self._wake = threading.Event(), threading.Event()
-        #: Peers that finished a handshake: they outrank strangers.
-        self._known: OrderedDict[Hashable, None] = OrderedDict()
+        self._known: OrderedDict[Hashable, None] = OrderedDict()  # peers that finished a handshake
         self._known_lock = threading.Lock()
-        self._calls = FairQueue(config.max_pending_per_peer, config.max_pending, self._knows)
-        self._intake = RequestIntake(self.name, self.request_queue, self._ack,
-                                     FairQueue(config.max_pending_per_peer, config.max_pending, self._knows),
+        per, total = config.max_pending_per_peer, config.max_pending
+        self._calls = FairQueue(per, total, self._knows)
+        self._intake = RequestIntake(self.name, self.request_queue, self._ack, FairQueue(per, total, self._knows),
                                      self._wake.set)
         self._warn = m.Throttled(log)
         self._threads: list[threading.Thread] = []
@@ -73,11 +66,11 @@ class NetworkServer(ServerTransport):
         raise NotImplementedError
 
     def _send(self, peer: Hashable, kind: bytes, body: bytes, tag: Any = None) -> None:
-        """Send one message to one peer (`tag`: what the adapter passed in with the message answered)."""
+        """One message to one peer, from any thread (`tag`: what came in with the message it answers)."""
         raise NotImplementedError
 
     def _broadcast(self, head: bytes, record: bytes | None) -> None:
-        """Send a state-stream message (a header, and a record for STATE) to every client."""
+        """A state-stream message (a header, and the record for STATE) to every client."""
         raise NotImplementedError
 
     def _shut(self, busy: bool) -> None:
@@ -121,16 +114,13 @@ class NetworkServer(ServerTransport):
             refused = self._calls.put(peer, (body, clock.now(), tag))
             if refused is not None:
                 self._too_many(*refused)
-        elif kind == m.REQUEST:
-            if len(body) < m.REQUEST_ID.size:
-                self._warn("node '%s': ignored a request without an id from %r", self.name, peer)
-            else:
-                self.take_request(peer, m.REQUEST_ID.unpack_from(body)[0], memoryview(body)[m.REQUEST_ID.size:], tag)
+        elif kind == m.REQUEST and len(body) >= m.REQUEST_ID.size:
+            self.take_request(peer, m.REQUEST_ID.unpack_from(body)[0], memoryview(body)[m.REQUEST_ID.size:], tag)
         elif kind == m.HELLO:
             self.vouch(peer)
             self._send(peer, m.HELLO, self.hello(), tag)
-        else:
-            self._warn("node '%s': ignored a message of unknown kind %r from %r", self.name, kind, peer)
+        else:  # a request without an id has nobody to answer
+            self._warn("node '%s': ignored a message of kind %r from %r", self.name, kind, peer)
 
     def take_request(self, peer: Hashable, rid: int, record: memoryview, tag: Any = None) -> None:
         self._intake.take(peer, rid, record, tag)
@@ -141,8 +131,7 @@ class NetworkServer(ServerTransport):
         self._intake.drop(peer)
 
     def vouch(self, peer: Hashable, new: bool = True) -> None:
-        """`peer` finished a handshake (`new`), or, known already, was served again: it outranks strangers
-        (`FairQueue`). The `_KNOWN_MAX` most recent are kept."""
+        """`peer` finished a handshake (`new`), or, known already, was served again: it outranks strangers."""
         with self._known_lock:
             if peer in self._known:
                 self._known.move_to_end(peer)
@@ -166,17 +155,16 @@ class NetworkServer(ServerTransport):
         self._send(peer, m.ACK, m.pack_ack(rid, status, a, b), tag)
 
     def _too_many(self, peer: Hashable, item: tuple) -> None:
-        body, _, tag = item
         per, total = self.config.max_pending_per_peer, self.config.max_pending
         self._warn("node '%s': refused an API call of %r: too many calls queued", self.name, peer)
-        self._send(peer, m.REPLY, wire.pack_reply(m.call_id(body), False, [
+        self._send(peer, m.REPLY, wire.pack_reply(m.call_id(item[0]), False, [
             "TooManyCalls", f"too many calls queued (at most {per} per client, {total} in all): try again later",
-            ""]), tag)
+            ""]), item[2])
 
     # -- threads -------------------------------------------------------------------------------------
     def _serve_calls(self) -> None:
-        """The API thread: calls in turn across peers, one at a time (the node's lock serializes them
-        with its loop anyway). A slow call therefore delays calls only, never requests or the stream."""
+        """The API thread: calls in turn across peers, one at a time (the node's lock serializes them with
+        its loop anyway), so a slow call delays calls only, never requests or the stream."""
         timeout = self.config.call_timeout
         while (got := self._calls.get()) is not None:
             peer, (body, t_in, tag) = got
@@ -184,7 +172,7 @@ class NetworkServer(ServerTransport):
             if waited > timeout:  # its caller has given up: say so (to nobody, usually) and move on
                 log.debug("node '%s': skipped a call of %r that waited %.3g s", self.name, peer, waited)
                 reply = wire.pack_reply(m.call_id(body), False, ["Skipped", f"not run: waited {waited:.3g} s, "
-                                                               f"past call_timeout ({timeout:.3g} s)", ""])
+                                                                 f"past call_timeout ({timeout:.3g} s)", ""])
             else:
                 reply = self._run(body)
                 self.vouch(peer, new=False)
@@ -206,7 +194,7 @@ class NetworkServer(ServerTransport):
             return wire.pack_reply(cid, False, wire.remote_error_payload(e))
 
     def _service(self) -> None:
-        """Heartbeats every `heartbeat_s`, and requests moved into the node's queue as it makes room."""
+        """Heartbeats every `heartbeat_s`, and waiting requests moved into the node's queue as it makes room."""
         period = self.config.heartbeat_s
         t_beat = clock.now() + period
         while not self._stop.is_set():
@@ -226,11 +214,10 @@ class NetworkServer(ServerTransport):
         """RingBuffer.on_put: send the new record right after it is stored (the node loop's thread)."""
         data = rec.tobytes()
         with self._stream_lock:
-            if self.closed:
-                return
-            seq = self.ring_buffer.count
-            self._last = (seq, data)
-            self._broadcast(m.STREAM_HEAD.pack(m.STATE, self._fp, self._epoch, seq), data)
+            if not self.closed:
+                seq = self.ring_buffer.count
+                self._last = (seq, data)
+                self._broadcast(m.STREAM_HEAD.pack(m.STATE, self._fp, self._epoch, seq), data)
 
     def _send_control(self, kind: bytes) -> None:
         """A heartbeat (BEAT) or a goodbye (BYE) on the state stream."""
