@@ -283,8 +283,7 @@ class ZmqClient(NetworkClient):
             time.sleep(0.0005)
 
     def _recv(self, kind: bytes) -> memoryview | None:
-        sock = self._req_sock if kind == ACK else self._call_sock
-        t_end = clock.now() + POLL_S
+        sock, t_end = (self._req_sock if kind == ACK else self._call_sock), 0.0
         while True:
             try:
                 msg = sock.recv()  # RCVTIMEO: at most a liveness poll
@@ -292,6 +291,7 @@ class ZmqClient(NetworkClient):
                 return None
             if msg[:1] == kind:
                 return memoryview(msg)[1:]
+            t_end = t_end or clock.now() + POLL_S
             if clock.now() > t_end:  # only strays arrive (answers to a handshake of long ago)
                 return None
 

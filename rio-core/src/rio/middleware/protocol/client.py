@@ -160,11 +160,12 @@ class NetworkClient(ClientTransport):
             self.check_alive()
             cid = next(self._call_ids)
             self._send(m.CALL, wire.pack_call(cid, method, args, kwargs))
-            deadline = clock.now() + timeout
+            deadline = None  # computed when first needed: the fast path is one send and one receive
             while True:
                 body = self._recv(m.REPLY)
                 if body is None:
                     self.check_alive()
+                    deadline = deadline or clock.now() - POLL_S + timeout
                     if clock.now() > deadline:
                         raise NodeTimeout(self.name, f"API call {method}()", timeout)
                     continue
