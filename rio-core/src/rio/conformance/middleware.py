@@ -33,11 +33,11 @@ import pytest
 import rio
 from rio import ServerManager, connect, serve
 from rio.conformance.process import assert_no_shm_left, child_pids, shm_entries
-from rio.middleware.protocol import NetworkClient
+from rio.middleware.protocol import NetworkClient, NetworkConfig
 from rio.middleware.protocol import messages as msg
 from rio.runtime import wire
 from rio.runtime.transport import Middleware
-from rio.testing import EchoNode, FailingOpenNode, ImageNode, wait_until
+from rio.testing import EchoNode, FailingOpenNode, ImageNode, no_new_threads, wait_until
 
 __all__ = ["FloodConformance", "MiddlewareConformance"]
 
@@ -415,6 +415,40 @@ class MiddlewareConformance(FloodConformance):
         assert "cam0" in str(ei.value) and "/dev/ttyFAKE" in str(ei.value)
         assert child_pids() <= children_before
         assert_no_shm_left(mgr, shm_before)
+
+    @pytest.mark.usefixtures("own_servers")
+    def test_no_thread_outlives_its_client_or_server(self, mw, tmp_path):
+        """Every thread a client started has ended when `close()` returns, after calls, requests and reads;
+        so has every thread of a server made in this process (as the thread middleware's are; also checked
+        for the middlewares built on rio.middleware.protocol, whose servers run in other programs too)."""
+        from rio.plugins import get_middleware
+        from rio.runtime.runner import Dispatcher
+        from rio.runtime.transport import NodeLayouts, machine_id
+
+        def use(address: dict[str, Any] | None = None) -> None:
+            with connect(EchoNode, mw, name="tidy", address=address) as c:
+                assert c.echo(1) == 1 and c.get_state()["tick"] >= 1
+                c.send_request(q=np.zeros(6), client=0, seq=0)
+
+        with ServerManager(mw, [serve(EchoNode, name="tidy")]):
+            for _ in range(2):
+                with no_new_threads():  # the client's threads only: its server runs elsewhere
+                    use()
+        middleware = mw if isinstance(mw, Middleware) else get_middleware(mw)()
+        if middleware.process_per_node and not isinstance(middleware.config, NetworkConfig):
+            return  # its servers run only in node processes of their own
+        node = EchoNode()
+        node.name = "tidy"
+        layouts = NodeLayouts.of(node)
+        with no_new_threads():
+            server = middleware.make_server(node, layouts, middleware.prepare(layouts, str(tmp_path)))
+            try:  # stamped as ServerManager stamps a node's address: the server runs in this process
+                address = {**server.start(Dispatcher(node, threading.RLock())), "pid": os.getpid(),
+                           "machine": machine_id()}
+                server.ring_buffer.put(node.read_state())
+                use(address)  # (its server's threads for this client may end after the client's close)
+            finally:
+                server.close()
 
     def test_connect_without_server_is_clear(self, mw):
         with pytest.raises(rio.NodeDiedError, match="ghost"):

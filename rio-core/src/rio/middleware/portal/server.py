@@ -99,6 +99,9 @@ class PortalServer(NetworkServer):
             links = list(self._links)
         for link in links:
             link.close("the node is stopping")
+        for link in links:
+            if link.reader is not None:
+                link.reader.join(2.0)  # (it joins its writer)
         if self._listener is not None:
             self._listener.close()
 
@@ -124,8 +127,9 @@ class PortalServer(NetworkServer):
                            _MAX_CONNECTIONS)
                 sock.close()
             else:
-                threading.Thread(target=self._serve, args=(link,), name=f"rio-{self.name}-portal-conn",
-                                 daemon=True).start()
+                link.reader = threading.Thread(target=self._serve, args=(link,), name=f"rio-{self.name}-portal-conn",
+                                               daemon=True)
+                link.reader.start()
 
     def _serve(self, link: pw.Link) -> None:
         """The connection's reader: handshake, then frames until the peer leaves or breaks the framing."""

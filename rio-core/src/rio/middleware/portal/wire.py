@@ -156,6 +156,7 @@ class Link:
         self._cv = threading.Condition()
         self.writer = threading.Thread(target=self._write_loop, name=f"rio-{node}-portal-send", daemon=True)
         self.writer.start()
+        self.reader: threading.Thread | None = None  # its owner's, that reads frames
 
     def __repr__(self) -> str:
         return self.peer
