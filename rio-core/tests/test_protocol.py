@@ -202,7 +202,7 @@ def _arm(cls=None) -> rio.Node:
 @pytest.fixture
 def pair():
     node = _arm()
-    server = _Server(node, NetworkConfig(call_timeout=0.5, heartbeat_s=0.02, heartbeat_timeout=0.3))
+    server = _Server(node, NetworkConfig(call_timeout=1.0, heartbeat_s=0.02, heartbeat_timeout=0.3))
     server.start(Dispatcher(node, threading.RLock()))
     made = []
 
@@ -264,18 +264,19 @@ def _dead(c) -> bool:
 
 
 def test_calls_late_replies_are_dropped_and_stale_calls_not_run(pair):
-    node, _, client = pair
+    node, server, client = pair
     a, b = client(), client()
     assert a.call("bump", (), {}) == 1
-    blocker = threading.Thread(target=lambda: _swallow(lambda: a.call("sleep", (0.6,), {})))
+    blocker = threading.Thread(target=lambda: _swallow(lambda: a.call("sleep", (1.3,), {})))
     blocker.start()
     time.sleep(0.05)
     with pytest.raises(NodeTimeout, match="'arm'"):
-        b.call("bump", (), {})  # queued behind 0.6 s with a 0.5 s timeout: its caller gives up ...
+        b.call("bump", (), {})  # queued behind 1.3 s; its caller gives up after 0.5 s, the node after 1 s ...
     blocker.join(5)
-    time.sleep(0.2)
+    assert wait_until(lambda: not len(server._calls), timeout=5)
+    time.sleep(0.1)
     assert node.runs == 1  # ... and it is not run late
-    assert b.call("bump", (), {}) == 2  # the reply of the timed-out call (if any) is not taken for this one
+    assert b.call("bump", (), {}) == 2  # its "not run" answer is not taken for this call's
     with pytest.raises(NodeError, match="'arm'.*AttributeError"):
         b.call("nothing", (), {})
 
