@@ -51,9 +51,11 @@ class FairQueue:
                 self._n -= 1
                 if not self._queues[victim]:
                     del self._queues[victim]
+                q = self._queues.get(peer)
             if q is None:
-                q = self._queues[peer] = deque()
-            q.append(item)
+                self._queues[peer] = deque((item,))
+            else:
+                q.append(item)
             self._n += 1
         self._tokens.put(None)
         return refused
@@ -76,16 +78,15 @@ class FairQueue:
                 if self._closed:
                     self._tokens.put(None)  # for the next waiter
                     return None
-                if not self._n:
-                    continue  # the token of an item that left otherwise
-                peer, q = next(iter(self._queues.items()))
-                item = q.popleft()
-                self._n -= 1
-                if q:
-                    self._queues.move_to_end(peer)  # its next item waits for everyone else's turn
-                else:
-                    del self._queues[peer]
-                return peer, item
+                for peer, q in self._queues.items():  # the first in turn (if any)
+                    item = q.popleft()
+                    self._n -= 1
+                    if q:
+                        self._queues.move_to_end(peer)  # its next item waits for everyone else's turn
+                    else:
+                        del self._queues[peer]
+                    return peer, item
+                # no item: the token of one that left otherwise
 
     def expire(self, older: Callable[[Any], bool]) -> list[tuple[Hashable, Any]]:
         """Remove and return the items for which `older(item)` is true (each peer's queue is in arrival
