@@ -63,7 +63,8 @@ class PortalClient(NetworkClient):
         except OSError as e:
             super().close()
             raise NodeDiedError(self.name, f"no portal server answers at {host}:{port} ({e})") from e
-        self._link = pw.Link(sock, f"{host}:{port}", self.name, max(config.call_timeout, 1.0), self._heard)
+        self._link = pw.Link(sock, f"{host}:{port}", self.name, max(config.call_timeout, 1.0), self._heard,
+                             writer=False)
         self._limit = config.message_limit(layouts)
         try:
             self._spawn(self._read_loop, "recv")
@@ -168,7 +169,7 @@ class PortalClient(NetworkClient):
         link = getattr(self, "_link", None)
         if link is not None:
             link.close("client closed")
-            for t in [link.writer, *self._threads]:
+            for t in self._threads:
                 if t is not threading.current_thread():
                     t.join(1.0)
             link.sock.close()

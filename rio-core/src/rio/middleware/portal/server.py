@@ -149,7 +149,8 @@ class PortalServer(NetworkServer):
         finally:
             link.close(why, level)
             self.peer_gone(link)
-            link.writer.join(1.0)
+            if link.writer is not None:
+                link.writer.join(1.0)
             link.sock.close()
             with self._lock:
                 self._links.discard(link)
