@@ -420,9 +420,10 @@ class MiddlewareConformance(FloodConformance):
 
     @pytest.mark.usefixtures("own_servers")
     def test_no_thread_outlives_its_client_or_server(self, mw, tmp_path):
-        """Every thread a client started has ended when `close()` returns, after calls, requests and reads;
-        so has every thread of a server made in this process (as the thread middleware's are; also checked
-        for the middlewares built on rio.middleware.protocol, whose servers run in other programs too)."""
+        """Every thread a client started has ended once it is closed, after calls, requests and reads; so has
+        every thread of a server made in this process (as the thread middleware's are; also checked for the
+        middlewares built on rio.middleware.protocol, whose servers run in other programs too). A thread may
+        take `thread_grace_s` to go: zenoh ends its callback threads shortly after their subscriptions."""
         from rio.plugins import get_middleware
         from rio.runtime.runner import Dispatcher
         from rio.runtime.transport import NodeLayouts, machine_id
@@ -434,7 +435,7 @@ class MiddlewareConformance(FloodConformance):
 
         with ServerManager(mw, [serve(EchoNode, name="tidy")]):
             for _ in range(2):
-                with no_new_threads():  # the client's threads only: its server runs elsewhere
+                with no_new_threads(self.thread_grace_s):  # the client's threads only: its server runs elsewhere
                     use()
         middleware = mw if isinstance(mw, Middleware) else get_middleware(mw)()
         if middleware.process_per_node and not isinstance(middleware.config, NetworkConfig):
@@ -442,7 +443,7 @@ class MiddlewareConformance(FloodConformance):
         node = EchoNode()
         node.name = "tidy"
         layouts = NodeLayouts.of(node)
-        with no_new_threads():
+        with no_new_threads(self.thread_grace_s):
             server = middleware.make_server(node, layouts, middleware.prepare(layouts, str(tmp_path)))
             try:  # stamped as ServerManager stamps a node's address: the server runs in this process
                 address = {**server.start(Dispatcher(node, threading.RLock())), "pid": os.getpid(),
@@ -451,6 +452,9 @@ class MiddlewareConformance(FloodConformance):
                 use(address)  # (its server's threads for this client may end after the client's close)
             finally:
                 server.close()
+
+    #: How long a thread may take to end after its client or server was closed (s).
+    thread_grace_s: ClassVar[float] = 1.0
 
     def test_connect_without_server_is_clear(self, mw):
         with pytest.raises(rio.NodeDiedError, match="ghost"):
