@@ -3,11 +3,14 @@ middleware: the in-tree user of the kit, written exactly as a third-party middle
 
 Each case goes through the public API only (serve / connect / ServerManager) with the nodes from
 `rio.testing`; a third-party middleware subclasses the same class (or runs `pytest --rio-middleware NAME`).
+The flood cases run once more with keys on the middlewares that authenticate (portal has no keys).
 """
 
 from __future__ import annotations
 
-from rio.conformance.middleware import MiddlewareConformance
+import pytest
+
+from rio.conformance.middleware import FloodConformance, MiddlewareConformance
 
 
 class TestThread(MiddlewareConformance):
@@ -29,3 +32,31 @@ class TestZenoh(MiddlewareConformance):
 class TestPortal(MiddlewareConformance):
     middleware = "portal"
 
+
+
+# -- floods by authenticated peers: the flooders hold the station's keys too ---------------------------
+def _keys(tmp_path_factory) -> str:
+    from rio.machine import keys
+
+    root = tmp_path_factory.mktemp("keys")
+    keys.generate(root, ["robot"])
+    return str(root / "robot")
+
+
+class TestZmqTrustedFloods(FloodConformance):
+    @pytest.fixture(scope="class")
+    @classmethod
+    def mw(cls, tmp_path_factory):
+        from rio.middleware.zmq import ZmqMiddleware
+
+        return ZmqMiddleware(keys=_keys(tmp_path_factory))
+
+
+class TestZenohTrustedFloods(FloodConformance):
+    @pytest.fixture(scope="class")
+    @classmethod
+    def mw(cls, tmp_path_factory):
+        pytest.importorskip("zenoh")
+        from rio.middleware.zenoh import ZenohMiddleware
+
+        return ZenohMiddleware(keys=_keys(tmp_path_factory), station="floods")

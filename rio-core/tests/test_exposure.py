@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from rio.errors import ConfigError
-from rio.runtime.transport import NodeLayouts, is_loopback
+from rio.middleware.protocol import is_loopback
+from rio.runtime.transport import NodeLayouts
 from rio.station import make_station, parse_station
 from rio.testing import EchoNode
 

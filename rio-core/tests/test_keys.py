@@ -11,7 +11,7 @@ import pytest
 
 from rio.errors import ConfigError
 from rio.machine import keys
-from rio.runtime.transport import NetworkConfig
+from rio.middleware.protocol import NetworkConfig
 
 
 @pytest.fixture(scope="module")

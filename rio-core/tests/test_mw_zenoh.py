@@ -316,7 +316,7 @@ def test_request_to_a_node_without_requests_is_refused():
     """A request put on a node that takes none is answered, as refused (no sender waits in vain)."""
     import zenoh
 
-    from rio.middleware.zenoh import _REQ_ID
+    from rio.middleware.protocol.messages import REQUEST_ID as _REQ_ID
     from rio.runtime import wire
     from rio.testing import Counter
 
@@ -356,7 +356,7 @@ def test_a_message_over_the_node_limit_is_refused_before_it_reaches_the_node(lim
     record is invalid: the check that the first case's silence is the limit at work."""
     import zenoh
 
-    from rio.middleware.zenoh import _REQ_ID
+    from rio.middleware.protocol.messages import REQUEST_ID as _REQ_ID
     from rio.runtime import wire
 
     mw = ZenohMiddleware(ZenohMiddleware.Config(max_message_bytes=limit), station="big")

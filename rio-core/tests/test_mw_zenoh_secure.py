@@ -19,7 +19,8 @@ import rio  # noqa: E402
 from rio import ServerManager, connect, serve  # noqa: E402
 from rio.errors import ConfigError  # noqa: E402
 from rio.machine import keys  # noqa: E402
-from rio.middleware.zenoh import _REQ_ID, _SESSIONS, ZenohMiddleware, _config, _free_port  # noqa: E402
+from rio.middleware.protocol.messages import REQUEST_ID as _REQ_ID  # noqa: E402
+from rio.middleware.zenoh import _SESSIONS, ZenohMiddleware, _config, _free_port  # noqa: E402
 from rio.runtime import wire  # noqa: E402
 from rio.testing import EchoNode, wait_until  # noqa: E402
 

@@ -191,7 +191,7 @@ def test_image_stream_fixed_ports_and_clean_shutdown():
     assert time.monotonic() - t0 < 0.3
     c.close()
     remote.close()
-    assert not [t for t in threading.enumerate() if t.name.startswith("rio-zmq")]
+    assert not [t for t in threading.enumerate() if t.name.startswith("rio-cam-")]  # the clients' threads
 
 
 def test_restarted_server_is_a_new_server():

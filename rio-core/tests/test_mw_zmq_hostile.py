@@ -18,6 +18,7 @@ import rio
 import rio.machine.keys
 from rio import ServerManager, connect, serve
 from rio.errors import ConfigError
+from rio.middleware.protocol.messages import REQUEST, REQUEST_ID
 from rio.middleware.zmq import ZmqMiddleware
 from rio.runtime import wire
 from rio.runtime.node import remote
@@ -185,7 +186,7 @@ def test_an_unauthenticated_client_gets_nothing_from_a_keyed_node(keys, keyed_se
         dealer = _raw(ctx, zmq.DEALER, addr, "rpc_port")
         dealer.send(b"h")
         dealer.send(b"c" + wire.pack_call(1, "echo", ["hi"], {}))
-        dealer.send(b"r\x01\x00\x00\x00" + _record(client=99, seq=1))
+        dealer.send(REQUEST + REQUEST_ID.pack(1) + _record(client=99, seq=1))
         assert _messages(dealer, 1.5) == []
         assert _messages(sub, 0.5) == []  # the node publishes at 200 Hz: a reader would have had ~100
         sub.close()

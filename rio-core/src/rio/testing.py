@@ -129,14 +129,20 @@ def run_scripted_square(station: str, side: float = 0.05, speed: float = 0.15) -
 
 
 @contextmanager
-def no_new_threads() -> Iterator[None]:
+def no_new_threads(grace_s: float = 0.0) -> Iterator[None]:
     """Fail if a thread started inside the block still runs at its end: an emulator, a DDS listener or a
     bridge a test forgot to stop would otherwise keep running into the next test (a plugin conftest's
-    autouse fixture: `with no_new_threads(): yield`)."""
+    autouse fixture: `with no_new_threads(): yield`). `grace_s`: how long threads a library ends by itself
+    after its objects are released (zenoh's callback threads) may take to go."""
     before = set(threading.enumerate())
     yield
-    left = [t for t in threading.enumerate() if t not in before and t.is_alive()]
-    assert not left, f"threads left running: {left}"
+
+    def left() -> list[threading.Thread]:
+        return [t for t in threading.enumerate() if t not in before and t.is_alive()]
+
+    if grace_s > 0:
+        wait_until(lambda: not left(), timeout=grace_s)
+    assert not left(), f"threads left running: {left()}"
 
 
 @contextmanager

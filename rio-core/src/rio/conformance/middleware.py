@@ -11,6 +11,10 @@ Cases that need the shared echo server (`running`) share one per class; the case
 own servers first stop it, so no two servers of the same name run at once.
 
 Without writing a file: `pytest --rio-middleware NAME` (see `rio.conformance.pytest_plugin`).
+
+The flood cases (`test_flood_*`) run on middlewares built on RIO's network protocol
+(`rio.middleware.protocol`): connected clients there send calls or requests without waiting for their
+answers, as a flooding peer would (authenticated, when the middleware has keys).
 """
 
 from __future__ import annotations
@@ -29,10 +33,13 @@ import pytest
 import rio
 from rio import ServerManager, connect, serve
 from rio.conformance.process import assert_no_shm_left, child_pids, shm_entries
+from rio.middleware.protocol import NetworkClient, NetworkConfig
+from rio.middleware.protocol import messages as msg
+from rio.runtime import wire
 from rio.runtime.transport import Middleware
-from rio.testing import EchoNode, FailingOpenNode, ImageNode, wait_until
+from rio.testing import EchoNode, FailingOpenNode, ImageNode, no_new_threads, wait_until
 
-__all__ = ["MiddlewareConformance"]
+__all__ = ["FloodConformance", "MiddlewareConformance"]
 
 
 def _label(mw: str | Middleware) -> str:
@@ -70,14 +77,65 @@ class _SharedEcho:
             stack.close()
 
 
-class MiddlewareConformance:
-    """Base class of the middleware conformance cases. Subclass it as `Test...` and set `middleware`.
+class _Flooder:
+    """A connected client that sends calls (or requests) in bursts without waiting for their answers, from
+    one thread, and counts the refusals it hears (TooManyCalls, FULL): a peer flooding the node."""
 
-    Not named `Test*`, so importing it into a test module does not collect it there; pytest collects
-    the inherited cases from each subclass. `middleware = None` takes the name from `--rio-middleware`.
-    A Middleware instance of a process-per-node middleware is re-created in each node's spawned
-    process from its class, so that class must live in an importable module (not a test file).
-    """
+    def __init__(self, mw: str | Middleware, name: str, kind: str, burst: int):
+        self.client = connect(EchoNode, mw, name=name, rate_hz=20)
+        self.kind, self.burst, self.refused, self.sent = kind, burst, 0, 0
+        self.error: BaseException | None = None
+        t = self.client._transport  # type: ignore[attr-defined]  # (a NodeClient, typed as the node)
+        if not isinstance(t, NetworkClient):
+            self.client.close()
+            pytest.skip("floods are sent through rio.middleware.protocol: this middleware does not use it")
+        layout = EchoNode(rate_hz=20).layouts()[1]
+        assert layout is not None
+        record = layout.encode({"q": np.zeros(6), "client": -1, "seq": 0}, fill_timestamp=0.0).tobytes()
+        self._body = ((lambda i: msg.REQUEST_ID.pack(i) + record) if kind == "requests"
+                      else (lambda i: wire.pack_call(i, "sleep", [0.02], {})))
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, args=(t,), name=f"rio-kit-flood-{name}", daemon=True)
+        self._thread.start()
+
+    def _run(self, t: NetworkClient) -> None:
+        kind, answer = (msg.REQUEST, msg.ACK) if self.kind == "requests" else (msg.CALL, msg.REPLY)
+        try:
+            while not self._stop.is_set():
+                for _ in range(self.burst):
+                    self.sent += 1
+                    t._send(kind, self._body(self.sent))
+                while (body := t._recv(answer)) is not None:  # what arrived, then a liveness poll's wait
+                    got = wire.unpack(body)
+                    if answer == msg.ACK:
+                        self.refused += got[1] == msg.FULL
+                    else:
+                        self.refused += not got[1] and got[2][0] == "TooManyCalls"
+        except BaseException as e:  # reported by stop()
+            self.error = e
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(30)
+        self.client.close()
+        assert self.error is None, f"the flooder failed: {self.error!r}"
+
+
+@contextlib.contextmanager
+def _flood(mw: str | Middleware, name: str, kind: str, peers: int, burst: int) -> Iterator[list[_Flooder]]:
+    flooders: list[_Flooder] = []
+    try:
+        for _ in range(peers):
+            flooders.append(_Flooder(mw, name, kind, burst))
+        time.sleep(0.5)  # the node's queues fill
+        yield flooders
+    finally:
+        for f in flooders:
+            f.stop()
+
+
+class _Kit:
+    """What every kit class shares: the middleware under test and its servers (see MiddlewareConformance)."""
 
     #: Registered middleware name (as in `rio plugins list`) or a Middleware instance.
     middleware: ClassVar[str | Middleware | None] = None
@@ -113,6 +171,64 @@ class MiddlewareConformance:
     def own_servers(self, shared_echo: _SharedEcho) -> None:
         """For cases that start their own servers: the shared echo server is stopped first."""
         shared_echo.stop()
+
+class FloodConformance(_Kit):
+    """The flood cases alone (also part of MiddlewareConformance): for running them again under other
+    settings, e.g. with keys, where the flooding peers are authenticated ones."""
+
+    # -- floods: a peer that floods is refused or slowed, every other client is answered in time ------
+    #: Flooding peers in the many-peers cases; each keeps up to `max_pending_per_peer` calls queued.
+    flood_peers: ClassVar[int] = 16
+    #: How long a call or request of a well-behaved client may take while a flood runs (s): generous,
+    #: against the ~0.3 s a round of the flooders' slow calls takes.
+    flood_answer_s: ClassVar[float] = 1.0
+
+    def _answered_in_time(self, mw: str | Middleware, name: str, flooders: list[_Flooder], what: str) -> None:
+        with connect(EchoNode, mw, name=name, rate_hz=20) as c:
+            took: list[float] = []
+            for i in range(10):
+                t0 = time.monotonic()
+                assert c.echo(i) == i
+                t1 = time.monotonic()
+                c.send_request(q=np.full(6, float(i)), client=5, seq=i)
+                took += [t1 - t0, time.monotonic() - t1]
+            assert max(took) < self.flood_answer_s, (
+                f"while {len(flooders)} peer(s) flooded {what}, calls took up to {max(took[::2]):.2f} s and requests "
+                f"up to {max(took[1::2]):.2f} s")
+            assert wait_until(lambda: [5, 9] in c.handled(), timeout=self.wait_s), "requests lost in the flood"
+        assert sum(f.refused for f in flooders) > 0, f"the flood of {what} was never refused: no flood at all?"
+
+    @pytest.mark.usefixtures("own_servers")
+    def test_flood_of_slow_calls_from_many_peers(self, mw):
+        """Many peers (zmq identities, zenoh clients listening for their own replies, portal connections)
+        each keep slow calls queued, more than the node queues in all: they hear TooManyCalls, and another
+        client's calls and requests are answered within `flood_answer_s` throughout."""
+        with ServerManager(mw, [serve(EchoNode, name="flooded", rate_hz=20)]):
+            with _flood(mw, "flooded", "calls", self.flood_peers, burst=8) as flooders:
+                self._answered_in_time(mw, "flooded", flooders, "slow calls")
+
+    @pytest.mark.usefixtures("own_servers")
+    def test_flood_of_slow_calls_from_one_peer(self, mw):
+        with ServerManager(mw, [serve(EchoNode, name="flooded", rate_hz=20)]):
+            with _flood(mw, "flooded", "calls", 1, burst=64) as flooders:
+                self._answered_in_time(mw, "flooded", flooders, "slow calls")
+
+    @pytest.mark.usefixtures("own_servers")
+    def test_flood_of_requests(self, mw):
+        """Peers send requests as fast as they can, keeping the node's request queue full: they hear FULL
+        (QueueFull), and another client's requests still take the next free slots, in time."""
+        with ServerManager(mw, [serve(EchoNode, name="flooded", rate_hz=20)]):
+            with _flood(mw, "flooded", "requests", 4, burst=64) as flooders:
+                self._answered_in_time(mw, "flooded", flooders, "requests")
+
+class MiddlewareConformance(FloodConformance):
+    """Base class of the middleware conformance cases. Subclass it as `Test...` and set `middleware`.
+
+    Not named `Test*`, so importing it into a test module does not collect it there; pytest collects
+    the inherited cases from each subclass. `middleware = None` takes the name from `--rio-middleware`.
+    A Middleware instance of a process-per-node middleware is re-created in each node's spawned
+    process from its class, so that class must live in an importable module (not a test file).
+    """
 
     # -- cases on the shared echo server ------------------------------------------------------------
     def test_latest_state_advances_and_last_k_is_ordered(self, running):
@@ -301,6 +417,44 @@ class MiddlewareConformance:
         assert "cam0" in str(ei.value) and "/dev/ttyFAKE" in str(ei.value)
         assert child_pids() <= children_before
         assert_no_shm_left(mgr, shm_before)
+
+    @pytest.mark.usefixtures("own_servers")
+    def test_no_thread_outlives_its_client_or_server(self, mw, tmp_path):
+        """Every thread a client started has ended once it is closed, after calls, requests and reads; so has
+        every thread of a server made in this process (as the thread middleware's are; also checked for the
+        middlewares built on rio.middleware.protocol, whose servers run in other programs too). A thread may
+        take `thread_grace_s` to go: zenoh ends its callback threads shortly after their subscriptions."""
+        from rio.plugins import get_middleware
+        from rio.runtime.runner import Dispatcher
+        from rio.runtime.transport import NodeLayouts, machine_id
+
+        def use(address: dict[str, Any] | None = None) -> None:
+            with connect(EchoNode, mw, name="tidy", address=address) as c:
+                assert c.echo(1) == 1 and c.get_state()["tick"] >= 1
+                c.send_request(q=np.zeros(6), client=0, seq=0)
+
+        with ServerManager(mw, [serve(EchoNode, name="tidy")]):
+            for _ in range(2):
+                with no_new_threads(self.thread_grace_s):  # the client's threads only: its server runs elsewhere
+                    use()
+        middleware = mw if isinstance(mw, Middleware) else get_middleware(mw)()
+        if middleware.process_per_node and not isinstance(middleware.config, NetworkConfig):
+            return  # its servers run only in node processes of their own
+        node = EchoNode()
+        node.name = "tidy"
+        layouts = NodeLayouts.of(node)
+        with no_new_threads(self.thread_grace_s):
+            server = middleware.make_server(node, layouts, middleware.prepare(layouts, str(tmp_path)))
+            try:  # stamped as ServerManager stamps a node's address: the server runs in this process
+                address = {**server.start(Dispatcher(node, threading.RLock())), "pid": os.getpid(),
+                           "machine": machine_id()}
+                server.ring_buffer.put(node.read_state())
+                use(address)  # (its server's threads for this client may end after the client's close)
+            finally:
+                server.close()
+
+    #: How long a thread may take to end after its client or server was closed (s).
+    thread_grace_s: ClassVar[float] = 1.0
 
     def test_connect_without_server_is_clear(self, mw):
         with pytest.raises(rio.NodeDiedError, match="ghost"):

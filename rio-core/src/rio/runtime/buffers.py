@@ -335,13 +335,18 @@ class RequestQueue:
 
     def put_bytes(self, data: bytes | memoryview) -> None:
         """Enqueue a record that crossed a boundary; re-checked for NaN/inf on this side."""
-        rec = self.layout.decode_bytes(data)
+        self.put_record(self.check_bytes(data))
+
+    def check_bytes(self, data: bytes | memoryview) -> np.ndarray:
+        """The record in `data` (a view of it), checked as `put_bytes` checks it; a refusal is counted
+        (`rejected`) and raised as InvalidRequest naming the field. For a producer that enqueues later."""
         try:
+            rec = self.layout.decode_bytes(data)
             self.layout.check_record(rec)
         except Exception:
             self._hdr[2] += 1
             raise
-        self.put_record(rec)
+        return rec
 
     # -- consumer -----------------------------------------------------------------------------------
     def get_all(self) -> list[dict[str, Any]]:

@@ -7,6 +7,9 @@ A middleware answers four questions, nothing else:
   and `start(dispatch)` to begin answering API calls; returns an address (plain JSON-able dict).
 - `make_client` (anywhere): a local ring buffer mirror that reads never block on, a request sender,
   `call()` for remote API methods, and `check_alive()` that turns a dead server into NodeDiedError.
+
+The network middlewares share one protocol and its settings (`rio.middleware.protocol`); what is here is
+what every middleware needs, including the ones that never leave the machine.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from pydantic import Field, model_validator
+from pydantic import Field
 
 from rio import clock
 from rio.config import Config, Configurable
@@ -28,7 +31,6 @@ from rio.runtime.layout import Layout
 from rio.runtime.node import Node
 
 if TYPE_CHECKING:
-    from rio.machine.keys import MachineKeys
     from rio.station.model import MachineSection
 
 
@@ -131,94 +133,6 @@ class Middleware(Configurable, ABC):
 MiddlewareConfig = Middleware.Config
 
 
-#: Added to a request record's size for a node's message limit (a message's kind and ids, room to spare).
-_MESSAGE_HEADROOM = 4096
-
-
-class NetworkConfig(MiddlewareConfig):
-    """Fields of the middlewares that reach other machines (zmq, zenoh, portal).
-
-    Whoever reaches an unauthenticated node's port can read its state, send it commands and call its
-    API. So a node serves only this machine (loopback) unless the station names this machine's keys
-    (`keys`, made by `rio keys generate`: zmq CURVE, zenoh mutual TLS and access control; a middleware
-    without authentication refuses them) or says `insecure = true`, and then every start says so
-    (`warn_if_exposed`). Without keys, reach other machines through a tunnel (ssh -L, WireGuard) that
-    keeps the node on loopback, or a network you trust."""
-
-    #: False for a middleware that has no authentication (portal): it refuses `keys`.
-    authenticates: ClassVar[bool] = True
-    insecure: bool = Field(False, description="allow serving or connecting beyond this machine without "
-                                              "authentication (anyone who reaches the port controls the node)")
-    keys: str | None = Field(None, description="this machine's keys directory, made by `rio keys generate` "
-                                               "(the same path on every machine, each holding its own keys): "
-                                               "authenticates and encrypts every link")
-    #: Interface a node's server binds (each middleware says more on its own `host`).
-    host: str = "127.0.0.1"
-    max_message_bytes: int = Field(4 << 20, ge=1024, description="largest message (API call or request) a node "
-                                   "accepts; a peer sending more is refused before anything is allocated for it "
-                                   "(raised to fit the node's request record where that is larger)")
-
-    def message_limit(self, layouts: NodeLayouts) -> int:
-        """`max_message_bytes`, raised to fit one request record and a call's envelope."""
-        record = layouts.request.itemsize if layouts.request is not None else 0
-        return max(self.max_message_bytes, record + _MESSAGE_HEADROOM)
-
-    def exposed(self) -> list[str]:
-        """The non-loopback addresses this config binds or connects to: its `host` (a middleware that
-        also connects out, like zenoh to its routers, adds those)."""
-        return [] if is_loopback(self.host) else [self.host]
-
-    def machine_keys(self) -> MachineKeys | None:
-        """This machine's keys (checked), or None when the station names none."""
-        from rio.machine.keys import load
-
-        return load(self.keys) if self.keys else None
-
-    @model_validator(mode="after")
-    def _authenticated_unless_insecure(self) -> NetworkConfig:
-        if self.keys is not None:
-            if not self.authenticates:
-                raise ValueError("this middleware has no authentication: remove keys, keep its nodes on "
-                                 "127.0.0.1 and reach them through an ssh tunnel or a VPN (or use zmq or zenoh)")
-            self.machine_keys()  # a missing or unreadable directory is an error in the station file
-            return self
-        exposed = self.exposed()
-        if exposed and not self.insecure:
-            advice = ("name this machine's keys (keys = \"~/.config/rio/keys/<station>\", made by `rio keys "
-                      "generate`), keep" if self.authenticates else "keep")
-            raise ValueError(f"{', '.join(exposed)} is reachable from other machines without authentication: "
-                             f"{advice} nodes on 127.0.0.1 (reach them through an ssh tunnel or a VPN), or set "
-                             "insecure = true in [middleware] to accept that anyone who can reach the port can "
-                             "command the robot")
-        return self
-
-
-def is_loopback(host_or_endpoint: str) -> bool:
-    """Whether an address ("127.0.0.1", "localhost", "::1", "tcp/127.0.0.1:7447") stays on this machine;
-    a wildcard ("0.0.0.0", "*", "::") or another machine's address does not."""
-    import ipaddress
-
-    h = host_or_endpoint.split("/", 1)[1] if "/" in host_or_endpoint else host_or_endpoint
-    if h.startswith("["):  # [::1]:port
-        h = h[1:h.index("]")]
-    elif h.count(":") == 1:  # host:port
-        h = h.rsplit(":", 1)[0]
-    if h == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(h).is_loopback
-    except ValueError:
-        return False  # a name, a wildcard: assume it is reachable from elsewhere
-
-
-def warn_if_exposed(config: NetworkConfig, node: str, log: Any) -> None:
-    """Every start of a node that `insecure = true` lets serve or connect beyond loopback says so."""
-    exposed = config.exposed()
-    if exposed and config.keys is None:
-        log.warning("node '%s': on %s WITHOUT authentication (insecure = true): anyone who can reach it can "
-                    "read its state, command it and call its API", node, ", ".join(exposed))
-
-
 def machine_id() -> str:
     """This kernel *and* PID namespace: a pid in an address is meaningful only to a client with the
     same id (same machine, not another container). Falls back to the host name."""
@@ -228,14 +142,6 @@ def machine_id() -> str:
         return f"{boot}/{os.stat('/proc/self/ns/pid').st_ino}"
     except OSError:
         return socket.gethostname()
-
-
-def local_process_watch(address: dict[str, Any], node: str) -> ProcessWatch | None:
-    """A watch on the server process when the address says it runs where this client can see its
-    pid (ServerManager stamps "pid" and "machine"); None means liveness must come from heartbeats."""
-    if "pid" in address and address.get("machine") == machine_id():
-        return ProcessWatch(int(address["pid"]), node)
-    return None
 
 
 class ProcessWatch:
