@@ -27,6 +27,7 @@ import numpy as np
 from pydantic import Field
 
 from rio.config import Config
+from rio.machine.confine import inside
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
 
@@ -83,7 +84,8 @@ class ZarrFormat(DatasetFormat):
         streams = image_streams(eps[0], depth=self.config.depth)
 
         def array(name: str, shape: tuple, dtype: Any, chunks: tuple) -> Any:
-            if name not in arrays:
+            if name not in arrays:  # a camera's name (from episode.json) is part of it: it stays inside `out`
+                inside(out, f"data/{name}", source=eps[0].path / "episode.json", field=f"array {name!r}")
                 arrays[name] = data.create_array(name, shape=(total, *shape), chunks=(chunks[0], *shape[:len(shape)])
                                                  if len(chunks) == 1 else chunks, dtype=dtype, compressor=comp)
             return arrays[name]
