@@ -14,6 +14,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import os
 from fractions import Fraction
 from pathlib import Path
 from typing import Any, Literal
@@ -55,6 +56,9 @@ class _VideoFile:
         self.path, self.frames, self.bytes = path, 0, 0
         self.container = av.open(str(path), "w", format="mp4")
         if opts.codec == "av1":
+            # SVT-AV1 prints ~20 lines of its configuration on stderr per video unless told not to (errors
+            # only); read when an encoder starts, so here. A level the user set is left alone.
+            os.environ.setdefault("SVT_LOG", "1")
             codec, o = "libsvtav1", {"crf": str(opts.crf), "preset": opts.preset or "10", "g": str(opts.gop)}
         else:
             codec, o = "libx264", {"crf": str(opts.crf), "preset": opts.preset or "veryfast", "g": str(opts.gop),
