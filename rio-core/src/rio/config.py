@@ -29,9 +29,12 @@ from rio.suggest import closest
 
 class Config(BaseModel):
     """Base of every component's config model: unknown fields are errors (a typo in a station file must
-    not be silently ignored)."""
+    not be silently ignored), and every number is finite: `inf` or `nan` in a station file (TOML has both)
+    would pass any `gt=`/`le=` bound one way or another (nan compares false to everything) and quietly
+    switch off what the number limits (`max_step_rad = inf`, `joint_limits = [[nan, 1]]`,
+    `call_timeout = inf`); refused, naming the field."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 def validate_config(model: type[BaseModel], config: Any = None, fields: Mapping[str, Any] | None = None) -> Any:

@@ -30,6 +30,16 @@ def positive(value: N) -> N:
     return _number(value, value is not None and value > 0, "a finite number > 0")
 
 
+def rate_hz(value: N) -> N:
+    """A control or publishing rate: finite and within `rio.clock.RATE_RANGE_HZ` (the range a station's
+    `rate_hz` has too). `--rate 1e-9` passed `positive` and made a first tick 10^9 s away, past any
+    `--duration`."""
+    from rio.clock import RATE_RANGE_HZ
+
+    lo, hi = RATE_RANGE_HZ
+    return _number(value, value is not None and lo <= value <= hi, f"a rate from {lo:g} to {hi:g} Hz")
+
+
 def non_negative(value: N) -> N:
     """A length of time that may be zero (a cross-fade, an approach): finite and >= 0."""
     return _number(value, value is not None and value >= 0, "a finite number >= 0")

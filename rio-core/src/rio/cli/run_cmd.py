@@ -13,7 +13,7 @@ from typing import Annotated, Any
 
 import typer
 
-from rio.cli.args import key_values, known_station, not_empty, output_dir, positive
+from rio.cli.args import key_values, known_station, not_empty, output_dir, positive, rate_hz
 
 #: The run's arm did not follow its commands.
 EXIT_NOT_FOLLOWED = 3
@@ -27,7 +27,7 @@ StationArgument = Annotated[str, typer.Argument(
 DurationOption = Annotated[float | None, typer.Option(
     "--duration", "-d", callback=positive, help="Stop after this many seconds.")]
 RateOption = Annotated[float | None, typer.Option(
-    "--rate", callback=positive, help="Control rate (Hz; default: the station's).")]
+    "--rate", callback=rate_hz, help="Control rate (Hz, 1 to 10000; default: the station's).")]
 RecordOption = Annotated[str | None, typer.Option(
     "--record", callback=output_dir, help="Record the run as an episode of the dataset DIR (created if absent).")]
 MiddlewareOption = Annotated[str | None, typer.Option(

@@ -34,14 +34,16 @@ def check(
     middleware: MiddlewareOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
 ) -> None:
-    """Validate a station completely (drivers, their fields, middleware options, embodiment) and show
-    what it contains; imports the drivers' code but starts nothing."""
+    """Validate a station completely (drivers, their fields, middleware options, embodiment, the network
+    checks of a start: nodes placed on other machines) and show what it contains; imports the drivers' code
+    but starts nothing."""
     from rio.cli.output import console, print_json, table
     from rio.station import load_station
-    from rio.station.build import load_node_class, resolve_embodiment, resolve_middleware
+    from rio.station.build import check_network, load_node_class, resolve_embodiment, resolve_middleware
 
     st = load_station(station)
     mw = resolve_middleware(st, middleware)
+    check_network(st, mw)
     emb, options = resolve_embodiment(st)
     for role in st.components:
         load_node_class(st, role)
