@@ -136,7 +136,15 @@ _ACL_MESSAGES = ["put", "declare_subscriber", "query", "declare_queryable", "rep
 
 
 def _secure(c: Any, keys: MachineKeys, station: str) -> None:
-    """Mutual TLS on every link, and access control: only machines this one trusts, only RIO's keys.
+    """Mutual TLS on every link, and access control: only machines this one trusts, only RIO's keys
+    (`secure_links` for RIO's message kinds under `rio/<station>/**`)."""
+    secure_links(c, keys, [f"rio/{station}/**"], _ACL_MESSAGES)
+
+
+def secure_links(c: Any, keys: MachineKeys, key_exprs: list[str], messages: list[str]) -> None:
+    """Make zenoh config `c` authenticate and encrypt every link with `keys`, and let through only
+    `messages` under `key_exprs`, to and from machines this one trusts. Also what other zenoh users of a
+    station's keys build on (the ROS 2 bridge: its domain's key expressions).
 
     - `transport/link/protocols = ["tls"]`: no other kind of link is opened or accepted (a `tcp/` peer
       cannot even connect).
@@ -147,10 +155,10 @@ def _secure(c: Any, keys: MachineKeys, station: str) -> None:
       127.0.0.1 and the addresses given to `rio keys generate`, so checking names would refuse working
       stations (measured: connecting by an address not in the certificate fails). What authenticates is
       the private CA plus the common-name access control below, not the address.
-    - `access_control`: deny by default; allow, in both directions, RIO's message kinds under
-      `rio/<station>/**`, only to and from peers whose certificate common name is one of this machine's
-      trusted machines (`peers/`). A certificate from the station's CA for a machine since removed from
-      `peers/` connects but sees and sends nothing.
+    - `access_control`: deny by default; allow, in both directions, `messages` under `key_exprs`, only to
+      and from peers whose certificate common name is one of this machine's trusted machines (`peers/`).
+      A certificate from the station's CA for a machine since removed from `peers/` connects but sees and
+      sends nothing.
     """
     tls = {"root_ca_certificate": str(keys.ca), "enable_mtls": True, "verify_name_on_connect": False,
            "listen_certificate": str(keys.tls_cert), "listen_private_key": str(keys.tls_key),
@@ -158,14 +166,19 @@ def _secure(c: Any, keys: MachineKeys, station: str) -> None:
     acl = {
         "enabled": True,
         "default_permission": "deny",
-        "rules": [{"id": "rio", "permission": "allow", "flows": ["ingress", "egress"], "messages": _ACL_MESSAGES,
-                   "key_exprs": [f"rio/{station}/**"]}],
+        "rules": [{"id": "rio", "permission": "allow", "flows": ["ingress", "egress"], "messages": list(messages),
+                   "key_exprs": list(key_exprs)}],
         "subjects": [{"id": "trusted", "cert_common_names": sorted(keys.peers)}],
         "policies": [{"id": "trusted", "rules": ["rio"], "subjects": ["trusted"]}],
     }
     c.insert_json5("transport/link/protocols", json.dumps(["tls"]))
     c.insert_json5("transport/link/tls", json.dumps(tls))
     c.insert_json5("access_control", json.dumps(acl))
+
+
+def tls_endpoints(endpoints: list[str]) -> list[str]:
+    """With keys every link is TLS: `tcp/host:port` is reached (or listened on) as `tls/host:port`."""
+    return [f"tls/{e.split('/', 1)[1]}" if _proto(e) == "tcp" else e for e in endpoints]
 
 
 def _free_port(host: str) -> int:
@@ -185,9 +198,7 @@ def _proto(endpoint: str) -> str:
     return endpoint.split("/", 1)[0] if "/" in endpoint else ""
 
 
-def _tls(endpoints: list[str]) -> list[str]:
-    """With keys every link is TLS: a router given as `tcp/host:port` is reached as `tls/host:port`."""
-    return [f"tls/{e.split('/', 1)[1]}" if _proto(e) == "tcp" else e for e in endpoints]
+_tls = tls_endpoints
 
 
 # -- shared client sessions --------------------------------------------------------------------------
