@@ -300,3 +300,13 @@ def test_enospc_while_writing_leaves_a_repairable_episode(tmp_path, monkeypatch)
     ep = Dataset(tmp_path / "ds").episode(0)
     assert len(ep) == 25
     np.testing.assert_allclose(ep.column("action")[:, 0], 0.01 * np.arange(25), rtol=1e-6)
+
+
+def test_a_dataset_where_nothing_can_be_created_is_one_error(tmp_path):
+    """`--record` is tried by the command line first; a script calling the recorder gets one error too."""
+    from rio.recording import RecordingError
+
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(RecordingError, match=r"file/ds: cannot record here \(Not a directory\)"), \
+            Recorder(tmp_path / "file" / "ds", fps=30):
+        pass

@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from rio.cli.args import known_station, not_empty, one_of, positive, rate_hz
+from rio.cli.args import known_station, not_empty, one_of, output_dir, positive, rate_hz
 
 from .messages import DISTROS
 
@@ -102,7 +102,7 @@ def endpoints(value: list[str] | None) -> list[str] | None:
 
 @app.command()
 def definitions(
-    directory: Annotated[str, typer.Argument(callback=not_empty, help="Where to write <pkg>/msg/<Type>.msg.")],
+    directory: Annotated[str, typer.Argument(callback=output_dir, help="Where to write <pkg>/msg/<Type>.msg.")],
     distro: Distro = "jazzy",
 ) -> None:
     """Write the standard ROS 2 message definitions the bridge uses as .msg files (from rosbags' typestore,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -70,12 +71,33 @@ def one_of(*choices: str):
 
 
 def output_dir(value: P) -> P:
-    """A directory to write into (a dataset to record into, a profile): absent (created later) or a
-    directory, never an existing file, checked before the station starts rather than after."""
+    """A directory to write into (a dataset to record into, a profile, an export): absent (created later)
+    or a directory, never an existing file, and somewhere this user can create things (`writable_problem`),
+    checked before the station starts rather than when the first file is written (`--record /proc/x` ended
+    in a traceback after the run)."""
     not_empty(value)
     if value is not None and Path(value).exists() and not Path(value).is_dir():
         raise typer.BadParameter(f"'{value}' is a file, not a directory")
+    if value is not None and (why := writable_problem(Path(value))):
+        raise typer.BadParameter(f"'{value}' cannot be written: {why}")
     return value
+
+
+def writable_problem(path: Path) -> str | None:
+    """Why nothing can be created at or inside `path`, found by trying: a temporary directory is made (and
+    removed at once) in `path` if it is a directory, else in its nearest existing parent, which must be a
+    directory. None when that works. Permissions alone cannot tell (root passes every access check and
+    still cannot write into /proc); trying can."""
+    import tempfile
+
+    where = next((p for p in (path, *path.parents) if p.exists()), Path("."))
+    if not where.is_dir():
+        return f"'{where}' is a file, not a directory"
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".rio-probe-", dir=where))
+    except OSError as e:
+        return f"{e.strerror or e} (in '{where}')"
+    return None
 
 
 def existing_dir(value: P) -> P:
