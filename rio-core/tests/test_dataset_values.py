@@ -93,3 +93,22 @@ def test_repair_rebuilds_an_episode_json_with_impossible_values_from_the_data(ds
     report = repair_dataset(ds)
     assert any("episode_000000" in q and "impossible values" in q for q in report.quarantined), report
     assert Dataset(ds).damaged() == {} and Dataset(ds).episode(0).fps == 30.0
+
+
+def test_a_step_layout_naming_something_that_is_no_observation_class_is_refused(ds, monkeypatch):
+    """steps.json names the class each step's observation is rebuilt with, and it is called with the step's
+    fields: a dataset saying `os:system` (its sha256 recorded to match) must not get it called."""
+    import os
+
+    from rio.errors import ConfigError
+
+    layout = ds / "episode_000000" / "steps.json"
+    _set(layout, lambda o: o.__setitem__("observation_class", "os:system"))
+    data = layout.read_bytes()
+    _set(_meta(ds), lambda o: o["files"].__setitem__("steps.json", {"bytes": len(data),
+                                                                      "sha256": hashlib.sha256(data).hexdigest()}))
+    called = []
+    monkeypatch.setattr(os, "system", lambda *a, **k: called.append((a, k)))
+    with pytest.raises(ConfigError, match="'os:system' is not Observation or a subclass of it"):
+        next(Dataset(ds).episode(0).steps(images=False))
+    assert called == []
