@@ -88,7 +88,9 @@ def file_problems(ep: Episode, video: bool = True) -> list[str]:
     out: list[str] = []
     meta_path = ep.path / L.EPISODE_META
     steps = ep.path / L.STEPS
-    if steps.is_file():
+    if ep.schema.dtype.itemsize == 0:
+        out.append(f"{L.STEPS_SCHEMA}: a step layout without fields")
+    elif steps.is_file():
         have = steps.stat().st_size // ep.schema.dtype.itemsize
         if have != ep.length:
             out.append(f"length: {ep.length} steps, but {L.STEPS} holds {have}")
