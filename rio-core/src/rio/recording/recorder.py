@@ -170,8 +170,11 @@ class Recorder:
             return self
         if self.cameras and (why := video_problem(self.video, depth=self.depth)) is not None:
             raise RecordingError(f"cannot record the station's cameras: {why}")
-        self.root.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.root / L.LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.root / L.LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as e:  # a path that cannot hold a dataset (a file on the way, /proc, no permission)
+            raise RecordingError(f"{self.root}: cannot record here ({e.strerror or e})") from None
         if not host.try_lock(fd):
             os.close(fd)
             raise RecordingError(f"another recorder is writing {self.root} (it holds {self.root / L.LOCK})") from None
