@@ -148,6 +148,30 @@ def test_a_robot_that_goes_quiet_is_a_named_fault(make_robot, domain_id):
             node.enable()
 
 
+def test_the_state_keeps_coming_while_a_physics_tick_is_slow(make_robot):
+    """A physics tick that takes 0.3 s (a loaded host; MuJoCo's steps): the robot's state stream goes on at
+    its rate meanwhile, as a real robot's does (with one thread for both, it stopped for the whole tick
+    and the driver took the robot for lost)."""
+    robot = make_robot(rate_hz=200.0)
+    seen: list[float] = []
+    step, slow = robot.step, []
+
+    def slow_step(seconds: float) -> None:
+        if not slow:
+            slow.append(time.monotonic())
+            time.sleep(0.3)
+        step(seconds)
+
+    robot.subscribe(lambda _msg: seen.append(time.monotonic()))
+    robot.step = slow_step
+    t_end = time.monotonic() + 1.0
+    while not slow or time.monotonic() < slow[0] + 0.35:
+        assert time.monotonic() < t_end, "the physics never ran"
+        time.sleep(0.01)
+    during = [t for t in seen if slow[0] + 0.05 < t < slow[0] + 0.25]
+    assert len(during) >= 5, (len(during), robot.counts)  # 200 Hz: 40 in 0.2 s on a quiet machine
+
+
 def test_no_low_state_at_open_is_a_named_error_within_the_timeout(make_robot, domain_id):
     robot = make_robot()
     robot.publishing = False
