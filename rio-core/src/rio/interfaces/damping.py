@@ -6,7 +6,7 @@ act on, so the driver stops it itself, each time with a named fault (`rio.interf
 
 | code | name (the driver's)  | when                                                                |
 |------|----------------------|---------------------------------------------------------------------|
-| 1    | e.g. lowstate_timeout | no state from the device for `state_timeout_s` (a cable, a reboot) |
+| 1    | e.g. lowstate_timeout | no state for `state_timeout_s` while the driver runs (a cable, a reboot) |
 | 2    | fall                 | the base tilted beyond `fall_tilt_deg` from upright (humanoids)      |
 | 3    | stale_commands       | a stream of commands stopped (the kind's watchdog) with `on_stale = "damp"` |
 
@@ -134,6 +134,9 @@ class DampingSafety(FaultHolding):
     _commander: Any
     #: `rio.clock.now()` of the last state the device sent (the driver sets it).
     t_state: float = -math.inf
+    #: When `watch_safety` last looked, and how long the state had been missing then (see `state_age`).
+    _t_watched: float = -math.inf
+    _missing_s: float = 0.0
     #: Where the IMU sits, as the fall fault names it.
     body: str = "body"
     #: What a cleared stale fault holds ("robot", "hand").
@@ -159,9 +162,22 @@ class DampingSafety(FaultHolding):
         """Whether a stream of commands that stops is damped (a fault) rather than held stiff."""
         return bool(self.config.on_stale == "damp")
 
+    def state_age(self, now: float) -> float:
+        """How long the device's state has been missing at `now`, counted while this driver ran to look:
+        of the time between two of its looks, at most a quarter of `state_timeout_s` (or two cycles, if
+        longer). A process that was stalled itself (descheduled on a loaded host, its GIL held by another
+        thread) could not have taken a state in meanwhile, however well the device published: on a loaded
+        2-core machine the emulated T1's stream and its driver, one process, stopped together for up to
+        0.35 s, and the driver damped the robot for its own stall (lowstate_timeout). A device that went
+        quiet is still faulted after `state_timeout_s` of the driver's running time."""
+        if self.t_state > self._t_watched or self._t_watched == -math.inf:  # a state since the last look
+            return max(now - self.t_state, 0.0)
+        gap = max(self.config.state_timeout_s / 4, 2.0 / float(getattr(self, "rate_hz", 0.0) or math.inf))
+        return self._missing_s + min(max(now - self._t_watched, 0.0), gap)
+
     def device_fault(self) -> Fault | None:
         """The conditions that hold now (a stale stream is not one: it ends when commands come again)."""
-        age = clock.now() - self.t_state
+        age = self.state_age(clock.now())
         if age > self.config.state_timeout_s:
             return self.state_lost(age)
         tilt = self.tilt_deg()
@@ -178,6 +194,8 @@ class DampingSafety(FaultHolding):
     def watch_safety(self) -> None:
         """The driver's own stops, once per cycle after reading the state: the device's silence, a fall,
         a stream of commands that stopped (the kind's watchdog held it) while `on_stale = "damp"`."""
+        now = clock.now()
+        self._missing_s, self._t_watched = self.state_age(now), now
         if self.fault is not None and self.fault.code != STALE_COMMANDS:
             return
         fault = self.device_fault()
