@@ -104,6 +104,7 @@ DAMPING, PREPARE, WALKING, CUSTOM = 0, 1, 2, 3
 IDEAL = "ideal"
 #: The most physics time one late tick simulates (s): beyond it the emulated time falls behind instead.
 MAX_STEP_S = 0.02
+_NEWEST = object()  # motor_law's default: the newest command
 _robots: dict[int, EmulatedT1] = {}
 _registry_lock = threading.Lock()
 
@@ -187,6 +188,8 @@ class EmulatedT1:
         self.publishing = True
         self.owned_by_channels = False
         self._last: Frame | None = None
+        self._arrivals: list[tuple[float, Frame]] = []  # commands since the last physics tick, with their time
+        self._in_force: Frame | None = None  # the command the physics obeyed at the end of its last tick
         self._handlers: list[Any] = []
         self._lock = threading.Lock()  # the published state, the commands, the mode: held briefly
         self._physics_lock = threading.Lock()  # the physics' own data, held while stepping
@@ -242,6 +245,7 @@ class EmulatedT1:
             if frame.q.shape != (NUM_JOINTS,):
                 return
             self._last = frame
+            self._arrivals.append((time.monotonic(), frame))
             self.frames.append(frame)
             if self.mode == CUSTOM:
                 self.counts.obeyed += 1
@@ -298,7 +302,7 @@ class EmulatedT1:
         """The physics, at `rate_hz`: each tick simulates the time since the last (at most `MAX_STEP_S`)."""
         t_last = time.monotonic()
         for now in self._schedule():
-            self.step(min(now - t_last, MAX_STEP_S))
+            self.step(min(now - t_last, MAX_STEP_S), now)
             t_last = now
 
     def _publish_loop(self) -> None:
@@ -321,45 +325,67 @@ class EmulatedT1:
                 next_t += math.ceil((now - next_t) / period) * period
             self._stop.wait(next_t - now)
 
-    def motor_law(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
-        """What the motors do in the present mode: tau = kp (q* - q) + kd (dq* - dq) + tau_ff, as
-        (kp, kd, q*, dq*, tau_ff, plus the joints' gravity torque). Call under the lock."""
+    def motor_law(self, frame: Any = _NEWEST) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                                         bool]:
+        """What the motors do in the present mode under the command `frame` (default: the newest; None: none
+        yet): tau = kp (q* - q) + kd (dq* - dq) + tau_ff, as (kp, kd, q*, dq*, tau_ff, plus the joints'
+        gravity torque). Call under the lock."""
         zeros = np.zeros(NUM_JOINTS)
-        f = self._last
+        f = self._last if frame is _NEWEST else frame
         if self.mode == CUSTOM and f is not None:
             return f.kp, f.kd, f.q, f.dq, f.tau, False
         if self.mode in (PREPARE, WALKING):  # Booster's controller stands it in the preparation pose
             return np.full(NUM_JOINTS, 100.0), np.full(NUM_JOINTS, 5.0), self.prepare_q, zeros, zeros, True
         return zeros, self.damping_kd, zeros, zeros, zeros, False  # damping (and custom with no command yet)
 
-    def step(self, seconds: float) -> None:
-        """Advance the joints `seconds` under the present mode's motor law (ideal: substeps of at most 0.5 ms;
-        sim: the physics' own steps). The state lock is held only to read the law and to store the result,
-        never while stepping: the publisher reads the state meanwhile."""
+    def step(self, seconds: float, now: float | None = None) -> None:
+        """Advance the joints over the `seconds` up to `now` (monotonic s; None: now) under the present mode's
+        motor law, each command from when it arrived, the one before it until then (ideal: substeps of at
+        most 0.5 ms; sim: the physics' own steps): a tick after this thread was late obeyed the newest
+        command over time before it came. The state lock is held only to read the laws and to store the
+        result, never while stepping: the publisher reads the state meanwhile."""
+        now = time.monotonic() if now is None else now
         with self._lock:
-            kp, kd, q_goal, dq_goal, tau_ff, hold = self.motor_law()
+            laws = self._laws(now - seconds, now)
             q, dq, tau = self.q.copy(), self.dq.copy(), self.tau.copy()
         with self._physics_lock:
             if self.physics is not None:
-                self.physics.step(seconds, kp, kd, q_goal, dq_goal, tau_ff, hold_gravity=hold)
+                for span, (kp, kd, q_goal, dq_goal, tau_ff, hold) in laws:
+                    self.physics.step(span, kp, kd, q_goal, dq_goal, tau_ff, hold_gravity=hold)
                 self.physics.publish_bus()
                 state = self._physics_state()
                 with self._lock:
                     self.q, self.dq, self.tau, self.rpy, self.gyro = state
                 return
-            n = max(1, math.ceil(seconds / 0.0005))
-            dt = seconds / n
-            for _ in range(n):
-                tau = kp * (q_goal - q) + kd * (dq_goal - dq) + tau_ff  # no gravity here to hold
-                tau = np.clip(tau, -self.effort, self.effort)
-                ddq = (tau - self.friction * dq) / self.inertia
-                dq = dq + dt * ddq
-                q = q + dt * dq
-                hit = (q < self.lower) | (q > self.upper)  # hard stops
-                q = np.clip(q, self.lower, self.upper)
-                dq[hit] = 0.0
+            for span, (kp, kd, q_goal, dq_goal, tau_ff, _) in laws:
+                n = max(1, math.ceil(span / 0.0005))
+                dt = span / n
+                for _ in range(n):
+                    tau = kp * (q_goal - q) + kd * (dq_goal - dq) + tau_ff  # no gravity here to hold
+                    tau = np.clip(tau, -self.effort, self.effort)
+                    ddq = (tau - self.friction * dq) / self.inertia
+                    dq = dq + dt * ddq
+                    q = q + dt * dq
+                    hit = (q < self.lower) | (q > self.upper)  # hard stops
+                    q = np.clip(q, self.lower, self.upper)
+                    dq[hit] = 0.0
         with self._lock:
             self.q, self.dq, self.tau = q, dq, tau
+
+    def _laws(self, start: float, end: float) -> list[tuple[float, tuple]]:
+        """(seconds, motor law) pieces covering [start, end]: the command in force at `start`, then each that
+        arrived within, from its arrival. Call under the lock."""
+        arrivals, self._arrivals = self._arrivals, []
+        pieces, t, frame = [], start, self._in_force
+        for t_arrived, f in arrivals:
+            t_arrived = min(t_arrived, end)
+            if t_arrived > t:
+                pieces.append((t_arrived - t, self.motor_law(frame)))
+                t = t_arrived
+            frame = f
+        pieces.append((max(end - t, 0.0), self.motor_law(frame)))
+        self._in_force = frame
+        return pieces
 
     def _physics_state(self) -> tuple[np.ndarray, ...]:
         """q, dq, tau, rpy, gyro of the physics (under `_physics_lock`)."""
