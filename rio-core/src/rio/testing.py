@@ -116,8 +116,9 @@ def run_scripted_square(station: str, side: float = 0.05, speed: float = 0.15) -
               f"ends {np.linalg.norm(target_end) * 1000:.2f} mm; commanded path {arm.commanded_path_m:.4f} m; "
               f"measured path {arm.path_m:.4f} m, ends {np.linalg.norm(measured_end) * 1000:.2f} mm\n"
               + summary.format())
-    # the device: its running total adds up to the square, closed (chords at the corners: a hair shorter)
-    assert np.linalg.norm(device_end) < 1e-4 and 3.6 * side < device["path_m"] <= 4 * side + 1e-6, stages
+    # the device: its running total adds up to the square, closed (chords at the corners: a hair shorter; a
+    # late device's twist held on for 1.5 of its sample intervals and taken back: a hair longer)
+    assert np.linalg.norm(device_end) < 1e-4 and 3.6 * side < device["path_m"] < 4 * side + 0.002, stages
     # the target: the low-pass and the speed limit add and lose nothing (the device stays under the limit)
     assert np.linalg.norm(target_end - device_end) < 1e-4 and target["path_m"] <= device["path_m"] + 1e-6, stages
     # the arm, measured: four edges, a little rounding either way, and back where it started

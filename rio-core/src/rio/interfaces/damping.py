@@ -164,15 +164,16 @@ class DampingSafety(FaultHolding):
 
     def state_age(self, now: float) -> float:
         """How long the device's state has been missing at `now`, counted while this driver ran to look:
-        of the time between two of its looks, at most a quarter of `state_timeout_s` (or two cycles, if
+        of the time between two of its looks, at most a tenth of `state_timeout_s` (or three cycles, if
         longer). A process that was stalled itself (descheduled on a loaded host, its GIL held by another
         thread) could not have taken a state in meanwhile, however well the device published: on a loaded
         2-core machine the emulated T1's stream and its driver, one process, stopped together for up to
         0.35 s, and the driver damped the robot for its own stall (lowstate_timeout). A device that went
-        quiet is still faulted after `state_timeout_s` of the driver's running time."""
+        quiet is still faulted after `state_timeout_s` while the driver runs at its rate (later, when the
+        driver itself only runs now and then)."""
         if self.t_state > self._t_watched or self._t_watched == -math.inf:  # a state since the last look
             return max(now - self.t_state, 0.0)
-        gap = max(self.config.state_timeout_s / 4, 2.0 / float(getattr(self, "rate_hz", 0.0) or math.inf))
+        gap = max(self.config.state_timeout_s / 10, 3.0 / float(getattr(self, "rate_hz", 0.0) or math.inf))
         return self._missing_s + min(max(now - self._t_watched, 0.0), gap)
 
     def device_fault(self) -> Fault | None:
