@@ -117,7 +117,8 @@ class ScriptedTeleop(TeleopNode):
         self.moves = build_script(self.config)
         self.ends = np.cumsum([m.seconds for m in self.moves])
         self.offsets = np.cumsum([m.delta for m in self.moves], axis=0)
-        self.example_data = {**self.example_data, "phase": 0, "offset": np.zeros(3), "displacement": np.zeros(6)}
+        self.example_data = {**self.example_data, "phase": 0, "offset": np.zeros(3), "displacement": np.zeros(6),
+                             "timestamp": 0.0}  # stamped by the device: the time the script was read at
         self.t_start: float | None = None
         self.carried = np.zeros(3)  # what the runs before this one moved: the total never jumps
 
