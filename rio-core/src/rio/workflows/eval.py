@@ -4,9 +4,10 @@ Trial k is episode k of a run seeded `seed`: the task's sensor (a sim world's `[
 of (seed, k), so the same command on the same station meets the same starts, and a trial's start does not
 depend on the trials before it. The policy runs exactly as under `rio deploy` (`PolicyController`: its own
 node, asynchronous chunked inference), started once; the station keeps running across trials. Before each
-trial the robot goes back to where a station starts it (`return_home`: every joint node's `home()`, grippers
-open, then still), then `Env.reset(seed, k)` puts the task's objects at that episode's start and restarts its
-clock, and the policy starts a new episode (`PolicyController.reset`).
+trial the robot goes back to where the station started it (`return_home`: a straight line through `env.step`
+to the session's first proprio, then still), then `Env.reset(seed, k)` puts the task's objects at that
+episode's start (every other object back where the scene has it) and restarts its clock, and the policy starts
+a new episode (`PolicyController.reset`).
 
 A trial ends when the task's success has held `hold_s` seconds of task time (the scripted expert's 0.3 s),
 at the task's time limit, or when the policy stops (its node died: the evaluation ends there and says so).
@@ -20,6 +21,8 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+import numpy as np
+
 from rio import clock
 from rio.errors import NodeDiedError, RioError
 from rio.loop.control_loop import ControlLoop, Tick
@@ -29,8 +32,8 @@ from rio.policy.deploy import POLICY_ROLE, PolicyController
 
 #: Task time the success must hold before a trial counts as done (the scripted expert's `HOLD_S`).
 HOLD_S = 0.3
-#: Seconds the robot takes to go home between trials, and the longest wait for it to be still afterwards.
-HOME_S, STILL_TIMEOUT_S = 1.5, 3.0
+#: Seconds the robot takes to go back to its start between trials, the longest wait for it to be still then.
+HOME_S, STILL_TIMEOUT_S = 1.0, 3.0
 
 
 @dataclass
@@ -149,35 +152,34 @@ class EvalController(PolicyController):
         return False
 
 
-def return_home(env: Any, seconds: float = HOME_S, timeout: float = STILL_TIMEOUT_S) -> bool:
-    """Bring the robot back to where a station starts it: every joint node (arms, a humanoid) to its home
-    pose over `seconds` (its `home()`), every gripper open; then wait (at most `seconds` + `timeout`) until
-    no joint moves. False if they were still moving then."""
-    from rio.station.roles import kind_of
+def return_home(env: Any, start: np.ndarray, rate_hz: float, seconds: float = HOME_S,
+                timeout: float = STILL_TIMEOUT_S) -> bool:
+    """Bring the robot back to `start` (an action: the session's first `proprio`, where the station started
+    it), commanding a straight line to it through `env.step` over `seconds` at `rate_hz`, as a controller
+    streams commands (so the drivers' stale-command watchdog sees a stream that ends at its target), then wait
+    (at most `timeout`) until the proprio is still. False if it was still moving then."""
+    dt = 1.0 / rate_hz
+    t0 = clock.now()
+    begin = np.asarray(env.get_state().observation.proprio, dtype=np.float64)
+    while float(np.max(np.abs(begin - start), initial=0.0)) > 1e-3:  # not there yet (a fresh station is)
+        now = clock.now()
+        f = min(1.0, (now + dt - t0) / seconds) if seconds > 0 else 1.0
+        env.step(begin + f * (start - begin), t_cmd_target=now + dt)
+        if f >= 1.0:
+            break
+        clock.precise_wait(now + dt)
+    return _wait_still(env, timeout)
 
-    joints = []
-    for role, client in env.robot.clients.items():
-        kind = kind_of(role)
-        if kind in ("arm", "humanoid") and "home" in dir(client):
-            client.home(seconds)
-            joints.append(client)
-        elif kind == "gripper":
-            client.move(client.max_width(), clock.now() + seconds / 2)
-    clock.precise_wait(clock.now() + seconds)
-    return _wait_still(joints, timeout)
 
+def _wait_still(env: Any, timeout: float, period: float = 0.05, tol: float = 1e-4) -> bool:
+    def proprio() -> np.ndarray:
+        return np.asarray(env.get_state().observation.proprio, dtype=np.float64)
 
-def _wait_still(clients: list[Any], timeout: float, period: float = 0.05, tol_rad: float = 1e-4) -> bool:
-    import numpy as np
-
-    def joints() -> list[np.ndarray]:
-        return [np.asarray(c.get_state()["joint_pos"], dtype=np.float64) for c in clients]
-
-    prev, t_end = joints(), clock.now() + timeout
+    prev, t_end = proprio(), clock.now() + timeout
     while clock.now() < t_end:
         clock.precise_wait(clock.now() + period)
-        cur = joints()
-        if all(float(np.max(np.abs(c - p), initial=0.0)) < tol_rad for c, p in zip(cur, prev, strict=True)):
+        cur = proprio()
+        if float(np.max(np.abs(cur - prev), initial=0.0)) < tol:
             return True
         prev = cur
     return False
@@ -211,6 +213,7 @@ def run_eval(station: Any, policy: str | None = None, *, trials: int = 10, seed:
     with open_session(without_role(st, POLICY_ROLE), middleware=middleware, rate_hz=rate_hz, instruction=instruction,
                       profile=profile, registry=registry, log=log, seed=seed) as session:
         env, stop = session.env, session.stop
+        start = np.asarray(env.reset().observation.proprio, dtype=np.float64)  # where the station starts the robot
         ctl = EvalController.start(session, name, node_cls, policy_kwargs, config or AsyncConfig(),
                                    ready_timeout=ready_timeout)
         ctl.hold_s = hold_s
@@ -228,8 +231,8 @@ def run_eval(station: Any, policy: str | None = None, *, trials: int = 10, seed:
         for k in range(trials):
             if stop.received:
                 break
-            if not return_home(env):
-                say(f"trial {k}: the robot was still moving {HOME_S + STILL_TIMEOUT_S:g} s after going home; "
+            if not return_home(env, start, session.rate_hz):
+                say(f"trial {k}: the robot was still moving {STILL_TIMEOUT_S:g} s after going back to its start; "
                     "starting anyway")
             env.seed, env.episode = seed, k
             loop = ControlLoop(env, ctl, rate_hz=session.rate_hz, recorder=recorder, on_tick=on_tick, stop=stop,
