@@ -83,8 +83,8 @@ def expert_rollout(scene_name: str, task: Any, seed: int, episode: int, rate_hz:
         data.qpos[j.qposadr[0]:j.qposadr[0] + 7] = pose
     mujoco.mj_forward(model, data)
     plans = [ArmPlan() for _ in arms]
-    steps = max(1, round(1.0 / rate_hz / model.opt.timestep))
-    dt = steps * model.opt.timestep
+    dt, ts = 1.0 / rate_hz, model.opt.timestep
+    tick = 0  # tick k ends at the physics step nearest k * dt: ticks on the loop's grid, not a rounded period's
     t_success = None
     while data.time < task.time_limit_s:
         views = reader.views(data.time, data.qpos, data.qvel)
@@ -107,6 +107,8 @@ def expert_rollout(scene_name: str, task: Any, seed: int, episode: int, rate_hz:
             on_tick(data, placed, goals)
         # last tick's goals reach the actuators now, each interpolated over this tick (the loop's lead)
         starts = [(data.ctrl[a["idx"].act].copy(), data.ctrl[a["idx"].finger_act].copy()) for a in arms]
+        tick += 1
+        steps = max(1, round(tick * dt / ts) - round((tick - 1) * dt / ts))
         for k in range(1, steps + 1):
             f = k / steps
             for a, (q0, w0) in zip(arms, starts, strict=True):
