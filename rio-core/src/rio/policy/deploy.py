@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -47,6 +47,7 @@ from rio.policy.base import PolicyMetadata
 from rio.policy.obs_layout import ObsLayout
 
 POLICY_ROLE = "policy"
+_Controller = TypeVar("_Controller", bound="PolicyController")
 #: Waiting for a chunk between ticks: sleep slices of `_POLL_S` (the bound on how late an arrival is seen)
 #: from `_NEAR_S` before it is expected (`AsyncInference.expected_arrival`), `_FAR_S` before that, when
 #: no chunk can be there yet (fine slices all through an 86 ms forward pass would wake the loop ~900 times).
@@ -91,8 +92,8 @@ class PolicyController:
         self.env = env
 
     @classmethod
-    def start(cls, session: Any, policy: str, node_cls: type, policy_kwargs: dict[str, Any], config: AsyncConfig,
-              *, ready_timeout: float = 600.0) -> PolicyController:
+    def start(cls: type[_Controller], session: Any, policy: str, node_cls: type, policy_kwargs: dict[str, Any],
+              config: AsyncConfig, *, ready_timeout: float = 600.0) -> _Controller:
         """Serve the policy node over the station's middleware, shaped by the station's first observation."""
         from rio.runtime.manager import ServerManager, connect, serve
 

@@ -93,7 +93,7 @@ class EvalResult:
 
     def format(self) -> str:
         n = len(self.trials)
-        rate = f"{self.successes}/{n} trials succeeded ({100 * self.success_rate:.0f}%)" if n else "no trial ran"
+        rate = f"{self.successes}/{n} trials succeeded ({100 * self.successes / n:.0f}%)" if n else "no trial ran"
         seed = f"seed {self.seed}" if self.seed is not None else "the task's seed"
         out = [f"eval of '{self.policy}' on '{self.station}' ({seed}): {rate}"]
         c = self.completion_s()
@@ -214,12 +214,12 @@ def run_eval(station: Any, policy: str | None = None, *, trials: int = 10, seed:
                       profile=profile, registry=registry, log=log, seed=seed) as session:
         env, stop = session.env, session.stop
         start = np.asarray(env.reset().observation.proprio, dtype=np.float64)  # where the station starts the robot
-        ctl = EvalController.start(session, name, node_cls, policy_kwargs, config or AsyncConfig(),
-                                   ready_timeout=ready_timeout)
-        ctl.hold_s = hold_s
         if env.task_result() is None:
             raise RioError(f"station '{st.name}' runs no task (a sensor with one, such as a sim world's [task]): "
                            "rio eval has no success to measure; run the policy with rio deploy")
+        ctl = EvalController.start(session, name, node_cls, policy_kwargs, config or AsyncConfig(),
+                                   ready_timeout=ready_timeout)
+        ctl.hold_s = hold_s
         recorder = None
         if record:
             from rio.recording import Recorder
@@ -231,13 +231,13 @@ def run_eval(station: Any, policy: str | None = None, *, trials: int = 10, seed:
         for k in range(trials):
             if stop.received:
                 break
-            if not return_home(env, start, session.rate_hz):
-                say(f"trial {k}: the robot was still moving {STILL_TIMEOUT_S:g} s after going back to its start; "
-                    "starting anyway")
             env.seed, env.episode = seed, k
             loop = ControlLoop(env, ctl, rate_hz=session.rate_hz, recorder=recorder, on_tick=on_tick, stop=stop,
                                trace=prof.trace if prof is not None else None, log=say if k == 0 else None)
             try:
+                if not return_home(env, start, session.rate_hz):
+                    say(f"trial {k}: the robot was still moving {STILL_TIMEOUT_S:g} s after going back to its "
+                        "start; starting anyway")
                 summary = loop.run()
             except NodeDiedError as e:  # a station node: the trial cannot be judged, nor the next ones run
                 result.failed = str(e)
