@@ -11,14 +11,14 @@
 The policy: an observation's features are the joints and finger opening, the tool's position (`proprio_eef`),
 the cube relative to the tool and the pad relative to the cube (the latter two weighted up); the nearest
 demonstration step gives the chunk of actions that followed it, as offsets from its joints (onnx.local's
-`relative`), which the deploy loop aligns to the observation's time. Measured while building it (6 held-out
-starts on the live station): 30 demonstrations 6/6, median completion 5.5 s (the demonstrations' 5.9 s); 40,
-6/6 at 5.6 s; 20, 5/6; with a single action instead of a chunk (40 demonstrations) 6/6, but at 8.1 s: its
-command comes a latency late.
+`relative`), which the deploy loop aligns to the observation's time. Measured on the live station (held-out
+starts of seed 1): 30 demonstrations 8/8, median completion 5.9 s (the demonstrations' 5.9 s), the replayed
+demonstration 0/4; while building it, 20 demonstrations 5/6, 40 6/6, and with a single action instead of a
+chunk 6/6 but at 8.1 s: its command comes a latency late.
 
 Alignment: a closed-loop policy fitted on pairs one step off still succeeds, only slower (the command it
 learnt is a period nearer to where the arm already is): with the loader pairing observation t with the
-command issued before it, 6/6 again, median 7.4 s (1.3x). So the loop's outcome cannot be what catches it;
+command issued before it, 8/8 again, median 7.3 s (1.24x). So the loop's outcome cannot be what catches it;
 the loaded pairs are checked against the command the expert decided on each observation (`Rollout.commands`),
 which fails on any shift between recording and loading, and the deployed policy must be about as fast as its
 demonstrations (a grosser break on the deploy side).
