@@ -24,7 +24,7 @@ from rio.cli.deploy_cmd import (
     PolicyOption,
     ThresholdOption,
 )
-from rio.cli.run_cmd import MiddlewareOption, ProfileOption, RateOption, StationArgument
+from rio.cli.run_cmd import MiddlewareOption, ProfileOption, RateOption, ReadyTimeoutOption, StationArgument
 
 #: A node failed during the evaluation (exit status).
 EXIT_NODE_FAILED = 1
@@ -51,6 +51,7 @@ def eval_(
     on_late: OnLateOption = "hold",
     lowpass: LowpassOption = None,
     middleware: MiddlewareOption = None,
+    ready_timeout: ReadyTimeoutOption = None,
     json_out: Annotated[bool, typer.Option("--json", help="Print the result as JSON (stdout).")] = False,
     profile: ProfileOption = None,
 ) -> None:
@@ -64,7 +65,7 @@ def eval_(
                          lowpass_hz=lowpass)
     result = run_eval(station, policy, trials=trials, seed=seed, hold_s=hold, record=record, instruction=instruction,
                       middleware=middleware, rate_hz=rate, config=config, profile=profile,
-                      log=lambda m: typer.echo(m, err=True))
+                      ready_timeout=ready_timeout, log=lambda m: typer.echo(m, err=True))
     if json_out:
         from rio.cli.output import print_json
 

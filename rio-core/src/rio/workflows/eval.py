@@ -189,15 +189,17 @@ def run_eval(station: Any, policy: str | None = None, *, trials: int = 10, seed:
              hold_s: float = HOLD_S, record: str | None = None, instruction: str | None = None,
              middleware: str | None = None, rate_hz: float | None = None, config: AsyncConfig | None = None,
              on_tick: Callable[[Tick], None] | None = None, on_trial: Callable[[Trial], None] | None = None,
-             log: Callable[[str], None] | None = print, ready_timeout: float = 600.0, profile: str | None = None,
-             registry: Any = None) -> EvalResult:
+             log: Callable[[str], None] | None = print, ready_timeout: float | None = None,
+             profile: str | None = None, registry: Any = None) -> EvalResult:
     """Run `trials` trials of `policy` (a `--policy` SPEC; default: the station's policy component) on the
     task of `station` (registered name, .toml path or `Station`), trial k from the start of episode k of a
     run seeded `seed` (None: the task's own seed), and return what happened (see the module docstring).
     `record`: a dataset directory that keeps every trial as an episode (its task verdict in its metadata).
-    `on_trial` is called with each trial as it ends. A station without a task is a `RioError`."""
+    `on_trial` is called with each trial as it ends. `ready_timeout`: as `run_deploy`'s. A station without a
+    task is a `RioError`."""
     from rio.policy.resolve import resolve_policy
     from rio.station.edit import without_role
+    from rio.workflows.deploy import POLICY_READY_S
     from rio.workflows.run import open_session
     from rio.workflows.teleop import prepare_station
 
@@ -211,14 +213,14 @@ def run_eval(station: Any, policy: str | None = None, *, trials: int = 10, seed:
     result = EvalResult(st.name, name, seed, trials, hold_s=hold_s)
     t0 = clock.now()
     with open_session(without_role(st, POLICY_ROLE), middleware=middleware, rate_hz=rate_hz, instruction=instruction,
-                      profile=profile, registry=registry, log=log, seed=seed) as session:
+                      profile=profile, registry=registry, log=log, seed=seed, ready_timeout=ready_timeout) as session:
         env, stop = session.env, session.stop
         start = np.asarray(env.reset().observation.proprio, dtype=np.float64)  # where the station starts the robot
         if env.task_result() is None:
             raise RioError(f"station '{st.name}' runs no task (a sensor with one, such as a sim world's [task]): "
                            "rio eval has no success to measure; run the policy with rio deploy")
         ctl = EvalController.start(session, name, node_cls, policy_kwargs, config or AsyncConfig(),
-                                   ready_timeout=ready_timeout)
+                                   ready_timeout=ready_timeout or POLICY_READY_S)
         ctl.hold_s = hold_s
         recorder = None
         if record:
