@@ -12,8 +12,13 @@ A commander turns sparse timed targets (`t_cmd_target`) into one goal per driver
   loop, a policy) must keep coming. When none has arrived for `watchdog_s` while a streamed move is still
   under way (a target far ahead, then silence: a crashed or stalled controller), the goal stops where it
   is and the robot holds it until the next command. A single deliberate move (`home(seconds=3)`, a
-  script's `move_joints(q, now + 2)`) runs to its end, and a move that already ended stays at its
-  target. `holding` says that no fresh command is being followed.
+  script's `move_joints(q, now + 2)` sent on its own) runs to its end, and a move that already ended stays at its
+  target. `holding` says that no fresh command is being followed. A move its sender declares single
+  (`move()`: the `home()` API) is never taken for part of a stream, even when it comes right after one:
+  by timing alone, `home(seconds=3)` sent 0.2 s after a control loop's last command looks exactly like a
+  stream that sent a far target and went silent, and was frozen half-way when the watchdog fired.
+  A stream that ends with its move finished (a control loop that ended) is logged at debug level: the
+  hold stops nothing; one that goes silent mid-move is a warning.
 
 Every standard driver kind (`rio.interfaces`) owns one and feeds the hardware only what it returns.
 Time is passed in explicitly, which keeps them testable.
@@ -77,6 +82,12 @@ class _Commander:
         self._t_cmd = now
         self.holding = False
 
+    def move(self, target, t_target: float, now: float) -> None:
+        """One deliberate move (home, a scripted pose), run to its end whatever came just before it: the
+        watchdog does not hold it, and the next command judges its stream from this one's time."""
+        self.command(target, t_target, now)
+        self._streamed = False
+
     def follow_measured(self, measured, now: float) -> None:
         """For hardware that keeps moving at its last commanded speed between cycles (a velocity-commanded
         base): where it went on, during a late cycle, along the way the goal was heading, the goal starts
@@ -104,10 +115,13 @@ class _Commander:
         quiet = not self.holding and now - self._t_cmd > self.watchdog_s
         if quiet and self._streamed:
             self.watchdog_holds += 1  # a stream went silent (counted once: it holds from here on)
-            log.warning("%s: its stream of commands stopped %.2f s ago: holding (the control loop ended or "
-                        "its link is down)", self.owner, self.watchdog_s)
-            if not (now >= self._interp.t_goal and self._arrived()):
-                self.hold(now)  # mid-move: stop here
+            if now >= self._interp.t_goal and self._arrived():  # it ended where it was heading: a loop ended
+                log.debug("%s: its stream of commands stopped %.2f s ago at its last target: holding there",
+                          self.owner, self.watchdog_s)
+            else:  # mid-move: stop here
+                log.warning("%s: its stream of commands stopped %.2f s ago mid-move: holding where it is (the "
+                            "controller stalled or its link is down)", self.owner, self.watchdog_s)
+                self.hold(now)
         self.goal = self._clip(self._toward(self.goal, self._interp.sample(now)))
         if quiet and now >= self._interp.t_goal and self._arrived():
             self.holding = True  # the move is over and nothing fresh is being followed

@@ -137,16 +137,20 @@ class JointNode(CommandedNode):
     def handle_request(self, request: dict[str, Any]) -> None:
         self.command_joints(np.asarray(request["joint_pos"]), float(request["t_cmd_target"]))
 
-    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
-        self.command("joint_pos", joint_pos, t_cmd_target)
+    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float, single: bool = False) -> None:
+        self.command("joint_pos", joint_pos, t_cmd_target, single)
 
     # -- remote API ---------------------------------------------------------------------------------
     @remote
     def home(self, seconds: float = 3.0) -> None:
-        """Move to the home pose, arriving in `seconds` (still limited to `max_step_rad` per cycle)."""
+        """Move to the home pose, arriving in `seconds` (still limited to `max_step_rad` per cycle): one
+        deliberate move, run to its end even right after a control loop's stream of commands."""
+        self.command_joints(self.home_pose(), clock.now() + float(seconds), single=True)
+
+    def home_pose(self) -> np.ndarray:
+        """The station's `home`, else the driver's `default_home()`, else zeros (rad)."""
         home = self.config.home if self.config.home is not None else self.default_home()
-        q = np.zeros(self.dof) if home is None else as_vector("home", home, self.dof)
-        self.command_joints(q, clock.now() + float(seconds))
+        return np.zeros(self.dof) if home is None else as_vector("home", home, self.dof)
 
     @remote
     def joint_limits(self) -> list[list[float]]:
