@@ -121,6 +121,25 @@ def _needed(owed: np.ndarray, speeds: np.ndarray) -> float:
     return float(np.max(dist[ok] / np.broadcast_to(speeds, dist.shape)[ok], initial=0.0))
 
 
+#: Joint distance from the home pose (rad, any joint) past which an arm starting end-effector teleop is warned about.
+FAR_FROM_HOME_RAD = 0.5
+
+
+def far_from_home(binding: ArmBinding, tol: float = FAR_FROM_HOME_RAD) -> str | None:
+    """A warning when the arm starts end-effector teleop more than `tol` rad (any joint) from its home pose (a
+    folded arm resting on its limits tracks badly: 1.99 rad of joint error, the tool went up instead of along
+    the script), else None. An arm without the `home_pose` API is not judged."""
+    if "home_pose" not in dir(binding.client):
+        return None
+    q = np.asarray(binding.client.get_state()["joint_pos"], dtype=np.float64)
+    err = np.abs(q - np.asarray(binding.client.home_pose(), dtype=np.float64))
+    if float(np.max(err, initial=0.0)) <= tol:
+        return None
+    j = int(np.argmax(err))
+    return (f"{binding.role} started end-effector teleop {err[j]:.2f} rad from its home pose (joint {j}); it may "
+            "track badly from there: `rio home STATION` or --home moves it home first")
+
+
 class TwistTeleop:
     """Controller (rio.loop.control_loop): see the module docstring. `devices`: {role: connected client}."""
 
@@ -150,6 +169,9 @@ class TwistTeleop:
             self.arms = bind_arms(robot)
             for b in self.arms:
                 b.reset_target()
+        self.start_warnings = [w for b in self.arms if isinstance(b, ArmBinding) and (w := far_from_home(b))]
+        for w in self.start_warnings:
+            loop.say(f"WARNING: {w}")
         self.drive = {b.role: ("teleop2" if b.role == "arm2" and "teleop2" in self.devices else "teleop")
                       for b in self.arms}
         self.row = {b.role: [b2.role for b2 in self.arms if self.drive[b2.role] == self.drive[b.role]].index(b.role)
@@ -218,6 +240,7 @@ class TwistTeleop:
         summary.details["travel"] = {name: t.report() for name, t in self.travel.items()}
         summary.lines.append(travel_line(self.travel))
         self.end.report(summary)
+        summary.warnings += self.start_warnings
         if self.visual is not None:
             summary.details["viz"] = self.visual.where
             summary.lines.append(f"viz: {self.visual.where}")
