@@ -156,6 +156,7 @@ class TwistTeleop:
         self.end = EpisodeEnd()
         self.arms: list[Any] = []
         self.expected_s = 0.0  # how long the device says its run lasts (a script), 0 when open-ended
+        self.start_warnings: list[str] = []
 
     def reset(self, loop: Any) -> None:
         robot = loop.env.robot
@@ -176,7 +177,6 @@ class TwistTeleop:
                       for b in self.arms}
         self.row = {b.role: [b2.role for b2 in self.arms if self.drive[b2.role] == self.drive[b.role]].index(b.role)
                     for b in self.arms}  # which of its device's `twists` rows drives the arm
-        self.polls = {r: DevicePoll(dev) for r, dev in self.devices.items()}
         self.travel = {f"device '{r}'": Travel() for r in self.devices}  # what each stage moved (travel.py)
         self.travel.update({f"{b.role} target": Travel() for b in self.arms})
         for lowpass in self.filters.values():  # every run starts from rest
@@ -188,6 +188,11 @@ class TwistTeleop:
                 self.expected_s = max(self.expected_s, float(dev.reset() or 0.0))
             if "help" in dir(dev):
                 loop.say(dev.help())
+        # after the devices' reset: a run after another (a recording session) must not read the last run's
+        # samples, whose done button would end it at once; nor its end, button edges or verdict
+        self.polls = {r: DevicePoll(dev) for r, dev in self.devices.items()}
+        self.end = EpisodeEnd()
+        self.edges = {r: ButtonEdges() for r in self.devices}
         self.t_prev: float | None = None
         if loop.duration is None and self.expected_s > 0:  # a script: its length, with room to finish
             loop.duration = self.expected_s + 10.0
