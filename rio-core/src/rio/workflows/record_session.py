@@ -65,10 +65,10 @@ def record_session(station: Any, make_controller: Callable[[Any], Any], recorder
                    reset_s: float = RESET_S, on_tick: Callable[[Tick], None] | None = None,
                    on_start: Callable[[Any], None] | None = None) -> RunSummary:
     """Record episodes into the open `recorder` until it has its count (`recorder.done`), `decide` ends the
-    session, or a stop signal does; one station session throughout (see the module docstring). `decide(summary,
-    recorder, stop)` (`stop`: the session's stop signals) returns (what to do with the episode: "keep", "discard" or "rerecord"; whether to go on).
-    `on_start(session)` runs once the station is up (tests read its node pids there). Returns the last run's
-    summary."""
+    session, or a stop signal does; one station session throughout (see the module docstring).
+    `decide(summary, recorder, stop)` (`stop`: the session's stop signals) returns (what to do with the episode:
+    "keep", "discard" or "rerecord"; whether to go on). `on_start(session)` runs once the station is up (tests
+    read its node pids there). Returns the last run's summary."""
     from rio.workflows.eval import return_home
     from rio.workflows.home import home_devices, is_stand_in
     from rio.workflows.run import _with_status_line, finish_session, open_session
