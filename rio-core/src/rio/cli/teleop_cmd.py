@@ -7,7 +7,7 @@ from typing import Annotated, Any
 
 import typer
 
-from rio.cli.args import key_values, one_of, positive
+from rio.cli.args import key_values, non_negative, one_of, positive
 from rio.cli.home_cmd import HOME_SPEED, HomeOption, HomeSpeedOption, YesOption, confirm_homing
 from rio.cli.run_cmd import (
     DurationOption,
@@ -71,7 +71,7 @@ def teleop(
                                                     "terminal: y keep, n discard, e re-record), keep or discard. "
                                                     "Default: ask when interactive, else keep. A device's "
                                                     "keep/discard button decides without asking.")] = None,
-    reset_s: Annotated[float, typer.Option("--reset-time", min=0,
+    reset_s: Annotated[float, typer.Option("--reset-time", callback=non_negative, metavar="SECONDS",
                                            help="With --record --episodes: seconds between episodes, counted "
                                                 "down while the scene resets (the station keeps running).")] = 3.0,
     home: HomeOption = False,
