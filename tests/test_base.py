@@ -22,8 +22,8 @@ class TestFrozenBaseFailsTheKit:
     """The kit can fail: a base that ignores its commands does not follow the odometry case."""
 
     def test_frozen_base_fails_odometry(self):
-        from rio.conformance.mobile import BaseConformance as Kit
         from rio.conformance.driving import resolve_driver
+        from rio.conformance.mobile import BaseConformance as Kit
 
         kit = Kit()
         with pytest.raises(AssertionError, match="did not move forward"):

@@ -16,6 +16,6 @@ from rio.fakes.humanoid import UPPER_BODY_MJCF, FakeHumanoid, FakeModelHumanoid
 from rio.fakes.sensors import FakeCamera, FakeSensor
 from rio.fakes.teleop import FakeHandTracker, FakeTeleop, synthetic_hand_keypoints
 
-__all__ = ["FakeArm", "FakeBase", "FakeModelArm", "FakeGripper", "FakeCamera", "FakeSensor", "FakeTeleop", "FakeHandTracker",
-           "FakeHand", "FakeModelHand", "FakeHumanoid", "FakeModelHumanoid", "SIX_DOF_MJCF", "FIVE_FINGER_HAND_MJCF",
-           "UPPER_BODY_MJCF", "synthetic_hand_keypoints"]
+__all__ = ["FakeArm", "FakeBase", "FakeModelArm", "FakeGripper", "FakeCamera", "FakeSensor", "FakeTeleop",
+           "FakeHandTracker", "FakeHand", "FakeModelHand", "FakeHumanoid", "FakeModelHumanoid", "SIX_DOF_MJCF",
+           "FIVE_FINGER_HAND_MJCF", "UPPER_BODY_MJCF", "synthetic_hand_keypoints"]

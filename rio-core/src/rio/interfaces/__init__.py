@@ -21,7 +21,9 @@ at which the target should be reached; None means "as soon as possible" (sent as
 | humanoid | joint_pos (n), joint_vel (n), base_quat (4, wxyz), base_ang_vel (3) rad/s | move_joints(q, t) |
 | camera   | rgb (H,W,3) uint8, intrinsics (3,3); depth (H,W) uint16, depth_scale m | - |
 | teleop   | twist (6: m/s, rad/s), gripper (0 closed .. 1 open), buttons (n)     | - |
-| base     | wheel_pos (n) rad, wheel_vel (n) rad/s, body_twist (3: vx, vy m/s, wz rad/s), odom_pose (3: x, y m, theta rad) | move_twist(twist, t) |
+| base     | wheel_pos (n) rad, wheel_vel (n) rad/s, body_twist (3), odom_pose (3)  | move_twist(twist, t) |
+
+A base's `body_twist` is `[vx, vy, wz]` (m/s, rad/s, its own frame), `odom_pose` `[x, y, theta]` (m, rad).
 
 A camera may also publish its lens distortion (`CameraNode.declare_distortion()`): `distortion_model`
 (index into `rio.schema.DISTORTION_MODELS`) and `distortion` (5 coefficients).
