@@ -86,12 +86,15 @@ class BaseConformance(DriverConformance):
             violated(self.kind, SI, f"no sample in {loop.ticks} ticks after start")
         return loop
 
-    def _stream(self, node: Any, loop: Loop, twist: np.ndarray, seconds: float) -> None:
-        """Send `twist` every cycle for `seconds`, as a teleop loop or a policy does."""
-        t_end = clock.now() + seconds
+    def _stream(self, node: Any, loop: Loop, twist: np.ndarray, seconds: float) -> float:
+        """Send `twist` every cycle for `seconds`, as a teleop loop or a policy does; returns the time the
+        last one was sent at (taken before it was: the node's own clock for it is no earlier)."""
+        t_end = t_sent = clock.now() + seconds
         while clock.now() < t_end:
-            self.command(node, twist, clock.now() + 1.0 / node.rate_hz)
+            t_sent = clock.now()
+            self.command(node, twist, t_sent + 1.0 / node.rate_hz)
             loop.tick()
+        return t_sent
 
     @staticmethod
     def _steps(node: Any) -> tuple[float, float]:
@@ -152,8 +155,7 @@ class BaseConformance(DriverConformance):
             loop = self._start(node)
             watchdog, period = float(node.config.watchdog_s), 1.0 / node.rate_hz
             twist = self.drive(node)
-            self._stream(node, loop, twist, self.settle_s + 0.2)
-            t_last = clock.now()
+            t_last = self._stream(node, loop, twist, self.settle_s + 0.2)
             moving = loop.goals[-1]
             expect(np.allclose(moving, twist, atol=1e-9), self.kind, STOPS,
                    f"after a stream of {fmt(twist)} the twist written is {fmt(moving)}")
