@@ -19,7 +19,7 @@ DRIVERS = {"so100.follower": "arm", "so100.gripper": "gripper", "so100.leader": 
            "lekiwi.base": "base"}
 STATIONS = ["so100-virtual", "so100-bimanual-virtual", "so100-sim", "so100", "so100-bimanual", "so101",
             "so101-bimanual"]
-LEKIWI_STATIONS = ["lekiwi", "lekiwi-virtual"]
+LEKIWI_STATIONS = ["lekiwi", "lekiwi-virtual", "lekiwi-sim"]
 
 
 def test_drivers_and_stations_are_registered():
@@ -40,9 +40,11 @@ def test_drivers_and_stations_are_registered():
 @pytest.mark.parametrize("name", LEKIWI_STATIONS)
 def test_lekiwi_stations_are_mobile_manipulators_on_one_bus(name):
     st = load_station(name)
-    assert st.components["base"].driver == "lekiwi.base" and st.components["arm"].driver == "so101.follower"
-    ports = {st.components[r].config.port for r in ("arm", "gripper", "base")}
-    assert len(ports) == 1  # arm, jaw and wheels share LeKiwi's one bus
+    base, arm = st.components["base"].driver, st.components["arm"].driver
+    assert (base, arm) == (("sim.base", "sim.arm") if name == "lekiwi-sim" else ("lekiwi.base", "so101.follower"))
+    if name != "lekiwi-sim":
+        ports = {st.components[r].config.port for r in ("arm", "gripper", "base")}
+        assert len(ports) == 1  # arm, jaw and wheels share LeKiwi's one bus
     assert infer_embodiment(st.roles()).name == "mobile_manipulator"
 
 

@@ -43,6 +43,7 @@ _STATIONS = {
     "so101-bimanual": "two SO-101 followers + grippers + two leaders on serial ports (edit the ports)",
     "lekiwi": "LeKiwi: SO-101 follower + gripper and the three-wheel base on one serial port (edit the port)",
     "lekiwi-virtual": "LeKiwi's arm, gripper and wheels on virtual buses (no hardware), keyboard teleop",
+    "lekiwi-sim": "LeKiwi in rio-sim's MuJoCo: arm + gripper on a three-wheel base, cameras (needs rio-sim)",
 }
 
 

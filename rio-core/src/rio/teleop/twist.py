@@ -170,6 +170,7 @@ class TwistTeleop:
             if self.switch.mode == TeleopMode.BASE:
                 raise RioError(f"teleop mode 'base' drives a mobile base; embodiment '{robot.name}' has none")
         self.base_twist = None if not self.has_base else np.zeros(3)
+        self.base = robot.clients.get("base")
         self.drive = {b.role: ("teleop2" if b.role == "arm2" and "teleop2" in self.devices else "teleop")
                       for b in self.arms}
         self.row = {b.role: [b2.role for b2 in self.arms if self.drive[b2.role] == self.drive[b.role]].index(b.role)
@@ -240,6 +241,10 @@ class TwistTeleop:
         summary.details["mode"] = self.switch.mode.name.lower()
         summary.details["travel"] = {name: t.report() for name, t in self.travel.items()}
         summary.lines.append(travel_line(self.travel))
+        if self.base is not None:  # where the base went, by its odometry
+            x, y, th = (float(v) for v in self.base.get_state()["odom_pose"])
+            summary.details["base_odometry"] = [round(x, 4), round(y, 4), round(th, 4)]
+            summary.lines.append(f"base: odometry ({x:+.3f}, {y:+.3f}) m, heading {np.degrees(th):+.1f} deg")
         self.end.report(summary)
         if self.visual is not None:
             summary.details["viz"] = self.visual.where
