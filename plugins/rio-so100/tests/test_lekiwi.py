@@ -95,3 +95,16 @@ def test_a_servo_fault_stops_the_wheels_and_names_the_servo():
             node.cycle()
         servos = [node.virtual.servo(sid) for sid in G.WHEEL_IDS]  # the stop is a broadcast: no answer to wait for
         assert wait_until(lambda: all(_goal_bytes(s) == b"\x00\x00" for s in servos), timeout=2.0)
+
+
+def test_lekiwi_virtual_with_a_leader_arm_mirrors_the_arm_and_parks_the_base():
+    """LeKiwi's usual setup: an SO-101 leader drives the arm; the base gets a zero twist each tick."""
+    from rio.workflows.teleop import run_teleop
+
+    seen = []
+    s = run_teleop("lekiwi-virtual", "so101.leader", device_config={"port": "virtual", "virtual_motion": "wave"},
+                   middleware="thread", duration=3.0, log=None,
+                   on_tick=lambda tick: seen.append((tick.action[-3:].copy(), tick.step.observation.base_odom)))
+    assert s.ticks > 30 and seen
+    assert all(not a.any() for a, _ in seen)  # the base's part of every action: stand still
+    assert np.abs(seen[-1][1]).max() < 1e-3

@@ -351,7 +351,8 @@ def _add_base(spec, b: BaseMount):
     body.add_joint(name=f"{b.name}/y", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0])
     body.add_joint(name=f"{b.name}/yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
     body.add_geom(name=f"{b.name}/chassis", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                  size=[b.radius, b.height / 2 - 0.01, 0], pos=[0, 0, -b.height / 2 + 0.01], rgba=[0.9, 0.9, 0.88, 1], mass=3.0, contype=0, conaffinity=0)
+                  size=[b.radius, b.height / 2 - 0.01, 0], pos=[0, 0, -b.height / 2 + 0.01], rgba=[0.9, 0.9, 0.88, 1],
+                  mass=3.0, contype=0, conaffinity=0)
     for k, deg in enumerate(b.wheel_mounts_deg):
         a = np.radians(deg)
         c = [b.radius * np.cos(a), b.radius * np.sin(a), -b.height + b.wheel_radius]
