@@ -187,10 +187,11 @@ class Recorder:
             self.info["embodiment"] = robot.name
             layout = robot.action_parts()
             self.info["action_parts"] = [[label, n] for label, n in layout]
-            self.info["action_names"] = list(robot.action_names())
-            names = {k: list(v) for k, v in robot.observation_names().items()}
-            if names:
-                self.info["observation_names"] = names
+            # an embodiment names them from its drivers; a stand-in robot without the methods: numbered
+            numbered = [f"{label}.{i}" if n > 1 else label for label, n in layout for i in range(n)]
+            self.info["action_names"] = list(robot.action_names()) if hasattr(robot, "action_names") else numbered
+            if hasattr(robot, "observation_names"):
+                self.info["observation_names"] = {k: list(v) for k, v in robot.observation_names().items()}
             self.action_dim = sum(n for _, n in layout)
         elif getattr(env, "embodiment_cls", None) is not None:
             self.info["embodiment"] = env.embodiment_cls.name
