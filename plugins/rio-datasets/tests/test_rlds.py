@@ -9,11 +9,11 @@ import json
 
 import numpy as np
 import pytest
+from rio_datasets.common import actions_after_observations
 
 from rio.cli import main as rio_main
 from rio.recording import Dataset
 from rio.recording.format import export_dataset, get_format
-from rio_datasets.common import actions_after_observations
 
 
 @pytest.fixture(scope="module")

@@ -46,6 +46,7 @@ from .common import (
 )
 from .native_writer import episode_steps, name_environment_state, open_recorder
 
+
 class _VideoFile:
     """One mp4 that episodes of one camera are appended to (pts = frame number at the dataset rate)."""
 
