@@ -189,8 +189,11 @@ def test_overwrite_replaces_only_when_asked_and_keeps_the_old_output_if_the_new_
 
 @pytest.mark.lerobot
 def test_lerobot_itself_reads_names_robot_type_and_episode_stats(recorded, tmp_path, monkeypatch):
+    """LeRobot's loader reads robot_type and names; its own `delete_episodes` rebuilds the dataset's stats from
+    the per-episode `stats/...` columns of the episodes that remain, which must be that episode's own."""
     pytest.importorskip("lerobot", reason="lerobot is not installed (it pulls a CUDA torch): not run here")
     monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    from lerobot.datasets.dataset_tools import delete_episodes
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     out = tmp_path / "lr"
@@ -199,9 +202,13 @@ def test_lerobot_itself_reads_names_robot_type_and_episode_stats(recorded, tmp_p
     assert ds.meta.robot_type == "rio.fake_arm"
     assert ds.meta.features["action"]["names"] == NAMES
     assert ds.meta.features["observation.state"]["names"] == NAMES
-    assert ds.meta.episodes["stats/action/min"][0] is not None
-    np.testing.assert_allclose(np.asarray(ds.meta.stats["action"]["max"]),
-                               np.asarray(pq.read_table(out / "data/chunk-000/file-000.parquet")
-                                          .column("action").to_pylist()).max(0), atol=1e-6)
-    item = ds[len(ds) - 1]
-    assert item["task"] == "sweep the joints" and tuple(item["observation.images.front"].shape) == (3, 48, 64)
+    assert ds.meta.tasks.index.tolist() == ["sweep the joints"]
+    rows = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    data = pq.read_table(out / "data/chunk-000/file-000.parquet")
+    a, b = rows[1]["dataset_from_index"], rows[1]["dataset_to_index"]
+    second = np.asarray(data.column("action").to_pylist()[a:b], np.float64)
+    only_second = delete_episodes(ds, episode_indices=[0], output_dir=tmp_path / "second", repo_id="rio/second")
+    stats = only_second.meta.stats["action"]
+    np.testing.assert_allclose(stats["max"], second.max(0), atol=1e-6)
+    np.testing.assert_allclose(stats["mean"], second.mean(0), atol=1e-6)
+    assert int(np.asarray(stats["count"]).reshape(-1)[0]) == b - a

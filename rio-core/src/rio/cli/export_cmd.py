@@ -137,6 +137,9 @@ def export(
 
     ranges = parse_episodes(episodes)
     opts = parse_options(option)
+    target = Path(out)
+    if not overwrite and (target.is_file() or target.is_symlink() or (target.is_dir() and any(target.iterdir()))):
+        raise ConfigError(f"{out} exists and is not empty; --overwrite replaces it")  # before any episode is read
     ds = Dataset(dataset, allow_damaged=allow_damaged)
     chosen = None if ranges is None else choose_episodes(str(episodes), ranges, [e["index"] for e in ds.episodes])
     f = get_format(fmt, opts)
