@@ -131,6 +131,7 @@ def export(
     from pathlib import Path
 
     from rio.cli.datasets_cmd import damaged_warnings
+    from rio.machine.confine import is_inside
     from rio.cli.output import console
     from rio.recording import Dataset
     from rio.recording.format import export_dataset, get_format
@@ -138,7 +139,8 @@ def export(
     ranges = parse_episodes(episodes)
     opts = parse_options(option)
     target = Path(out)
-    if not overwrite and (target.is_file() or target.is_symlink() or (target.is_dir() and any(target.iterdir()))):
+    occupied = target.is_file() or target.is_symlink() or (target.is_dir() and any(target.iterdir()))
+    if occupied and not overwrite and not is_inside(target, Path(dataset)):  # inside: export_dataset says so
         raise ConfigError(f"{out} exists and is not empty; --overwrite replaces it")  # before any episode is read
     ds = Dataset(dataset, allow_damaged=allow_damaged)
     chosen = None if ranges is None else choose_episodes(str(episodes), ranges, [e["index"] for e in ds.episodes])
