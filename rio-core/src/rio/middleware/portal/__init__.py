@@ -131,9 +131,9 @@ class PortalClient(NetworkClient):
 
         return self._ask(b"req", memoryview(body)[REQUEST_ID.size:], ack)
 
-    def _recv(self, kind: bytes) -> Any:
+    def _recv(self, kind: bytes, wait_s: float | None = POLL_S) -> Any:
         try:
-            error, data = self._answers[kind].get(timeout=POLL_S)
+            error, data = self._answers[kind].get(timeout=wait_s) if wait_s else self._answers[kind].get_nowait()
         except queue.Empty:
             return None
         if error is None:
@@ -141,6 +141,9 @@ class PortalClient(NetworkClient):
         if self._link.closed:
             raise NodeDiedError(self.name, self._gone or error)
         raise NodeError(self.name, "PortalError", error)
+
+    def _recv_now(self, kind: bytes) -> Any:
+        return self._recv(kind, 0.0)
 
     def _poll_loop(self) -> None:
         """The state stream: one long poll at a time, each answered with the messages after our newest."""

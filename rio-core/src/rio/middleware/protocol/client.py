@@ -11,7 +11,7 @@ state-stream message to `_on_stream`. This class does the rest:
   machine (exact, cheap); elsewhere any message counts, and `heartbeat_timeout` of silence reports the node
   dead by name, until the same server speaks again. BYE, an exit, another epoch or a lost link are final.
 - calls, one at a time per client, each with a new id: answers of other ids (late replies of calls that
-  timed out) are dropped. Requests: `RequestFlow` (`requests`).
+  timed out) are dropped. Requests: `CreditFlow` (`credits`): a send and no wait.
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ from rio import clock
 from rio.errors import ConfigError, NodeDiedError, NodeError, NodeTimeout, RioError
 from rio.middleware.protocol import messages as m
 from rio.middleware.protocol.config import NetworkConfig
-from rio.middleware.protocol.requests import RequestFlow
+from rio.middleware.protocol.credits import CreditFlow, RequestStats
+from rio.middleware.protocol.requests import ANSWER_TIMEOUT_S
 from rio.runtime import wire
 from rio.runtime.buffers import RequestSender, RingBuffer
 from rio.runtime.node import Node
@@ -66,14 +67,19 @@ class NetworkClient(ClientTransport):
         self._call_ids = itertools.count(1)  # next() is atomic under the GIL
         self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity) if layouts.data else None
         self.request_queue = RequestSender(layouts.request, self._send_request) if layouts.request else None
-        self._requests = RequestFlow(self.name, config.call_timeout, partial(self._send, m.REQUEST),
-                                     partial(self._recv, m.ACK), self.check_alive)
+        self._requests = CreditFlow(self.name, max(config.call_timeout, ANSWER_TIMEOUT_S),
+                                    partial(self._send, m.REQUEST), partial(self._recv_now, m.ACK), self.check_alive)
 
     # -- the adapter's part --------------------------------------------------------------------------
     def _send(self, kind: bytes, body: bytes) -> None:
         raise NotImplementedError
 
     def _recv(self, kind: bytes) -> bytes | memoryview | None:
+        raise NotImplementedError
+
+    def _recv_now(self, kind: bytes) -> bytes | memoryview | None:
+        """The next answer of that kind if one has arrived, else None at once (request acknowledgements are
+        taken in this way: `send_request` never waits for the network)."""
         raise NotImplementedError
 
     # -- liveness ------------------------------------------------------------------------------------
@@ -124,6 +130,7 @@ class NetworkClient(ClientTransport):
                 self.ring_buffer.put_bytes(hello["newest"])
                 self._seq = int(hello["count"])
             self._epoch = int(hello["epoch"])
+        self._requests.grant(hello.get("credits"))
         self._heard()
 
     def _on_stream(self, head: bytes | memoryview, record: bytes | memoryview | None) -> None:
@@ -178,6 +185,11 @@ class NetworkClient(ClientTransport):
 
     def _send_request(self, record: bytes) -> None:
         self._requests.send(record)
+
+    def request_stats(self, wait_s: float = 0.0) -> RequestStats:
+        """This client's request counts (sent, acknowledged, refused, no credits), after taking in the
+        acknowledgements that arrived (waiting up to `wait_s` for those in flight)."""
+        return self._requests.drain(wait_s)
 
     def close(self) -> None:
         if self._watch is not None:

@@ -3,7 +3,8 @@ the first byte of the frame, zenoh in the key expression, portal in the method n
 same everywhere. Nothing here is pickled: fixed binary headers, raw layout records, msgpack (`rio.runtime.wire`).
 
 Client -> server, each answered to that client only:
-- HELLO (empty) -> HELLO: msgpack map {protocol, node, fingerprint, epoch, count, newest, heartbeat_s}.
+- HELLO (empty) -> HELLO: msgpack map {protocol, node, fingerprint, epoch, count, newest, heartbeat_s,
+  credits} (credits: the requests a client may have unacknowledged, `credits`).
 - REQUEST: request id (u64) + one raw record of the node's request layout -> ACK: msgpack
   [id, status, a, b]: OK (a: free slots left), FULL (a, b: capacity, seconds waited), INVALID (a, b:
   field or None, problem). Nothing is dropped without its sender hearing why.
@@ -27,7 +28,7 @@ from rio.errors import InvalidRequest, QueueFull
 from rio.runtime import wire
 
 #: Checked at the handshake: a server of another version answers differently, or not at all.
-VERSION = 3
+VERSION = 4
 HELLO, REQUEST, ACK, CALL, REPLY = b"h", b"r", b"a", b"c", b"y"
 STATE, BEAT, BYE = b"S", b"H", b"B"
 STREAM_HEAD = struct.Struct("<c3xIIQ")

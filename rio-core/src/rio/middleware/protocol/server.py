@@ -147,7 +147,7 @@ class NetworkServer(ServerTransport):
         last = self._last
         return wire.pack({"protocol": m.VERSION, "node": self.name, "fingerprint": self.layouts.fingerprint(),
                           "epoch": self._epoch, "count": last[0] if last else 0, "newest": last[1] if last else None,
-                          "heartbeat_s": self.config.heartbeat_s})
+                          "heartbeat_s": self.config.heartbeat_s, "credits": self.config.max_pending_per_peer})
 
     def _ack(self, peer: Hashable, rid: int, status: int, a: Any, b: Any, tag: Any) -> None:
         if status == m.OK:
