@@ -55,14 +55,14 @@ def _process_per_node(mw: str | Middleware) -> bool:
     return bool(get_middleware(mw).process_per_node)
 
 
-def send_in_turn(client: Any, deadline_s: float = 5.0, **fields: Any) -> None:
-    """`client.send_request(**fields)` as a well-behaved sender does it: on a network middleware a request
+def send_in_turn(node: Any, deadline_s: float = 5.0, /, **fields: Any) -> None:
+    """`node.send_request(**fields)` (`node`: a connected client) as a well-behaved sender does it: on a network middleware a request
     with no credit left fails at once (NoCredits, nothing sent), so try again until the node has
     acknowledged earlier ones; any other error, or no credit within `deadline_s`, is raised."""
     t_end = time.monotonic() + deadline_s
     while True:
         try:
-            return client.send_request(**fields)
+            return node.send_request(**fields)
         except NoCredits:
             if time.monotonic() > t_end:
                 raise

@@ -29,7 +29,9 @@ from rio.middleware.portal import wire as pw
 from rio.middleware.portal.server import TAKEN, PortalServer
 from rio.middleware.protocol import NetworkClient, NetworkConfig
 from rio.middleware.protocol.client import POLL_S
-from rio.middleware.protocol.messages import ACK, OK, REPLY, REQUEST, REQUEST_ID, STATE, STREAM_HEAD, pack_ack
+from rio.middleware.protocol.codecs import CODED_HEAD
+from rio.middleware.protocol.messages import (ACK, CODED, OK, REPLY, REQUEST, REQUEST_ID, STATE, STREAM_HEAD,
+                                              pack_ack)
 from rio.runtime import wire
 from rio.runtime.node import Node
 from rio.runtime.transport import Middleware, NodeLayouts
@@ -158,7 +160,8 @@ class PortalClient(NetworkClient):
                 pos = 0
                 while pos + STREAM_HEAD.size <= len(data):
                     head, pos = data[pos:pos + STREAM_HEAD.size], pos + STREAM_HEAD.size
-                    n = size if head[:1] == STATE else 0
+                    kind = head[:1]
+                    n = size if kind == STATE else (CODED_HEAD.unpack_from(data, pos)[0] if kind == CODED else 0)
                     self._on_stream(head, data[pos:pos + n] if n else None)
                     pos += n
         except NodeDiedError:

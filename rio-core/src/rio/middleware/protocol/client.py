@@ -26,6 +26,7 @@ from typing import Any, ClassVar
 from rio import clock
 from rio.errors import ConfigError, NodeDiedError, NodeError, NodeTimeout, RioError
 from rio.middleware.protocol import messages as m
+from rio.middleware.protocol.codecs import RecordDecoder
 from rio.middleware.protocol.config import NetworkConfig
 from rio.middleware.protocol.credits import CreditFlow, RequestStats
 from rio.middleware.protocol.requests import ANSWER_TIMEOUT_S
@@ -65,6 +66,8 @@ class NetworkClient(ClientTransport):
         self._stream_lock = threading.Lock()
         self._call_lock = threading.Lock()
         self._call_ids = itertools.count(1)  # next() is atomic under the GIL
+        #: Decodes the samples a server sends compressed (`codecs`), made on the first one.
+        self.decoder: RecordDecoder | None = None
         self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity) if layouts.data else None
         self.request_queue = RequestSender(layouts.request, self._send_request) if layouts.request else None
         self._requests = CreditFlow(self.name, max(config.call_timeout, ANSWER_TIMEOUT_S),
@@ -127,7 +130,8 @@ class NetworkClient(ClientTransport):
                               "must build the node with the same class and config")
         with self._stream_lock:
             if self.ring_buffer is not None and hello["newest"] is not None:
-                self.ring_buffer.put_bytes(hello["newest"])
+                newest = hello["newest"]
+                self.ring_buffer.put_bytes(self._decoded(newest) if hello.get("coded") else newest)
                 self._seq = int(hello["count"])
             self._epoch = int(hello["epoch"])
         self._requests.grant(hello.get("credits"))
@@ -144,7 +148,7 @@ class NetworkClient(ClientTransport):
         self._heard()
         if kind == m.BYE:
             self._lose("server closed")
-        elif kind == m.STATE and self.ring_buffer is not None and record is not None:
+        elif kind in (m.STATE, m.CODED) and self.ring_buffer is not None and record is not None:
             if fp != self._fp:
                 if not self._foreign_warned:
                     self._foreign_warned = True
@@ -154,11 +158,18 @@ class NetworkClient(ClientTransport):
                 if seq <= self._seq:  # already seeded by the handshake, or out of order
                     return
                 try:
-                    self.ring_buffer.put_bytes(record)
-                except RioError as e:
-                    log.warning("%s", e)
+                    self.ring_buffer.put_bytes(self._decoded(record) if kind == m.CODED else record)
+                except (RioError, ValueError) as e:
+                    log.warning("node '%s': dropped a sample: %s", self.name, e)
                     return
                 self._seq = seq
+
+    def _decoded(self, body: bytes | memoryview) -> bytearray:
+        """A CODED sample's record (`codecs`), decoded once here, in the receiving thread."""
+        if self.decoder is None:
+            assert self.layouts.data is not None
+            self.decoder = RecordDecoder(self.layouts.data)
+        return self.decoder.decode(body)
 
     # -- calls and requests --------------------------------------------------------------------------
     def call(self, method: str, args: tuple, kwargs: dict) -> Any:
@@ -185,6 +196,16 @@ class NetworkClient(ClientTransport):
 
     def _send_request(self, record: bytes) -> None:
         self._requests.send(record)
+
+    def send_request_acknowledged(self, record: bytes, wait_s: float = ANSWER_TIMEOUT_S) -> None:
+        """Send a request record and wait (up to `wait_s`) for the node's acknowledgement of it and of every
+        earlier one: raises its refusal (InvalidRequest, QueueFull naming the node) as the blocking sends
+        of protocol 3 did. For scripts and tests; a control loop uses `send_request`."""
+        self._requests.send(record)
+        self._requests.drain(wait_s)
+        error = self._requests.take_error()
+        if error is not None:
+            raise error
 
     def request_stats(self, wait_s: float = 0.0) -> RequestStats:
         """This client's request counts (sent, acknowledged, refused, no credits), after taking in the

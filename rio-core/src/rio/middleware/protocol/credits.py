@@ -42,9 +42,10 @@ class NoCredits(QueueFull):
 
     def __init__(self, node: str, credits: int, oldest_s: float):
         self.node, self.credits, self.oldest_s = node, credits, oldest_s
-        RioError.__init__(self, f"node '{node}': request not sent: all {credits} request credits are in flight "
-                                f"(the oldest unacknowledged for {oldest_s * 1e3:.3g} ms); the node or the link "
-                                "is not keeping up (lower the command rate or raise max_pending_per_peer)")
+        RioError.__init__(self, f"node '{node}': request queue full for this client, request not sent: all "
+                                f"{credits} of its request credits are in flight (the oldest unacknowledged for "
+                                f"{oldest_s * 1e3:.3g} ms); the node or the link is not keeping up (lower the "
+                                "command rate, or raise max_pending_per_peer)")
 
 
 @dataclass

@@ -10,8 +10,9 @@ Client -> server, each answered to that client only:
   field or None, problem). Nothing is dropped without its sender hearing why.
 - CALL: `wire.pack_call` (call id first) -> REPLY: `wire.pack_reply` with the same id.
 
-Server -> every client (the state stream): a 20-byte header (kind STATE / BEAT / BYE, data-layout
-fingerprint u32, epoch u32, sequence number u64), then for STATE the record. The epoch is random per
+Server -> every client (the state stream): a 20-byte header (kind STATE / CODED / BEAT / BYE, data-layout
+fingerprint u32, epoch u32, sequence number u64), then for STATE the record, for CODED the record with its
+image fields compressed (`codecs`). The epoch is random per
 server start, so a restarted server is a new server; sequence numbers only grow within one epoch.
 """
 
@@ -31,6 +32,8 @@ from rio.runtime import wire
 VERSION = 4
 HELLO, REQUEST, ACK, CALL, REPLY = b"h", b"r", b"a", b"c", b"y"
 STATE, BEAT, BYE = b"S", b"H", b"B"
+#: A state-stream sample whose image fields are compressed (`codecs`: one self-delimiting body).
+CODED = b"Z"
 STREAM_HEAD = struct.Struct("<c3xIIQ")
 REQUEST_ID = struct.Struct("<Q")
 OK, FULL, INVALID = 0, 1, 2
