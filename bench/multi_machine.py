@@ -208,8 +208,9 @@ def cameras(net, seconds: float) -> list[dict]:  # noqa: ANN001 - a netns.TwoMac
                          "mbit_s": got["rx_mbit_s"], "utilisation": round(got["rx_mbit_s"] / _LINK_MBIT[rate], 3),
                          "rgb_kb": round(np.mean([c["bytes_per_frame"] for c in rgb]) / 1e3, 1),
                          "depth_kb": round(depth["bytes_per_frame"] / 1e3, 1),
-                         "encode_ms": cost[codec], "decode_ms": {"rgb": round(np.mean([c["decode_ms"] for c in rgb]), 2),
-                                                                 "depth": depth["decode_ms"]}})
+                         "encode_ms": cost[codec],
+                         "decode_ms": {"rgb": round(np.mean([c["decode_ms"] for c in rgb]), 2),
+                                       "depth": depth["decode_ms"]}})
     net.shape()
     return rows
 
@@ -224,8 +225,8 @@ def requests(net, seconds: float) -> list[dict]:  # noqa: ANN001 - a netns.TwoMa
             _ready(srv, "four nodes")
             for mode in ("credits", "acknowledged"):
                 print(f"[bench] 500 Hz requests ({mode}) over {label} ...", file=sys.stderr, flush=True)
-                rows.append({"link": label, "tc": applied, **_run_side(net.b, "request-loop", net.a.address, str(seconds), mode,
-                                                       timeout=seconds + 120)})
+                got = _run_side(net.b, "request-loop", net.a.address, str(seconds), mode, timeout=seconds + 120)
+                rows.append({"link": label, "tc": applied, **got})
         finally:
             _stop(srv)
     net.shape()
@@ -249,7 +250,8 @@ def _print_cameras(rows: list[dict]) -> None:
     for label, *_ in LINKS:
         raw, coded = (next(r for r in rows if r["link"] == label and r["codec"] == c) for c in ("raw", "jpeg+zstd"))
         print(f"{label}: compressed/raw  age p99 x{coded['age_p99_ms'] / max(raw['age_p99_ms'], 1e-9):.2f}, "
-              f"link use x{coded['mbit_s'] / max(raw['mbit_s'], 1e-9):.3f}, dropped {coded['dropped']} vs {raw['dropped']}")
+              f"link use x{coded['mbit_s'] / max(raw['mbit_s'], 1e-9):.3f}, "
+              f"dropped {coded['dropped']} vs {raw['dropped']}")
 
 
 def _print_requests(rows: list[dict]) -> None:
@@ -257,7 +259,8 @@ def _print_requests(rows: list[dict]) -> None:
     print(f"{'link':18} {'mode':13} {'late p50 ms':>11} {'late p99 ms':>11} {'send p50 us':>11} {'send p99 us':>11} "
           f"{'sent':>6} {'no credit':>9} {'refused':>7}")
     for r in rows:
-        print(f"{r['link']:18} {r['mode']:13} {r['late_p50_ms']:11.3f} {r['late_p99_ms']:11.3f} {r['send_p50_us']:11.1f} "
+        print(f"{r['link']:18} {r['mode']:13} {r['late_p50_ms']:11.3f} {r['late_p99_ms']:11.3f} "
+              f"{r['send_p50_us']:11.1f} "
               f"{r['send_p99_us']:11.1f} {r['sent']:6d} {r['no_credits']:9d} {r['refused']:7d}")
     for label, *_ in LINKS:
         cr, ack = (next(r for r in rows if r["link"] == label and r["mode"] == m) for m in ("credits", "acknowledged"))

@@ -20,13 +20,13 @@ import numpy as np
 import pytest
 
 import rio
+from rio.conformance.middleware import send_in_turn
 from rio.errors import ConfigError
 from rio.middleware.portal import PortalMiddleware
 from rio.runtime import wire
 from rio.runtime.manager import ServerManager, connect, serve
 from rio.runtime.transport import NodeLayouts
 from rio.testing import EchoNode, ImageNode, wait_until
-from rio.conformance.middleware import send_in_turn
 
 MW = "portal"
 

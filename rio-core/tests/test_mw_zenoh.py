@@ -16,11 +16,11 @@ pytest.importorskip("zenoh")
 
 import rio  # noqa: E402
 from rio import ServerManager, connect, serve  # noqa: E402
+from rio.conformance.middleware import send_in_turn
 from rio.errors import ConfigError  # noqa: E402
 from rio.middleware.zenoh import _SESSIONS, ZenohMiddleware, _config, _free_port  # noqa: E402
 from rio.runtime.transport import NodeLayouts  # noqa: E402
 from rio.testing import EchoNode, ImageNode, wait_until  # noqa: E402
-from rio.conformance.middleware import send_in_turn
 
 
 @pytest.fixture(scope="module")

@@ -14,11 +14,11 @@ from pydantic import ValidationError
 
 import rio
 from rio import ServerManager, connect, serve
+from rio.conformance.middleware import send_in_turn
 from rio.errors import ConfigError
 from rio.middleware.zmq import ZmqMiddleware
 from rio.runtime.node import remote
 from rio.testing import EchoNode, ImageNode, wait_until
-from rio.conformance.middleware import send_in_turn
 
 
 def _remote_view(address: dict) -> dict:

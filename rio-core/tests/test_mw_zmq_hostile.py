@@ -17,6 +17,7 @@ import zmq.utils.monitor
 import rio
 import rio.machine.keys
 from rio import ServerManager, connect, serve
+from rio.conformance.middleware import send_in_turn
 from rio.errors import ConfigError
 from rio.middleware.protocol.messages import REQUEST, REQUEST_ID
 from rio.middleware.zmq import ZmqMiddleware
@@ -25,7 +26,6 @@ from rio.runtime.node import remote
 from rio.runtime.runner import Dispatcher
 from rio.runtime.transport import NodeLayouts
 from rio.testing import EchoNode, wait_until
-from rio.conformance.middleware import send_in_turn
 
 
 # -- helpers -------------------------------------------------------------------------------------------

@@ -56,9 +56,9 @@ def _process_per_node(mw: str | Middleware) -> bool:
 
 
 def send_in_turn(node: Any, deadline_s: float = 5.0, /, **fields: Any) -> None:
-    """`node.send_request(**fields)` (`node`: a connected client) as a well-behaved sender does it: on a network middleware a request
-    with no credit left fails at once (NoCredits, nothing sent), so try again until the node has
-    acknowledged earlier ones; any other error, or no credit within `deadline_s`, is raised."""
+    """`node.send_request(**fields)` (`node`: a connected client) as a well-behaved sender does it: on a
+    network middleware a request with no credit left fails at once (NoCredits, nothing sent), so try again
+    until the node has acknowledged earlier ones; any other error, or no credit within `deadline_s`, is raised."""
     t_end = time.monotonic() + deadline_s
     while True:
         try:

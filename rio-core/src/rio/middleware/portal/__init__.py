@@ -30,8 +30,7 @@ from rio.middleware.portal.server import TAKEN, PortalServer
 from rio.middleware.protocol import NetworkClient, NetworkConfig
 from rio.middleware.protocol.client import POLL_S
 from rio.middleware.protocol.codecs import CODED_HEAD
-from rio.middleware.protocol.messages import (ACK, CODED, OK, REPLY, REQUEST, REQUEST_ID, STATE, STREAM_HEAD,
-                                              pack_ack)
+from rio.middleware.protocol.messages import ACK, CODED, OK, REPLY, REQUEST, REQUEST_ID, STATE, STREAM_HEAD, pack_ack
 from rio.runtime import wire
 from rio.runtime.node import Node
 from rio.runtime.transport import Middleware, NodeLayouts
