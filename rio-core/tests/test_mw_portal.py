@@ -412,13 +412,18 @@ def test_full_request_queue_raises_queue_full(echo):
     _, c = echo
     slow = threading.Thread(target=c.sleep, args=(5.0,))
     slow.start()
+    sent = 0
     try:
         time.sleep(0.2)
         with pytest.raises(rio.QueueFull, match="node 'echo': request queue full"):
-            for seq in range(500):
-                c.send_request(q=np.zeros(6), client=12, seq=seq)
+            for sent in range(500):  # noqa: B007 - counted for the assertion below
+                send_in_turn(c, 1.0, q=np.zeros(6), client=12, seq=sent)  # NoCredits for good once it is full
+        assert sent >= 64, sent  # the node's queue filled first
     finally:
         slow.join()
+    c._transport.request_stats(wait_s=5.0)  # requests held past the put timeout were refused: said once
+    with pytest.raises(rio.QueueFull, match="'echo'.*for 1 s"):
+        c.send_request(q=np.zeros(6), client=12, seq=998)
     send_in_turn(c, q=np.zeros(6), client=12, seq=999)  # credits back once the node caught up
     assert wait_until(lambda: [12, 999] in c.handled(), timeout=10.0)
 

@@ -302,10 +302,17 @@ def test_full_request_queue_raises_queue_full(slow):
             sent = 0
             with pytest.raises(rio.QueueFull, match="'slow'.*queue full") as ei:
                 for sent in range(10 * 64):  # noqa: B007 - counted for the assertion below
-                    b.send_request(q=np.zeros(6), client=8, seq=sent)
+                    # out of credits only while acknowledgements are on their way, until the queue is full
+                    # and the node holds this client's credits' worth (then NoCredits for good)
+                    send_in_turn(b, 1.0, q=np.zeros(6), client=8, seq=sent)
             assert ei.value.node == "slow" and sent >= 64, sent
             assert t.is_alive(), "the queue filled only after the slow call ended"
             t.join(30)
+            # the requests the node held for more than its put timeout (1 s) were refused: said once
+            stats = b._transport.request_stats(wait_s=5.0)
+            assert stats.refused_full >= 1, stats
+            with pytest.raises(rio.QueueFull, match="'slow'.*queue full.*for 1 s"):
+                b.send_request(q=np.full(6, 2.0), client=8, seq=sent)
             send_in_turn(b, q=np.full(6, 3.0), client=8, seq=sent + 1)  # credits back once the node caught up
             assert wait_until(lambda: np.allclose(b.get_state()["last"], 3.0)), "node did not catch up"
     finally:

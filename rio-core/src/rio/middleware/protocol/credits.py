@@ -10,8 +10,9 @@ keeping up, or the link is slow.
 
 Nothing is lost silently: an acknowledgement that refuses a request (the node's queue stayed full for its
 put timeout, or the node's own check found a bad field) is kept and raised, naming the node, by the next
-`send_request` (before it sends anything: that request is not sent); a request without an acknowledgement
-after `timeout` is reported the same way (NodeTimeout). Every refusal is also counted (`stats`), for the
+`send_request` (before it sends anything: that request is not sent; the refusals since the last report are
+raised as one, the oldest, the rest counted); a request without an acknowledgement after `timeout` is
+reported the same way (NodeTimeout). Every refusal is also counted (`stats`), for the
 run summary. Acknowledgements are taken in without waiting (`recv_now`) on every send and whenever
 `drain` is called.
 """
@@ -118,10 +119,13 @@ class CreditFlow:
             clock.precise_wait(min(t_end, clock.now() + 0.001))
 
     def take_error(self) -> Exception | None:
-        """The oldest refusal not yet reported (and forget it), for a caller reporting it its own way."""
+        """The oldest refusal not yet reported (forgetting all of them: see `_raise_earlier`), for a caller
+        reporting it its own way."""
         with self._lock:
             self._take_acks()
-            return self._errors.pop(0) if self._errors else None
+            error = self._errors[0] if self._errors else None
+            self._errors.clear()
+            return error
 
     # -- inside the lock -----------------------------------------------------------------------------
     def _take_acks(self) -> None:
@@ -151,10 +155,14 @@ class CreditFlow:
                 self._errors.append(NodeTimeout(self.node, "a request's acknowledgement", self.timeout))
 
     def _raise_earlier(self) -> None:
+        """Raise the oldest refusal not yet reported; it stands for all of them (the others are counted in
+        `stats` and named in a note), so one stall costs the sender one error, not one per request."""
         if not self._errors:
             return
-        error = self._errors.pop(0)
+        error, more = self._errors[0], len(self._errors) - 1
+        self._errors.clear()
         self._warn("node '%s': an earlier request was refused: %s", self.node, error)
         if hasattr(error, "add_note"):  # Python 3.11+
-            error.add_note("(an earlier request's refusal, reported by the next send_request, which was not sent)")
+            error.add_note("(an earlier request's refusal, reported by the next send_request, which was not sent"
+                           + (f"; {more} more refused since, counted in request_stats()" if more else "") + ")")
         raise error
