@@ -71,7 +71,8 @@ class NetworkClient(ClientTransport):
         self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity) if layouts.data else None
         self.request_queue = RequestSender(layouts.request, self._send_request) if layouts.request else None
         self._requests = CreditFlow(self.name, max(config.call_timeout, ANSWER_TIMEOUT_S),
-                                    partial(self._send, m.REQUEST), partial(self._recv_now, m.ACK), self.check_alive)
+                                    partial(self._send, m.REQUEST), partial(self._recv_now, m.ACK), self.check_alive,
+                                    recv_wait=partial(self._recv, m.ACK))
 
     # -- the adapter's part --------------------------------------------------------------------------
     def _send(self, kind: bytes, body: bytes) -> None:

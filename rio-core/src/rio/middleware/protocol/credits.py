@@ -68,9 +68,11 @@ class RequestStats:
 class CreditFlow:
     def __init__(self, node: str, timeout: float, send: Callable[[bytes], None],
                  recv_now: Callable[[], bytes | memoryview | None], alive: Callable[[], None],
-                 credits: int = DEFAULT_CREDITS):
+                 credits: int = DEFAULT_CREDITS, recv_wait: Callable[[], bytes | memoryview | None] | None = None):
         self.node, self.timeout, self.credits = node, timeout, max(int(credits), 1)
         self._send, self._recv_now, self._alive = send, recv_now, alive
+        #: Waits a little for the next acknowledgement (the transport's poll), for `drain`.
+        self._recv_wait = recv_wait
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
         self._in_flight: dict[int, float] = {}  # request id -> when it was sent (insertion = send order)
@@ -116,6 +118,11 @@ class CreditFlow:
                 self._take_acks()
                 if not self._in_flight or clock.now() >= t_end:
                     return self.stats
+                if self._recv_wait is not None:  # wakes as the acknowledgement arrives
+                    body = self._recv_wait()
+                    if body is not None:
+                        self._take(body)
+                    continue
             clock.precise_wait(min(t_end, clock.now() + 0.001))
 
     def take_error(self) -> Exception | None:
@@ -128,23 +135,26 @@ class CreditFlow:
             return error
 
     # -- inside the lock -----------------------------------------------------------------------------
+    def _take(self, body: bytes | memoryview) -> None:
+        try:
+            ack = wire.unpack(body)
+            rid, status = int(ack[0]), ack[1]
+            error = ack_error(self.node, ack)
+        except (ValueError, TypeError, IndexError, KeyError):
+            self._warn("node '%s': ignored a malformed answer to a request", self.node)
+            return
+        if self._in_flight.pop(rid, None) is None:
+            return  # a request already reported as timed out
+        self.stats.acknowledged += 1
+        if status == OK:
+            return
+        self.stats.refused_full += status == FULL
+        self.stats.refused_invalid += status == INVALID or status not in (OK, FULL)
+        self._errors.append(error if error is not None else RioError(f"node '{self.node}': request refused"))
+
     def _take_acks(self) -> None:
         while (body := self._recv_now()) is not None:
-            try:
-                ack = wire.unpack(body)
-                rid, status = int(ack[0]), ack[1]
-                error = ack_error(self.node, ack)
-            except (ValueError, TypeError, IndexError, KeyError):
-                self._warn("node '%s': ignored a malformed answer to a request", self.node)
-                continue
-            if self._in_flight.pop(rid, None) is None:
-                continue  # a request already reported as timed out
-            self.stats.acknowledged += 1
-            if status == OK:
-                continue
-            self.stats.refused_full += status == FULL
-            self.stats.refused_invalid += status == INVALID or status not in (OK, FULL)
-            self._errors.append(error if error is not None else RioError(f"node '{self.node}': request refused"))
+            self._take(body)
         if self._in_flight:
             t = clock.now()
             for rid, t_sent in list(self._in_flight.items()):
