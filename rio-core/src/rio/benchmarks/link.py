@@ -4,7 +4,7 @@ of the shaped-link test (rio-core/tests/test_link_shaped.py). Each side runs in 
 exact: the time it entered the reader's mirror (decoded) minus its capture timestamp.
 
 - cameras: 3 colour cameras (640x480 RGB) and 1 depth camera (640x480 uint16) at 30 fps, frames of a
-  synthetic table-top scene (`FakeCamera(scene=...)`: they compress like real ones), served over zmq on
+  synthetic table-top scene (`SceneCamera`: they compress like real ones), served over zmq on
   the robot's address; `codec` "raw" (every byte crosses) or "auto" (JPEG colour, zstd depth: the
   server serves another machine). The reader reports per run: frame age p50/p99, frames dropped (sequence
   numbers skipped), frames received, decode CPU per frame; the orchestrator adds link utilisation (the
@@ -22,6 +22,9 @@ import time
 from typing import Any
 
 import numpy as np
+from pydantic import Field
+
+from rio.fakes.sensors import FakeCamera
 
 PORT = 7800
 FPS = 30.0
@@ -33,6 +36,35 @@ READY_S = 300.0
 CAMERAS = [("cam0", False), ("cam1", False), ("cam2", False), ("depth0", True)]
 #: The shaped-link test's lighter set: one colour camera, one depth camera.
 PAIR = [("cam0", False), ("depth0", True)]
+
+
+class SceneCamera(FakeCamera):
+    """A fake camera whose frames are a table-top-like scene (`rio.recording.synthetic`: texture, moving
+    discs, noise; depth a slanted plane with a disc 10 cm closer), cycling through `scene` frames made at
+    start: what compression figures need (the fake camera's flat frames compress to nothing)."""
+
+    class Config(FakeCamera.Config):
+        scene: int = Field(8, ge=1, le=300, description="distinct frames to cycle through")
+        seed: int = Field(0, description="the scene's seed")
+
+    def open(self) -> None:
+        from rio.recording.synthetic import SyntheticCamera
+
+        cam = SyntheticCamera(self.height, self.width, seed=self.config.seed)
+        self.scene: list[tuple[np.ndarray, np.ndarray]] = []
+        for i in range(self.config.scene):
+            t = i / self.config.rate_hz
+            rgb = cam.frame(t)
+            depth = np.round(cam.depth(t) * 1000).astype(np.uint16)
+            depth[(rgb == cam.colors[0]).all(-1)] -= 100
+            self.scene.append((rgb, depth))
+
+    def read_state(self) -> dict[str, Any]:
+        out = super().read_state()
+        out["rgb"], depth = self.scene[self.frame % len(self.scene)]
+        if self.has_depth:
+            out["depth"] = depth
+        return out
 
 
 def _cameras(which: str) -> list[tuple[str, bool]]:
@@ -63,12 +95,11 @@ def camera_options(name: str, depth: bool, codec: str) -> dict[str, Any]:
 
 def serve_cameras(host: str, codec: str, port: int = PORT, which: str = "all") -> None:
     """Robot side: the cameras at their placed addresses until stdin closes."""
-    from rio.fakes.sensors import FakeCamera
     from rio.runtime.manager import ServerManager, serve
 
     cams = _cameras(which)
     mw, placed = _placed([n for n, _ in cams], host, port)
-    specs = [serve(FakeCamera, mw.with_options(**placed[n][0]), **camera_options(n, d, codec)) for n, d in cams]
+    specs = [serve(SceneCamera, mw.with_options(**placed[n][0]), **camera_options(n, d, codec)) for n, d in cams]
     with ServerManager(specs, station="bench", ready_timeout=READY_S):
         print("ready", flush=True)
         sys.stdin.read()
@@ -86,7 +117,6 @@ def read_cameras(host: str, codec: str, seconds: float, port: int = PORT, dev: s
     """Workstation side: mirror the four cameras for `seconds`; ages, drops, decode cost, and the bytes
     received on interface `dev` meanwhile (one JSON line)."""
     from rio import clock
-    from rio.fakes.sensors import FakeCamera
     from rio.runtime.manager import connect
 
     cams = _cameras(which)
@@ -96,7 +126,7 @@ def read_cameras(host: str, codec: str, seconds: float, port: int = PORT, dev: s
     first_seq: dict[str, tuple[int, int]] = {}
     try:
         for n, d in cams:
-            c = connect(FakeCamera, mw, station="bench", address=placed[n][1], **camera_options(n, d, codec))
+            c = connect(SceneCamera, mw, station="bench", address=placed[n][1], **camera_options(n, d, codec))
             clients[n] = c
         time.sleep(1.0)  # connections settle; the frames before this are not counted
         for n, c in clients.items():
@@ -130,10 +160,9 @@ def read_cameras(host: str, codec: str, seconds: float, port: int = PORT, dev: s
 def _fidelity(name: str, depth: bool, codec: str, got: dict[str, Any]) -> dict[str, Any]:
     """How the newest frame read compares with the frame the camera sent (its scene is deterministic):
     PSNR of the colour frame (dB, inf when exact), and whether the depth frame is exact."""
-    from rio.fakes.sensors import FakeCamera
 
     opts = camera_options(name, depth, codec)
-    cam = FakeCamera(**{k: v for k, v in opts.items() if k != "name"})
+    cam = SceneCamera(**{k: v for k, v in opts.items() if k != "name"})
     cam.name = name
     cam.setup()
     cam.open()
@@ -146,13 +175,12 @@ def _fidelity(name: str, depth: bool, codec: str, got: dict[str, Any]) -> dict[s
 
 def encode_cost(codec: str, frames: int = 10) -> dict[str, float]:
     """CPU ms per frame the robot side spends encoding (the server's encoder, these frames, this machine)."""
-    from rio.fakes.sensors import FakeCamera
     from rio.middleware.protocol.codecs import encoder_for
     from rio.runtime.layout import Layout
 
     out = {}
     for depth in (False, True):
-        cam = FakeCamera(**{k: v for k, v in camera_options("cam", depth, codec).items() if k != "name"})
+        cam = SceneCamera(**{k: v for k, v in camera_options("cam", depth, codec).items() if k != "name"})
         cam.name = "cam"
         cam.setup()
         cam.open()

@@ -12,47 +12,24 @@ from rio.runtime.node import Node, NodeConfig
 
 
 class FakeCamera(ifc.CameraNode):
-    """Frames whose every pixel is the frame counter (mod 256); depth is a flat 1 m. With `scene`, frames
-    of a table-top-like scene instead (`rio.recording.synthetic`: texture, moving discs, noise; a slanted
-    depth plane with the discs closer), cycling through `scene` frames made at start: what compression
-    figures need (flat frames compress to nothing)."""
+    """Frames whose every pixel is the frame counter (mod 256); depth is a flat 1 m."""
 
     class Config(ifc.CameraNode.Config):
         width: int = Field(64, ge=1, le=4096)
         height: int = Field(48, ge=1, le=4096)
-        scene: int = Field(0, ge=0, le=300, description="frames of a synthetic scene to cycle through (0: flat "
-                                                        "frames of the frame counter)")
-        seed: int = Field(0, description="the scene's seed")
 
     def setup(self) -> None:
         super().setup()
         self.frame = 0
         w, h = self.width, self.height
         self.k = np.array([[w, 0.0, w / 2], [0.0, w, h / 2], [0.0, 0.0, 1.0]])
-        self.scene: list[tuple[np.ndarray, np.ndarray]] = []
-
-    def open(self) -> None:
-        if self.config.scene:
-            from rio.recording.synthetic import SyntheticCamera
-
-            cam = SyntheticCamera(self.height, self.width, seed=self.config.seed)
-            for i in range(self.config.scene):
-                t = i / self.config.rate_hz
-                rgb = cam.frame(t)
-                depth = np.round(cam.depth(t) * 1000).astype(np.uint16)
-                depth[(rgb == cam.colors[0]).all(-1)] -= 100  # a disc, 10 cm closer
-                self.scene.append((rgb, depth))
 
     def read_state(self) -> dict[str, Any]:
         self.frame += 1
-        if self.scene:
-            rgb, depth = self.scene[self.frame % len(self.scene)]
-        else:
-            rgb = np.full((self.height, self.width, 3), self.frame % 256, np.uint8)
-            depth = np.full((self.height, self.width), 1000, np.uint16)
-        out: dict[str, Any] = {"rgb": rgb, "intrinsics": self.k}
+        out: dict[str, Any] = {"rgb": np.full((self.height, self.width, 3), self.frame % 256, np.uint8),
+                               "intrinsics": self.k}
         if self.has_depth:
-            out["depth"] = depth
+            out["depth"] = np.full((self.height, self.width), 1000, np.uint16)
             out["depth_scale"] = 0.001
         return out
 
