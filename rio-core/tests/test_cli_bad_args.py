@@ -69,7 +69,7 @@ EXISTING_DIR_PARAMS = {"plugin_dir"}
 EMPTY_OK = {"instruction", "name"}
 
 #: Commands that serve until stopped when a bad value slips through: a subprocess with a deadline.
-SUBPROCESS = {("so100", "virtual-bus"), ("ur", "emulator"), ("ufactory", "emulator"), ("unitree", "bridge")}
+SUBPROCESS = {("so100", "emulator"), ("ur", "emulator"), ("ufactory", "emulator"), ("unitree", "bridge")}
 SUBPROCESS_DEADLINE_S = 10
 class _Started(BaseException):  # noqa: N818 - not an error: the marker that something was started
     """Raised where a station's nodes or an installer would start: a bad value got that far."""

@@ -221,7 +221,7 @@ def test_urcap_dropped_connection_is_a_named_error(urcap):
 
 
 def test_virtual_ports_start_private_emulators(runner):
-    for node in (RobotiqGripper(port="virtual", model="2f140"), RobotiqUrcapGripper(ip="virtual", model="hande")):
+    for node in (RobotiqGripper(port="emulator", model="2f140"), RobotiqUrcapGripper(ip="emulator", model="hande")):
         with lifecycle(node) as g:
             r = runner(g)
             w = 0.5 * g.config.max_width

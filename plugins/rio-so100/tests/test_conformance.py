@@ -1,4 +1,4 @@
-"""The SO-100 drivers pass the driver conformance kit of their kind, each against a virtual Feetech
+"""The SO-100 drivers pass the driver conformance kit of their kind, each against an emulated Feetech
 bus on a pseudo-terminal (the emulator hook), calibrated as `rio so100 calibrate` would leave it."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import tempfile
 from contextlib import contextmanager
 
 from rio_so100.calibration import default_calibration, save_calibration
-from rio_so100.virtual import VirtualBus
+from rio_so100.emulator import FeetechBusEmulator
 
 from rio.conformance.drivers import ArmConformance, GripperConformance, TeleopConformance
 
@@ -27,7 +27,7 @@ class OnVirtualBus:
             os.environ["XDG_CONFIG_HOME"] = config_home
             try:
                 save_calibration(default_calibration("so100", self.device, "default"))
-                with VirtualBus() as bus:
+                with FeetechBusEmulator() as bus:
                     yield {"port": bus.port}
             finally:
                 if saved is None:

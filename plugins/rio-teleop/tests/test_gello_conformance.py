@@ -1,4 +1,4 @@
-"""The GELLO leader passes the teleop driver conformance kit against a virtual GELLO on a pty (the
+"""The GELLO leader passes the teleop driver conformance kit against an emulated GELLO on a pty (the
 emulator hook), calibrated as `rio gello calibrate` would leave it."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from contextlib import contextmanager
 from dataclasses import replace
 
 from rio_teleop.gello.calibration import save_calibration
-from rio_teleop.gello.virtual import VirtualGello
+from rio_teleop.gello.emulator import GelloEmulator
 
 from rio.conformance.drivers import TeleopConformance
 
@@ -24,7 +24,7 @@ class OnVirtualGello:
         with tempfile.TemporaryDirectory(prefix="rio-kit-config-") as config_home:
             os.environ["XDG_CONFIG_HOME"] = config_home
             try:
-                with VirtualGello(self.layout) as g:
+                with GelloEmulator(self.layout) as g:
                     g.wave()
                     save_calibration(replace(g.mounting, name="default"))
                     yield {"port": g.port}

@@ -56,7 +56,7 @@ def _defaults(servo_id: int) -> bytearray:
     return mem
 
 
-class VirtualServo:
+class STS3215Emulator:
     def __init__(self, servo_id: int, *, position: float = 2048.0, tau: float = TAU_S,
                  max_speed: float = MAX_SPEED_STEPS, voltage: float = 7.4, temperature: float = 30.0,
                  clock: Callable[[], float] = time.monotonic):

@@ -1,7 +1,7 @@
-"""A virtual bus whose servos are joints of a rio-sim MuJoCo arm.
+"""An emulated bus whose servos are joints of a rio-sim MuJoCo arm.
 
 `port = "sim"` (or `"sim:ARM"`, `"sim:ARM@WORLD"`; ARM is the scene's arm prefix: arm, left, right)
-gives a driver a private `VirtualBus` whose present positions come from a running `sim.world`'s
+gives a driver a private `FeetechBusEmulator` whose present positions come from a running `sim.world`'s
 joints and whose goal positions go to that world's position actuators, through rio-sim's
 `WorldArm` (one arm of a running world, over its shared-memory bus). The driver above it is
 unchanged: scservo_sdk packets over a pty, calibration, safety, faults. So a station with a `sim.world` and
@@ -20,8 +20,8 @@ import numpy as np
 from ..calibration import MID, RAD_PER_STEP, ArmCalibration, JointCalibration
 from ..feetech import control_table as T
 from ..models import ARM_IDS, ARM_JOINTS, GRIPPER, GRIPPER_ID
-from .bus import VirtualBus
-from .servo import VirtualServo
+from .bus import FeetechBusEmulator
+from .servo import STS3215Emulator
 
 #: A goal reaches the world as a target this far ahead (s): the servo's "as fast as you can".
 GOAL_LEAD_S = 0.02
@@ -55,8 +55,8 @@ class SimJoint:
         self.write(self.from_steps(steps), t_target)
 
 
-class SimServo(VirtualServo):
-    """A VirtualServo whose physics is the sim: position read from the world, goals sent to it."""
+class SimServo(STS3215Emulator):
+    """An STS3215Emulator whose physics is the sim: position read from the world, goals sent to it."""
 
     def __init__(self, servo_id: int, joint: SimJoint, **kwargs):
         super().__init__(servo_id, **kwargs)
@@ -80,7 +80,7 @@ class SimServo(VirtualServo):
             self.joint.command(goal, self.clock() + GOAL_LEAD_S)
 
 
-def open_sim_bus(port: str, timeout: float = 60.0) -> tuple[VirtualBus, ArmCalibration]:
+def open_sim_bus(port: str, timeout: float = 60.0) -> tuple[FeetechBusEmulator, ArmCalibration]:
     """Attach to the world named in `port` and serve its arm's joints as servos 1-6."""
     from rio_sim.world_arm import WorldArm
 
@@ -95,7 +95,7 @@ def open_sim_bus(port: str, timeout: float = 60.0) -> tuple[VirtualBus, ArmCalib
             raise ValueError(f"sim arm '{arm_name}' is a {robot.name}, not an SO-arm: its joints are "
                              f"{robot.arm_joints}")
         cal = ArmCalibration("so100", "follower", f"sim-{arm_name}")
-        bus = VirtualBus(ids=(), start=False)
+        bus = FeetechBusEmulator(ids=(), start=False)
         for k, (name, sid) in enumerate(zip(ARM_JOINTS, ARM_IDS, strict=True)):
             lo, hi = model.jnt_range[model.joint(f"{arm_name}/{name}").id]
             jc = JointCalibration(sid, 0, MID, max(1, MID + int(np.ceil(lo / RAD_PER_STEP))),

@@ -1,4 +1,4 @@
-"""`VirtualDynamixelBus`: XL330 servos answering Dynamixel Protocol 2.0 on a pseudo-terminal.
+"""`DynamixelBusEmulator`: XL330 servos answering Dynamixel Protocol 2.0 on a pseudo-terminal.
 
 The driver opens the pty's slave path through the unmodified dynamixel-sdk (`PortHandler`,
 `PacketHandler(2.0)`, `GroupSyncRead`, `GroupBulkRead`) and sees what a U2D2 would give it: status
@@ -20,25 +20,25 @@ from typing import Any
 from rio.emulation import PtyDevice
 
 from .. import protocol as P
-from .servo import VirtualXL330
+from .servo import XL330Emulator
 
-log = logging.getLogger("rio_teleop.gello.virtual")
+log = logging.getLogger("rio_teleop.gello.emulator")
 
 
-class VirtualDynamixelBus(PtyDevice):
-    thread_name = "rio-virtual-dynamixel"
+class DynamixelBusEmulator(PtyDevice):
+    thread_name = "rio-dynamixel-emulator"
 
     def __init__(self, ids: Iterable[int] = range(1, 9), *, start: bool = True, **servo_options: Any):
-        self.servos: dict[int, VirtualXL330] = {int(i): VirtualXL330(int(i), **servo_options) for i in ids}
+        self.servos: dict[int, XL330Emulator] = {int(i): XL330Emulator(int(i), **servo_options) for i in ids}
         self.stats: Counter[str] = Counter()
         self._parser = P.Parser()
         self._registered: dict[int, tuple[int, bytes]] = {}
         super().__init__(start=start)
 
     def __repr__(self) -> str:
-        return f"<VirtualDynamixelBus {self.port} ids={sorted(self.servos)}>"
+        return f"<DynamixelBusEmulator {self.port} ids={sorted(self.servos)}>"
 
-    def servo(self, servo_id: int) -> VirtualXL330:
+    def servo(self, servo_id: int) -> XL330Emulator:
         return self.servos[int(servo_id)]
 
     # -- serving (under `lock`) -------------------------------------------------------------------
@@ -49,16 +49,16 @@ class VirtualDynamixelBus(PtyDevice):
             try:
                 out += self._handle(sid, inst, params)
             except Exception:  # an emulator bug must look like a silent servo, not stop the other packets
-                log.exception("virtual Dynamixel bus %s: cannot handle id %d instruction %#x", self.port, sid, inst)
+                log.exception("emulated Dynamixel bus %s: cannot handle id %d instruction %#x", self.port, sid, inst)
                 self.stats["emulator_error"] += 1
         self.stats["bad_crc"] = self._parser.bad_crc
         return bytes(out)
 
-    def _live(self, sid: int) -> VirtualXL330 | None:
+    def _live(self, sid: int) -> XL330Emulator | None:
         s = self.servos.get(sid)
         return s if s is not None and s.responsive else None
 
-    def _reply(self, servo: VirtualXL330, error: int = 0, params: bytes = b"", *, is_read: bool = False) -> bytes:
+    def _reply(self, servo: XL330Emulator, error: int = 0, params: bytes = b"", *, is_read: bool = False) -> bytes:
         level = servo.mem[68]  # Status Return Level: 0 ping only, 1 + reads, 2 all
         if level == 0 or (level == 1 and not is_read):
             return b""

@@ -1,12 +1,12 @@
-"""Scripted hands for virtual arms: what a person moving a (torque-off) leader arm would do, so a
-virtual leader-follower station shows motion with nobody at the desk."""
+"""Scripted hands for emulated arms: what a person moving a (torque-off) leader arm would do, so a
+emulated leader-follower station shows motion with nobody at the desk."""
 
 from __future__ import annotations
 
 import math
 
 from ..calibration import MID
-from .bus import VirtualBus
+from .bus import FeetechBusEmulator
 
 MOTIONS = ("none", "wave")
 
@@ -17,13 +17,13 @@ def wave(center: float, amplitude: float, period_s: float, phase: float, t0: flo
     return hand
 
 
-def attach_motion(bus: VirtualBus, motion: str) -> None:
+def attach_motion(bus: FeetechBusEmulator, motion: str) -> None:
     """'wave': every joint swings slowly around mid-turn (about +-20 degrees, the jaw opens and
     closes); 'none': joints stay where they are."""
     if motion == "none":
         return
     if motion != "wave":
-        raise ValueError(f"unknown virtual motion {motion!r}; choose from {MOTIONS}")
+        raise ValueError(f"unknown emulator motion {motion!r}; choose from {MOTIONS}")
     with bus.lock:
         for k, (sid, servo) in enumerate(sorted(bus.servos.items())):
             if sid == 6:
@@ -33,10 +33,10 @@ def attach_motion(bus: VirtualBus, motion: str) -> None:
 
 
 class CalibrationHand:
-    """The person calibrating a virtual arm: holds it in a middle pose (anywhere on the encoders, as a
+    """The person calibrating an emulated arm: holds it in a middle pose (anywhere on the encoders, as a
     freshly assembled arm is), then swings every joint through +-`amplitude` steps once."""
 
-    def __init__(self, bus: VirtualBus, middles: dict[int, float] | None = None, amplitude: float = 900.0):
+    def __init__(self, bus: FeetechBusEmulator, middles: dict[int, float] | None = None, amplitude: float = 900.0):
         self.bus, self.amplitude = bus, float(amplitude)
         self.middles = middles or {sid: MID + 397.0 * ((sid * 7) % 5 - 2) for sid in bus.servos}
 

@@ -1,4 +1,4 @@
-"""The virtual bus through the real SDK code path (`scservo_sdk` on a pty), and `FeetechBus` on top:
+"""The emulated bus through the real SDK code path (`scservo_sdk` on a pty), and `FeetechBus` on top:
 positions, sync reads, corrupted packets, silent servos, EEPROM lock, a port shared by two users."""
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def test_sync_read_of_six_servos_is_fast(vbus):
             g.read()
             n += 1
         rate = n / (time.perf_counter() - t0)
-        print(f"sync read of 6 servos over the virtual bus: {rate:.0f} Hz")
+        print(f"sync read of 6 servos over the emulated bus: {rate:.0f} Hz")
         assert rate > 200  # far above the 100 Hz driver loop, even on 2 shared cores
         assert vbus.stats["inst_0x82"] >= n
     finally:

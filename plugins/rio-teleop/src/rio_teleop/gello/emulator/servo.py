@@ -20,7 +20,7 @@ from .. import protocol as P
 TAU_S = 0.05
 
 
-class VirtualXL330:
+class XL330Emulator:
     def __init__(self, servo_id: int, *, position: float = 2048.0, model: int = T.XL330_M288,
                  baudrate: int = 57600, clock: Callable[[], float] = time.monotonic):
         self.id = int(servo_id)

@@ -1,10 +1,10 @@
-"""`VirtualBus`: STS3215 servos answering the Feetech protocol on a pseudo-terminal.
+"""`FeetechBusEmulator`: STS3215 servos answering the Feetech protocol on a pseudo-terminal.
 
 The driver (through `scservo_sdk`, unmodified) opens the pty's slave path as its serial port and
 sees exactly the bytes a real bus would send: status packets with checksums and error bits, silence
 from an id nobody has, SYNC READ answers one servo after the other. Instruction packets with a bad
 checksum are ignored, as a servo ignores them. For tests, `corrupt_replies()` damages the checksum
-of the next status packets and `VirtualServo.responsive = False` silences a servo.
+of the next status packets and `STS3215Emulator.responsive = False` silences a servo.
 
 The pty's lifecycle is core's `rio.emulation.PtyDevice` (one thread serves the master side; the slave
 stays open, so a driver may close and reopen the port while the bus lives); this class is the protocol.
@@ -20,30 +20,30 @@ from typing import Any
 from rio.emulation import PtyDevice
 
 from ..feetech import protocol as P
-from .servo import VirtualServo
+from .servo import STS3215Emulator
 
 SO_ARM_IDS = (1, 2, 3, 4, 5, 6)
-log = logging.getLogger("rio_so100.virtual")
+log = logging.getLogger("rio_so100.emulator")
 
 
-class VirtualBus(PtyDevice):
+class FeetechBusEmulator(PtyDevice):
     """`lock` (the device's) is taken while a packet is handled: hold it to change servos consistently
     from another thread. `start=False`: add or replace servos, then `start()`."""
 
-    thread_name = "rio-virtual-bus"
+    thread_name = "rio-feetech-emulator"
 
     def __init__(self, ids: Iterable[int] = SO_ARM_IDS, *, start: bool = True, **servo_options: Any):
-        self.servos: dict[int, VirtualServo] = {int(i): VirtualServo(int(i), **servo_options) for i in ids}
+        self.servos: dict[int, STS3215Emulator] = {int(i): STS3215Emulator(int(i), **servo_options) for i in ids}
         self.stats: Counter[str] = Counter()
         self._corrupt: list[int | None] = []
         self._buf = bytearray()
         super().__init__(start=start)
 
     def __repr__(self) -> str:
-        return f"<VirtualBus {self.port} ids={sorted(self.servos)}>"
+        return f"<FeetechBusEmulator {self.port} ids={sorted(self.servos)}>"
 
     # -- test and demo controls ----------------------------------------------------------------------
-    def servo(self, servo_id: int) -> VirtualServo:
+    def servo(self, servo_id: int) -> STS3215Emulator:
         return self.servos[int(servo_id)]
 
     def corrupt_replies(self, count: int = 1, servo_id: int | None = None) -> None:
@@ -66,7 +66,7 @@ class VirtualBus(PtyDevice):
             try:
                 replies += self._handle(pkt)
             except Exception:  # an emulator bug must look like a silent servo, not stop the other packets
-                log.exception("virtual bus %s: cannot handle packet %s", self.port, pkt.hex(" "))
+                log.exception("emulated bus %s: cannot handle packet %s", self.port, pkt.hex(" "))
                 self.stats["emulator_error"] += 1
         return bytes(replies)
 
@@ -96,7 +96,7 @@ class VirtualBus(PtyDevice):
             del buf[:total]
             yield pkt
 
-    def _status(self, servo: VirtualServo, params: bytes = b"") -> bytes:
+    def _status(self, servo: STS3215Emulator, params: bytes = b"") -> bytes:
         out = bytearray(P.packet(servo.id, servo.error_bits(), params))
         if self._corrupt and self._corrupt[0] in (None, servo.id):
             self._corrupt.pop(0)

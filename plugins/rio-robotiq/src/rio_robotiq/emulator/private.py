@@ -1,4 +1,4 @@
-"""`port = "virtual"` / `host = "virtual"`: a private emulator started inside the driver's process, so a
+"""`port = "emulator"` / `host = "emulator"`: a private emulator started inside the driver's process, so a
 station or the conformance kit runs the real driver code (minimalmodbus on a pseudo-terminal, the
 URCap socket client) without hardware. The emulator lives as long as the driver keeps the link open.
 """
@@ -7,26 +7,26 @@ from __future__ import annotations
 
 from typing import Any
 
-VIRTUAL = "virtual"
+EMULATOR = "emulator"
 
 
-def is_virtual(address: str) -> bool:
-    return address == VIRTUAL
+def is_emulator(address: str) -> bool:
+    return address == EMULATOR
 
 
 def robotiq_rtu(model: str, slave_id: int) -> Any:
     """A Robotiq on an emulated RS-485 line: `.port` is the path to open."""
     from rio.emulation import ModbusRtuDevice
 
-    from .emulator.registers import RobotiqRegisters
+    from .registers import RobotiqRegisters
 
     return ModbusRtuDevice(RobotiqRegisters(model, slave_id=slave_id))
 
 
 def robotiq_urcap(model: str) -> Any:
     """A Robotiq behind an emulated URCap server on 127.0.0.1: `.host`, `.port` to connect to."""
-    from .emulator.registers import RobotiqRegisters
-    from .emulator.urcap import UrcapServer
+    from .registers import RobotiqRegisters
+    from .urcap import UrcapServer
 
     return UrcapServer(RobotiqRegisters(model)).start()
 
@@ -34,7 +34,7 @@ def robotiq_urcap(model: str) -> Any:
 def dh_rtu(model: str, slave_id: int) -> Any:
     from rio.emulation import ModbusRtuDevice
 
-    from .emulator.dh import DhRegisters
+    from .dh import DhRegisters
 
     return ModbusRtuDevice(DhRegisters(model, slave_id=slave_id))
 

@@ -1,13 +1,13 @@
-"""A virtual GELLO: a `VirtualDynamixelBus` with a layout's servos, mounted with known offsets and
+"""An emulated GELLO: a `DynamixelBusEmulator` with a layout's servos, mounted with known offsets and
 signs (`mounting`, the truth a calibration should recover), and a hand that poses it in follower
 joint angles.
 
-    with VirtualGello("xarm7") as g:
+    with GelloEmulator("xarm7") as g:
         g.pose([0, 0.3, 0, 1.2, 0, 1.5, 0], gripper=0.5)   # the person holds it there
         g.move(lambda t: ...)                               # or moves it: t -> (q, gripper)
 
-`port = "virtual"` in a station starts one inside the leader node (held in the known pose, or waving
-around it with `virtual_motion = "wave"`), calibrated with `mounting`.
+`port = "emulator"` in a station starts one inside the leader node (held in the known pose, or waving
+around it with `emulator_motion = "wave"`), calibrated with `mounting`.
 """
 
 from __future__ import annotations
@@ -20,13 +20,13 @@ import numpy as np
 from .. import control_table as T
 from ..calibration import QUARTER, GelloCalibration
 from ..layouts import Layout, get_layout
-from .bus import VirtualDynamixelBus
+from .bus import DynamixelBusEmulator
 
 MOTIONS = ("none", "wave")
 
 
-def virtual_mounting(layout: Layout, name: str = "virtual") -> GelloCalibration:
-    """How a virtual leader's horns are mounted: a different multiple of pi/2 per joint (some past a
+def emulator_mounting(layout: Layout, name: str = "emulator") -> GelloCalibration:
+    """How an emulated leader's horns are mounted: a different multiple of pi/2 per joint (some past a
     full turn, as a multi-turn reading after power-on gives), the layout's signs, the trigger released
     at half a turn."""
     offsets = [QUARTER * ((3 * k + 1) % 7 - 2) for k in range(layout.dof)]
@@ -35,25 +35,25 @@ def virtual_mounting(layout: Layout, name: str = "virtual") -> GelloCalibration:
                             [0.0] * layout.dof)
 
 
-class VirtualGello:
+class GelloEmulator:
     def __init__(self, layout: Layout | str, *, mounting: GelloCalibration | None = None, baudrate: int = 57600,
                  start: bool = True):
         self.layout = get_layout(layout) if isinstance(layout, str) else layout
-        self.mounting = mounting or virtual_mounting(self.layout)
-        self.bus = VirtualDynamixelBus(self.layout.ids, start=False, baudrate=baudrate)
+        self.mounting = mounting or emulator_mounting(self.layout)
+        self.bus = DynamixelBusEmulator(self.layout.ids, start=False, baudrate=baudrate)
         self.port = self.bus.port
         self.pose(self.layout.known_pose)
         if start:
             self.bus.start()
 
-    def start(self) -> VirtualGello:
+    def start(self) -> GelloEmulator:
         self.bus.start()
         return self
 
     def close(self) -> None:
         self.bus.close()
 
-    def __enter__(self) -> VirtualGello:
+    def __enter__(self) -> GelloEmulator:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -113,9 +113,9 @@ class VirtualGello:
         return self.mounting.joints(np.asarray(raw))
 
 
-def attach_motion(gello: VirtualGello, motion: str) -> None:
+def attach_motion(gello: GelloEmulator, motion: str) -> None:
     if motion == "none":
         return
     if motion != "wave":
-        raise ValueError(f"unknown virtual motion {motion!r}; choose from {MOTIONS}")
+        raise ValueError(f"unknown emulator motion {motion!r}; choose from {MOTIONS}")
     gello.wave()
