@@ -25,7 +25,7 @@ RENAMES = {
     "cameras-virtual": "cameras-fake",
     "fr3-virtual": "fr3-fake",
     "gen3-virtual": "gen3-fake",
-    "realsense-virtual": "realsense-emulator",
+    "realsense-virtual": "realsense-fake",
     "robotiq-virtual": "robotiq-emulator",
     "so100-virtual": "so100-emulator",
     "so100-bimanual-virtual": "so100-bimanual-emulator",

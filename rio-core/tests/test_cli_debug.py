@@ -50,7 +50,7 @@ def error_line(err: str) -> str:
 @pytest.fixture
 def so100_station(tmp_path):
     """A station file for an SO-100 follower on an emulated Feetech bus (a pseudo-terminal served by the
-    test), its leader virtual; `write(middleware, port=..., calibration=...)` writes one."""
+    test), its leader emulated; `write(middleware, port=..., calibration=...)` writes one."""
     pytest.importorskip("rio_so100")  # the SO-100 cases need the plugin; the rest only rio-core
     from rio_so100.emulator import FeetechBusEmulator
 

@@ -10,7 +10,7 @@ from rio.testing import run_scripted_square
 from rio.workflows.teleop import run_teleop
 
 
-def test_virtual_station_traces_the_scripted_square():
+def test_fake_station_traces_the_scripted_square():
     run_scripted_square("fr3-fake")
 
 

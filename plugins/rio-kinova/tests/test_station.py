@@ -25,7 +25,7 @@ def needs_sim() -> None:
     pytest.importorskip("mujoco")
 
 
-def test_virtual_station_traces_the_scripted_square():
+def test_fake_station_traces_the_scripted_square():
     run_scripted_square("gen3-fake")
 
 

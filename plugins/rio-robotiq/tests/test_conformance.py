@@ -31,7 +31,7 @@ class TestRobotiq2F140(OnRobotiqLine, GripperConformance):
     model = "2f140"
 
 
-class TestRobotiqHandEVirtual(GripperConformance):
+class TestRobotiqHandEEmulated(GripperConformance):
     driver = "robotiq.hande"
     config = {"port": "emulator"}
     bad_config = {"port": "/dev/nonexistent-tty"}
@@ -58,7 +58,7 @@ class TestDhAg95(GripperConformance):
             yield {"port": dev.port}
 
 
-class TestDhAg105Virtual(GripperConformance):
+class TestDhAg105Emulated(GripperConformance):
     driver = "dh.ag105"
     config = {"port": "emulator"}
     bad_config = {"port": "/dev/nonexistent-tty"}

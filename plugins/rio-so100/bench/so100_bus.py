@@ -1,4 +1,4 @@
-"""How fast the SO-100 drivers talk to a (virtual) Feetech bus, with the raw pty as the reference.
+"""How fast the SO-100 drivers talk to an (emulated) Feetech bus, with the raw pty as the reference.
 
     python plugins/rio-so100/bench/so100_bus.py [--seconds 2]
 

@@ -13,7 +13,7 @@ from rio_so100.emulator import FeetechBusEmulator
 from rio.conformance.drivers import ArmConformance, GripperConformance, TeleopConformance
 
 
-class OnVirtualBus:
+class OnBusEmulator:
     """Emulator hook: six emulated servos on a pty, and a saved default calibration of this device in a
     private config directory (the user's calibrations are never read or written)."""
 
@@ -36,14 +36,14 @@ class OnVirtualBus:
                     os.environ["XDG_CONFIG_HOME"] = saved
 
 
-class TestSo100Follower(OnVirtualBus, ArmConformance):
+class TestSo100Follower(OnBusEmulator, ArmConformance):
     driver = "so100.follower"
 
 
-class TestSo100Gripper(OnVirtualBus, GripperConformance):
+class TestSo100Gripper(OnBusEmulator, GripperConformance):
     driver = "so100.gripper"
 
 
-class TestSo100Leader(OnVirtualBus, TeleopConformance):
+class TestSo100Leader(OnBusEmulator, TeleopConformance):
     driver = "so100.leader"
     device = "leader"

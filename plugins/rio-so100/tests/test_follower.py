@@ -98,7 +98,7 @@ def test_missing_servo_is_named_at_start(make_vbus, calibrated):
             pass
 
 
-def test_port_virtual_runs_the_sdk_against_a_private_emulated_arm():
+def test_port_emulator_runs_the_sdk_against_a_private_emulated_arm():
     with ServerManager(MW, [serve(So100Follower, name="arm", port="emulator")]):
         with connect(So100Follower, MW, name="arm", port="emulator") as arm:
             arm.move_joints([0.2, 0.2, 0.2, 0.2, 0.2], time.monotonic() + 0.2)

@@ -68,7 +68,7 @@ def test_follower_aligns_slowly_then_mirrors_the_leader(make_vbus, calibrated):
     assert summary.late_ticks < summary.ticks // 5
 
 
-def test_bimanual_virtual_station_aligns_both_pairs():
+def test_bimanual_emulator_station_aligns_both_pairs():
     summary = run("so100-bimanual-emulator", duration=2.0, middleware="thread", log=None)
     assert [a["arm"] for a in summary.details["pairs"]] == ["arm", "arm2"]
     for a in summary.details["pairs"]:

@@ -431,7 +431,7 @@ def test_no_lerobot_folder_says_where_it_looked(tmp_path, monkeypatch, capsys):
 
 # -- the real boundary: an emulated arm driven with an imported calibration -----------------------------------
 
-def test_virtual_arm_runs_on_an_imported_calibration(lerobot_root, vbus, config_home):
+def test_emulated_arm_runs_on_an_imported_calibration(lerobot_root, vbus, config_home):
     data = SO101_FOLLOWER
     write_lerobot(lerobot_root, "robots/so101_follower", "my_follower", data)
     assert main(["so100", "calibrate", "--from-lerobot", "my_follower"]) == 0

@@ -48,12 +48,12 @@ def test_listing_imports_no_sdk():
     assert out.stdout.strip() == "False", out.stderr
 
 
-def test_virtual_bus_command_prints_a_port(capsys):
+def test_emulator_command_prints_a_port(capsys):
     assert main(["so100", "emulator", "--seconds", "0.2"]) == 0
     assert capsys.readouterr().out.startswith("/dev/pts/")
 
 
-def test_calibrate_command_on_a_virtual_arm(capsys, config_home):
+def test_calibrate_command_on_an_emulated_arm(capsys, config_home):
     assert main(["so100", "calibrate", "--port", "emulator", "--device", "leader", "--model", "so101"]) == 0
     out = capsys.readouterr().out
     saved = config_home / "rio" / "calibration" / "so101-leader" / "emulator-demo.json"

@@ -1,4 +1,4 @@
-"""GELLO leader arms through the unmodified dynamixel-sdk on the virtual Protocol 2.0 bus: the
+"""GELLO leader arms through the unmodified dynamixel-sdk on the emulated Protocol 2.0 bus: the
 emulator against the SDK, calibration, reading at rate, leader-follower on stations, errors."""
 
 from __future__ import annotations
@@ -80,7 +80,7 @@ def test_framing_agrees_with_the_sdk():
         assert P.unstuff(pkt[7:-2]) == bytes([P.WRITE]) + params
 
 
-def test_sdk_talks_to_the_virtual_bus():
+def test_sdk_talks_to_the_emulated_bus():
     """PortHandler / PacketHandler / GroupSyncRead / GroupBulkRead, unmodified, on the pty."""
     with DynamixelBusEmulator([1, 2, 3]) as bus:
         sdk, ph, pk = _sdk_port(bus.port)
@@ -171,7 +171,7 @@ def test_calibration_refuses_a_leader_out_of_the_pose(gello):
         calibrate("fr3", np.zeros(6))
 
 
-def test_calibrate_command_on_a_virtual_leader(config_home):
+def test_calibrate_command_on_an_emulated_leader(config_home):
     from rio_teleop.gello.cli import app
     from typer.testing import CliRunner
 
@@ -274,7 +274,7 @@ def test_gripper_trigger_maps_to_the_follower_gripper_range(gello, tmp_path):
     assert widths[-1] == pytest.approx(0.3 * max_width, abs=0.003), summary.format()
 
 
-def test_packaged_virtual_station_runs():
+def test_packaged_fake_station_runs():
     """`gello-xarm7-fake` as shipped (the leader waves), over the thread middleware."""
     summary = run_teleop(os.path.join(STATIONS, "gello-xarm7-fake.toml"), duration=2.0, middleware="thread",
                          log=None)
@@ -283,7 +283,7 @@ def test_packaged_virtual_station_runs():
     assert pair["final_error"] < 0.08, summary.format()
 
 
-def test_bimanual_virtual_station_aligns_both_pairs():
+def test_bimanual_emulator_station_aligns_both_pairs():
     """ALOHA-style: two GELLOs, two arms (teleop -> arm, teleop2 -> arm2)."""
     summary = run_teleop(os.path.join(STATIONS, "gello-bimanual-fake.toml"), duration=2.0, middleware="thread",
                          log=None)

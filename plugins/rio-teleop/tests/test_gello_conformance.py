@@ -14,7 +14,7 @@ from rio_teleop.gello.emulator import GelloEmulator
 from rio.conformance.drivers import TeleopConformance
 
 
-class OnVirtualGello:
+class OnGelloEmulator:
     layout = "xarm7"
     bad_config = {"port": "/dev/nonexistent-tty"}
 
@@ -35,12 +35,12 @@ class OnVirtualGello:
                     os.environ["XDG_CONFIG_HOME"] = saved
 
 
-class TestGelloXarm7(OnVirtualGello, TeleopConformance):
+class TestGelloXarm7(OnGelloEmulator, TeleopConformance):
     driver = "rio_teleop.gello.driver:GelloLeader"
     config = {"layout": "xarm7"}
 
 
-class TestGelloUr5e(OnVirtualGello, TeleopConformance):
+class TestGelloUr5e(OnGelloEmulator, TeleopConformance):
     driver = "rio_teleop.gello.driver:GelloLeader"
     config = {"layout": "ur5e"}
     layout = "ur5e"

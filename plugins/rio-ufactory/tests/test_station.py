@@ -19,7 +19,7 @@ STATION = "xarm7-sim"
 
 
 @pytest.mark.parametrize("station", ["xarm7-emulator", "lite6-emulator"])
-def test_virtual_stations_trace_the_scripted_square(station):
+def test_emulator_stations_trace_the_scripted_square(station):
     run_scripted_square(station)
 
 

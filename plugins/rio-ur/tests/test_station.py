@@ -15,7 +15,7 @@ from rio.testing import run_scripted_square
 from rio.workflows.teleop import run_teleop
 
 
-def test_the_virtual_station_traces_the_scripted_square():
+def test_the_emulator_station_traces_the_scripted_square():
     run_scripted_square("ur5e-emulator")
 
 

@@ -30,7 +30,7 @@ def rio_drivers() -> list[Spec]:
 
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec("realsense-emulator", "station", f"{_P}:stations/realsense-emulator.toml",
+    return [Spec("realsense-fake", "station", f"{_P}:stations/realsense-fake.toml",
                  "a fake arm with a software RealSense D435 (colour + aligned depth), scripted teleop (no hardware)",
                  formerly=("realsense-virtual",))]
 

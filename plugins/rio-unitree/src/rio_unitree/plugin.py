@@ -27,7 +27,7 @@ def rio_drivers() -> list[Spec]:
              "Inspire RH56 hand of a G1 (config side) through Unitree's Inspire service: rt/inspire/cmd and state, "
              "6 joints"),
         Spec("unitree.bridge", "sensor", f"{_P}.bridge.node:BridgeNode",
-             "a simulated G1 (MuJoCo) behind the robot's DDS topics, for the G1 drivers without a robot"),
+             "the G1 sim: MuJoCo physics behind the robot's DDS topics, for the G1 drivers without a robot"),
     ]
 
 
