@@ -90,6 +90,8 @@ class Case:
 
 def _leaves(group: typer.main.TyperGroup, path: tuple[str, ...] = ()):
     for name, cmd in sorted(group.commands.items()):
+        if cmd.hidden:  # an old name kept for one release (rio.cli.renamed): the same function as the new one
+            continue
         if hasattr(cmd, "commands"):
             yield from _leaves(cmd, (*path, name))
         else:

@@ -22,7 +22,7 @@ def rio_drivers() -> list[Spec]:
 
 _STATIONS = {
     "t1": "Booster T1: the whole body in custom mode over Booster's SDK (edit the interface; hang the robot)",
-    "t1-fake": "Booster T1 driver against the in-process emulated T1 (SDK-object fake, no robot, no DDS)",
+    "t1-fake": "Booster T1 driver against the in-process fake T1 (SDK-object fake, no robot, no DDS)",
     "t1-sim": "Booster T1 driver against the emulated T1 on rio-sim physics: stand, table, head camera, "
               "scripted hand tracking (pip install 'rio-booster[sim]')",
 }
