@@ -3,7 +3,7 @@ name for one release, saying so once; `xarm7-emulator` (the old name of xarm7-si
 physics) says which station it named before; `rio stations list` shows the old names; and the renamed bus
 emulator's old config values, field and command still work, each with its one line.
 
-names_rewrite: skip-file (this file names the old names on purpose: /work/tools/names_rewrite.py leaves it)
+names_rewrite: skip-file (it names the old names on purpose: the rename script leaves such files alone)
 """
 
 from __future__ import annotations

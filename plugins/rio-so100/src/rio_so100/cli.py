@@ -178,7 +178,7 @@ def emulator(
         typer.echo(f"served {bus.stats['status']} status packets", err=True)
 
 
-keep_old_name(app, "virtual-bus", "emulator", emulator)  # names_rewrite: keep (renamed; one release)
+keep_old_name(app, "virtual-bus", "emulator", emulator)  # the old name, for one release
 
 
 @app.command()

@@ -28,7 +28,7 @@ class So100Leader(TeleopNode):
 
     class Config(ServoConfig, TeleopNode.Config):
         defaults = {"rate_hz": Field(100.0, le=500)}
-        renamed = {"virtual_motion": "emulator_motion"}  # names_rewrite: keep (the old field name)
+        renamed = {"virtual_motion": "emulator_motion"}
         joints: list[str] = Field(default_factory=lambda: list(ARM_JOINTS), description="arm joints, in order")
         gripper: str | None = Field(GRIPPER, description="the jaw joint (its opening is published as `gripper`), "
                                                          "or none")

@@ -37,7 +37,7 @@ class GelloLeader(TeleopNode):
     class Config(ServoBus, TeleopNode.Config):
         # the XL330s' factory baud rate (1000000 reads 8 servos in ~2 ms); the port is the U2D2's
         defaults = {"baudrate": 57600, "rate_hz": Field(100.0, le=1000)}
-        renamed = {"virtual_motion": "emulator_motion"}  # names_rewrite: keep (the old field name)
+        renamed = {"virtual_motion": "emulator_motion"}
         layout: Literal[tuple(LAYOUTS)] = Field(description="which GELLO design: " + ", ".join(LAYOUTS))  # type: ignore[valid-type]
         calibration: str = Field("default", description="calibration name (in $XDG_CONFIG_HOME/rio/calibration/"
                                                         "gello-<layout>/) or a .json path")
