@@ -38,6 +38,7 @@ RENAMES = {
     "g1-bridge-hands": "g1-sim-hands",
     "g1-bridge-inspire": "g1-sim-inspire",
     "g1-bridge-floating": "g1-sim-floating",
+    "lekiwi-virtual": "lekiwi-emulator",  # added by main's LeKiwi merge with the old word, renamed the same way
 }
 
 
