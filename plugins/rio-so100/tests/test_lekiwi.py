@@ -97,7 +97,7 @@ def test_a_servo_fault_stops_the_wheels_and_names_the_servo():
         assert wait_until(lambda: all(_goal_bytes(s) == b"\x00\x00" for s in servos), timeout=2.0)
 
 
-def test_lekiwi_virtual_with_a_leader_arm_mirrors_the_arm_and_parks_the_base():
+def test_lekiwi_emulator_with_a_leader_arm_mirrors_the_arm_and_parks_the_base():
     """LeKiwi's usual setup: an SO-101 leader drives the arm; the base gets a zero twist each tick."""
     from rio.workflows.teleop import run_teleop
 
