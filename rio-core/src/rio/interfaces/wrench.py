@@ -2,7 +2,8 @@
 
 A driver returns the raw wrench from `read_wrench()`: `force` (3, N) and `torque` (3, N m) in the sensor's
 own frame (named by the station's `frame`), and optionally `timestamp`, the time the hardware measured it
-(`rio.clock` seconds; a packet's arrival, say). The kind publishes
+(`rio.clock` seconds; a packet's arrival, say), and any keys of its own it declared in `example_data`
+(a sequence number, a status word). The kind publishes
 
     force      (3,) N     Fx, Fy, Fz in the sensor frame, minus the bias
     torque     (3,) N m   Tx, Ty, Tz in the sensor frame, minus the bias
@@ -70,7 +71,9 @@ class WrenchNode(Node):
             self._tare_pending = False
             self.tare()
         w = w - self.bias
-        return {"force": w[:3], "torque": w[3:], "timestamp": t}
+        out: dict[str, Any] = {"force": w[:3], "torque": w[3:], "timestamp": t}
+        out.update((k, v) for k, v in raw.items() if k not in out and k in self.example_data)  # the driver's own keys
+        return out
 
     # -- remote API ---------------------------------------------------------------------------------
     @remote
