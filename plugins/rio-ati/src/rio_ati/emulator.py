@@ -52,6 +52,8 @@ class NetFTBox:
         #: drop every n-th datagram on the way (0: none), as a congested network would
         self.drop_every = 0
         self._datagrams = 0
+        #: when each record left the box (`rio.clock` seconds), by rdt_sequence modulo its length (benchmarks)
+        self.sent_at = np.zeros(1 << 16)
         self.bias_counts = np.zeros(6)
         self._rng = np.random.default_rng(seed)
         self._lock = threading.Lock()
@@ -156,6 +158,7 @@ class NetFTBox:
                 counts = self.raw_counts() - self.bias_counts
             seq += 1
             payload += rdt.record(seq, self.ft_sequence(), self.status, counts)
+            self.sent_at[seq % len(self.sent_at)] = time.monotonic()  # = rio.clock.now()
         self._datagrams += 1
         try:
             if not (self.drop_every and self._datagrams % self.drop_every == 0):
