@@ -4,7 +4,7 @@ buffered streaming, stop, a sample count, the software bias) and its configurati
 (`netftapi2.xml`: counts per force and torque unit, the units, the RDT rate).
 
 The load it measures is `load` (6 values, N and N m in the sensor frame) plus seeded noise, or what a
-`source` callable returns each sample (a sim world's wrist sensor: `rio_ati.sim_source`). Like the box,
+`source` callable returns each sample (a sim world's wrist sensor: `rio_ati.sim_source.WristSource`). Like the box,
 it samples internally at 7000 Hz (`ft_sequence` counts those samples) and sends at its RDT rate
 (`rdt_sequence` counts the records sent since streaming started); the software bias subtracts the
 reading at the time of the command from every later one.
@@ -55,6 +55,8 @@ class NetFTBox:
         #: when each record left the box (`rio.clock` seconds), by rdt_sequence modulo its length (benchmarks)
         self.sent_at = np.zeros(1 << 16)
         self.bias_counts = np.zeros(6)
+        #: the last load the gages read (N, N m, before noise)
+        self.last_load = self.load.copy()
         self._rng = np.random.default_rng(seed)
         self._lock = threading.Lock()
         self._stream: tuple[tuple[str, int], int, int, int] | None = None  # (client, mode, remaining, rdt_seq)
@@ -98,6 +100,7 @@ class NetFTBox:
     def raw_counts(self) -> np.ndarray:
         """What the gages read now, in counts of the configured units (before the box's bias)."""
         w = np.asarray(self.source() if self.source is not None else self.load, dtype=np.float64).reshape(6)
+        self.last_load = w
         if self.noise:
             w = w + self._rng.normal(0.0, self.noise, 6)
         return np.concatenate([w[:3] / FORCE_UNITS[self.force_unit] * self.cpf,
