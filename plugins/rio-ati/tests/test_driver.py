@@ -44,7 +44,8 @@ def test_publishes_si_units_from_a_box_in_lbf_and_lbf_in():
         s = next_sample(ft)
     assert s["force"] == pytest.approx(LOAD[:3], abs=0.005) and s["torque"] == pytest.approx(LOAD[3:], abs=1e-3)
     assert s["status"] == 0 and s["rdt_sequence"] >= 1 and s["lost"] == 0
-    assert [c for c, _ in box.requests] == [rdt.START_REALTIME, rdt.STOP]  # close() stops the stream
+    asked = [c for c, _ in box.requests]  # start (again, if the first record was slow to come), then stop
+    assert set(asked[:-1]) == {rdt.START_REALTIME} and asked[-1] == rdt.STOP  # close() stops the stream
 
 
 def test_tare_biases_the_box_itself():
@@ -54,7 +55,8 @@ def test_tare_biases_the_box_itself():
         assert ft.tare() == [0.0] * 6  # the kind keeps no bias: the box's is the zero
         after = [next_sample(ft) for _ in range(30)]
         assert max(np.abs(s["force"]).max() for s in after) < 1e-5  # not one of those published
-        assert rdt.SET_SOFTWARE_BIAS in [c for c, _ in box.requests] and after[0]["rdt_sequence"] <= 30
+        asked = [c for c, _ in box.requests]
+        assert asked[asked.index(rdt.SET_SOFTWARE_BIAS) + 1] == rdt.START_REALTIME  # a fresh stream after the bias
         box.load = np.array(LOAD) + [0.0, 0.0, -4.9, 0.0, 0.0, 0.0]
         assert wait_until(lambda: next_sample(ft)["force"][2] == pytest.approx(-4.9, abs=1e-5), timeout=5.0)
 
@@ -74,11 +76,9 @@ def test_lost_datagrams_are_counted_from_sequence_gaps():
         box.drop_every = 4
         assert wait_until(lambda: next_sample(ft)["lost"] >= 20, timeout=10.0)
         box.drop_every = 0
-        s = next_sample(ft)
-    # the driver saw every record the box sent but did not drop: received + lost = sent (up to those in flight)
-    assert ft.received + ft.lost == pytest.approx(box.sent, abs=50)
-    assert ft.lost == pytest.approx(box.sent / 4, rel=0.5) or ft.lost >= 20
-    assert s["lost"] == ft.lost
+        # each gap is seen once the record after it arrives: then the count is exactly what the box dropped
+        assert wait_until(lambda: next_sample(ft)["lost"] == box.dropped, timeout=10.0), (ft.lost, box.dropped)
+    assert box.dropped >= 20 and ft.received > 3 * box.dropped * 0.5
 
 
 def test_a_silent_box_is_asked_to_stream_again():

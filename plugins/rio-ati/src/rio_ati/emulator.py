@@ -51,6 +51,8 @@ class NetFTBox:
         self.sent = 0
         #: drop every n-th datagram on the way (0: none), as a congested network would
         self.drop_every = 0
+        #: records dropped that way
+        self.dropped = 0
         self._datagrams = 0
         #: when each record left the box (`rio.clock` seconds), by rdt_sequence modulo its length (benchmarks)
         self.sent_at = np.zeros(1 << 16)
@@ -164,7 +166,9 @@ class NetFTBox:
             self.sent_at[seq % len(self.sent_at)] = time.monotonic()  # = rio.clock.now()
         self._datagrams += 1
         try:
-            if not (self.drop_every and self._datagrams % self.drop_every == 0):
+            if self.drop_every and self._datagrams % self.drop_every == 0:
+                self.dropped += n
+            else:
                 self._udp.sendto(payload, client)
         except OSError:
             return None
