@@ -92,3 +92,14 @@ def test_hdf5_writes_the_wrench(native, tmp_path, style, key):
             np.testing.assert_array_equal(f[group + key][()], _expected(k))
     get_format("hdf5", {"style": style}).import_(out, tmp_path / "back")
     _check_imported(tmp_path / "back")
+
+
+def test_rlds_takes_the_force_and_torque_as_a_wrench(native):
+    """Without TensorFlow here: the columns the RLDS export writes as `observation/wrench` and their values
+    (`test_rlds.py` writes the files where the extra is installed)."""
+    from rio_datasets.rlds_format import _wrench_key, wrench_columns, wrench_values
+
+    ep = Dataset(native).episode(1)
+    cols = wrench_columns(ep)
+    assert cols == ["meta.sensors.ft.wrench"] and _wrench_key(cols[0], cols) == "wrench"
+    np.testing.assert_array_equal(wrench_values(ep, cols[0]), _expected(1))

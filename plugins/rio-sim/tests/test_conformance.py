@@ -11,6 +11,7 @@ from rio_sim.world import SimWorld
 from rio import ServerManager, serve
 from rio.conformance.drivers import (
     ArmConformance,
+    BaseConformance,
     CameraConformance,
     GripperConformance,
     SensorConformance,
@@ -39,6 +40,13 @@ class TestSimArm(InSimWorld, ArmConformance):
 class TestSimGripper(InSimWorld, GripperConformance):
     driver = "sim.gripper"
     bad_config = {"arm": "no_such_arm"}
+
+
+class TestSimBase(InSimWorld, BaseConformance):
+    driver = "sim.base"
+    scene = "lekiwi"
+    bad_config = {"base": "no_such_base"}
+    tracking_tol = 0.05  # the velocity actuators lag the twist by a few ms of physics
 
 
 class TestSimCamera(InSimWorld, CameraConformance):

@@ -10,13 +10,16 @@ import sys
 import pytest
 
 from rio.cli import main
+from rio.embodiments.infer import infer_embodiment
 from rio.plugins import Registry
 from rio.station.load import load_station
 
 DRIVERS = {"so100.follower": "arm", "so100.gripper": "gripper", "so100.leader": "teleop",
-           "so101.follower": "arm", "so101.gripper": "gripper", "so101.leader": "teleop"}
+           "so101.follower": "arm", "so101.gripper": "gripper", "so101.leader": "teleop",
+           "lekiwi.base": "base"}
 STATIONS = ["so100-virtual", "so100-bimanual-virtual", "so100-sim", "so100", "so100-bimanual", "so101",
             "so101-bimanual"]
+LEKIWI_STATIONS = ["lekiwi", "lekiwi-virtual", "lekiwi-sim"]
 
 
 def test_drivers_and_stations_are_registered():
@@ -26,9 +29,23 @@ def test_drivers_and_stations_are_registered():
     assert {n: s.kind for n, s in drivers.items()} == DRIVERS
     for spec in drivers.values():
         assert spec.config_model().model_fields["port"].is_required()
+        if spec.kind == "base":
+            continue
         assert spec.load().__name__.startswith("So100")  # one class per device; SO-101 is a preset
         assert spec.preset == {"model": spec.name.split(".")[0]}
-    assert sorted(s.name for s in reg.specs("rio_stations") if s.plugin == "rio-so100") == sorted(STATIONS)
+    stations = sorted(s.name for s in reg.specs("rio_stations") if s.plugin == "rio-so100")
+    assert stations == sorted(STATIONS + LEKIWI_STATIONS)
+
+
+@pytest.mark.parametrize("name", LEKIWI_STATIONS)
+def test_lekiwi_stations_are_mobile_manipulators_on_one_bus(name):
+    st = load_station(name)
+    base, arm = st.components["base"].driver, st.components["arm"].driver
+    assert (base, arm) == (("sim.base", "sim.arm") if name == "lekiwi-sim" else ("lekiwi.base", "so101.follower"))
+    if name != "lekiwi-sim":
+        ports = {st.components[r].config.port for r in ("arm", "gripper", "base")}
+        assert len(ports) == 1  # arm, jaw and wheels share LeKiwi's one bus
+    assert infer_embodiment(st.roles()).name == "mobile_manipulator"
 
 
 @pytest.mark.parametrize("name", STATIONS)

@@ -5,7 +5,6 @@ matters: the simulated joints, the sample, and the bytes on the wire (a raw DDS 
 
 from __future__ import annotations
 
-import threading
 import time
 
 import numpy as np

@@ -93,7 +93,7 @@ def episode_steps(lowdim: dict[str, np.ndarray], images: dict[tuple[str, str], I
 def open_recorder(out: Path, fps: float, info: dict[str, Any] | None = None, video: Any = None,
                   camera_fps: Any = None) -> Recorder:
     rec = Recorder(out, fps=fps, video=video, camera_fps=camera_fps, station=(info or {}).get("station"))
-    for k in ("embodiment", "action_names", "action_parts"):
+    for k in ("embodiment", "robot_type", "action_names", "observation_names", "action_parts"):
         if (info or {}).get(k) is not None:
             rec.info[k] = info[k]
     return rec

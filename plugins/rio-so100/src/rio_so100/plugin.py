@@ -27,7 +27,10 @@ def _arm_specs(model: str) -> list[Spec]:
 
 @hookimpl
 def rio_drivers() -> list[Spec]:
-    return _arm_specs("so100") + _arm_specs("so101")
+    lekiwi = Spec("lekiwi.base", "base", f"{_P}.lekiwi.wheels:LeKiwiBase",
+                  "LeKiwi's three omni wheels (STS3215 in wheel mode, ids 7-9, on the arm's bus; or port = "
+                  "\"virtual\")")
+    return _arm_specs("so100") + _arm_specs("so101") + [lekiwi]
 
 
 _STATIONS = {
@@ -38,6 +41,9 @@ _STATIONS = {
     "so100-bimanual": "two SO-100 followers + grippers + two leaders on serial ports (edit the ports)",
     "so101": "SO-101 follower + gripper + leader arm on serial ports (edit the ports)",
     "so101-bimanual": "two SO-101 followers + grippers + two leaders on serial ports (edit the ports)",
+    "lekiwi": "LeKiwi: SO-101 follower + gripper and the three-wheel base on one serial port (edit the port)",
+    "lekiwi-virtual": "LeKiwi's arm, gripper and wheels on virtual buses (no hardware), keyboard teleop",
+    "lekiwi-sim": "LeKiwi in rio-sim's MuJoCo: arm + gripper on a three-wheel base, cameras (needs rio-sim)",
 }
 
 

@@ -46,6 +46,8 @@ def rio_embodiments() -> list[Spec]:
              "arm + arm2, each [+ gripper] [+ hand] -> BimanualObs"),
         Spec("humanoid", "embodiment", "rio.embodiments.humanoid:Humanoid",
              "humanoid [+ hand, hand2] -> HumanoidObs"),
+        Spec("mobile_manipulator", "embodiment", "rio.embodiments.mobile:MobileManipulator",
+             "base + arm [+ gripper] [+ hand] -> MobileManipulatorObs"),
     ]
 
 
@@ -60,6 +62,7 @@ def rio_drivers() -> list[Spec]:
         Spec("rio.fake_model_arm", "arm", f"{f}.arms:FakeModelArm",
              "6-joint arm with a robot model and no Cartesian control (end-effector poses by FK/IK); tests"),
         Spec("rio.fake_gripper", "gripper", f"{f}.arms:FakeGripper", f"gripper: {_FAKE}"),
+        Spec("rio.fake_base", "base", f"{f}.base:FakeBase", f"three-wheel omni base: {_FAKE}"),
         Spec("rio.fake_camera", "camera", f"{f}.sensors:FakeCamera", f"camera: {_FAKE}"),
         Spec("rio.fake_teleop", "teleop", f"{f}.teleop:FakeTeleop", f"teleop: {_FAKE}"),
         Spec("rio.fake_hand_tracker", "teleop", f"{f}.teleop:FakeHandTracker",

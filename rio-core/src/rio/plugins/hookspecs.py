@@ -29,7 +29,7 @@ def rio_middlewares() -> list[Spec]:
 
 @hookspec
 def rio_drivers() -> list[Spec]:
-    """Device drivers: arm, gripper, hand, humanoid, camera, teleop, sensor. Target is a Node class;
+    """Device drivers: arm, gripper, hand, humanoid, camera, teleop, sensor, base. Target is a Node class;
     config is a pydantic model whose fields are the node's constructor keyword arguments."""
 
 

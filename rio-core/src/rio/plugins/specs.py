@@ -13,7 +13,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
-DRIVER_KINDS = ("arm", "gripper", "hand", "humanoid", "camera", "teleop", "sensor")
+DRIVER_KINDS = ("arm", "gripper", "hand", "humanoid", "camera", "teleop", "sensor", "base")
 KINDS = (
     *DRIVER_KINDS, "policy",
     "middleware", "dataset_format", "embodiment", "station", "command", "workflow",

@@ -2,8 +2,11 @@
 
 Motion model: with torque on, the position tracks the goal (clamped to the position limits) as a
 first-order lag with time constant `tau`, its speed capped by `max_speed` (or by GOAL_VELOCITY when
-that is set). With torque off the joint stays where it is unless a `hand` (a function of time, the
-user moving the arm) puts it somewhere. `stops` are physical end stops in encoder steps: a goal past
+that is set). In wheel mode (OPERATING_MODE 1, as LeKiwi's wheels run) the servo instead turns at the
+signed GOAL_VELOCITY (sign-magnitude, bit 15; capped at `max_speed`), reached as a first-order lag with
+the same `tau`, endlessly: the position register wraps mod 4096, PRESENT_VELOCITY reports the speed.
+With torque off the joint stays where it is unless a `hand` (a function of time, the user moving the
+arm) puts it somewhere. `stops` are physical end stops in encoder steps: a goal past
 one leaves the servo pushing against it, its load rises (up to TORQUE_LIMIT), and once the load stays above
 OVERLOAD_TORQUE for PROTECTION_TIME the servo latches the overload bit and drops its torque, as the
 real one does. Temperature above MAX_TEMPERATURE and voltage outside MIN/MAX_VOLTAGE set their bits.
@@ -65,6 +68,8 @@ class VirtualServo:
         #: Physical position in encoder steps (continuous; the register reads it mod 4096).
         self.encoder = float(position)
         self.velocity = 0.0
+        #: Wheel mode's speed (steps/s), which lags the goal speed.
+        self.wheel_speed = 0.0
         self.load = 0.0
         self.tau, self.max_speed = float(tau), float(max_speed)
         self.voltage, self.temperature = float(voltage), float(temperature)
@@ -153,7 +158,12 @@ class VirtualServo:
         t = self.clock() if t is None else t
         dt, self._t = max(0.0, t - self._t), t
         before = self.encoder
-        if self.torque_on:
+        spinning = self.torque_on and self.reg(T.OPERATING_MODE) == T.VELOCITY_MODE
+        if spinning:
+            self._spin(dt)
+        else:
+            self.wheel_speed = 0.0  # torque off (or position mode): a wheel does not keep spinning
+        if self.torque_on and not spinning:
             self._track(dt)
         elif self.hand is not None:
             pos = self.hand(t)
@@ -162,8 +172,21 @@ class VirtualServo:
             self.load = 0.0
         else:
             self.load = 0.0
-        self.velocity = (self.encoder - before) / dt if dt > 0 else 0.0
+        self.velocity = self.wheel_speed if spinning else (self.encoder - before) / dt if dt > 0 else 0.0
         self._protect(t)
+
+    def _spin(self, dt: float) -> None:
+        """Wheel mode: the speed approaches the goal speed (first order, `tau`); the encoder integrates it
+        exactly over `dt`."""
+        goal = T.decode_sign(self.reg(T.GOAL_VELOCITY), T.SIGN_BITS[T.GOAL_VELOCITY])
+        goal = max(-self.max_speed, min(self.max_speed, float(goal)))
+        v0 = self.wheel_speed
+        decay = math.exp(-dt / self.tau) if self.tau > 0 else 0.0
+        self.wheel_speed = goal + (v0 - goal) * decay
+        self.encoder += goal * dt + (v0 - goal) * self.tau * (1.0 - decay)
+        cap = min(1000.0, float(self.reg(T.TORQUE_LIMIT)))
+        self.load = math.copysign(min(cap, FREE_LOAD_AT_MAX_SPEED * min(abs(self.wheel_speed) / self.max_speed, 1.0)),
+                                  self.wheel_speed or 1.0)
 
     def _track(self, dt: float) -> None:
         lo, hi = self.reg(T.MIN_POSITION_LIMIT), self.reg(T.MAX_POSITION_LIMIT)
