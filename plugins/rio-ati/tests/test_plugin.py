@@ -21,7 +21,7 @@ def test_drivers_and_station_are_registered():
     drivers = {s.name: s for s in reg.specs("rio_drivers") if s.plugin == "rio-ati"}
     assert {n: s.kind for n, s in drivers.items()} == {"ati.netft": "sensor", "ati.emulator": "sensor"}
     assert drivers["ati.netft"].load() is NetFTSensor and drivers["ati.emulator"].load() is EmulatorNode
-    assert [s.name for s in reg.specs("rio_stations") if s.plugin == "rio-ati"] == ["ati-emulated"]
+    assert [s.name for s in reg.specs("rio_stations") if s.plugin == "rio-ati"] == ["ati-emulator"]
     cfg = drivers["ati.netft"].validate({"ip": "192.168.1.1"})
     assert (cfg.rdt_port, cfg.http_port, cfg.rate_hz, cfg.device_tare) == (49152, 80, 1000.0, True)
 
@@ -37,10 +37,10 @@ def test_the_packaged_station_records_the_wrench(tmp_path):
     from rio.recording import Dataset
     from rio.workflows.teleop import run_teleop
 
-    st = load_station("ati-emulated")
+    st = load_station("ati-emulator")
     assert st.components["ft_sensor"].driver == "ati.netft"
     script = {"script": "moves", "moves": [[0, 0, -0.02, 1.0, 1.0]]}
-    summary = run_teleop("ati-emulated", "scripted", device_config=script, duration=10, log=None,
+    summary = run_teleop("ati-emulator", "scripted", device_config=script, duration=10, log=None,
                          record=str(tmp_path / "ds"))
     assert summary.reason == "the device finished", summary.reason
     assert summary.node_rates_hz.get("ft", 0) > 0, summary.node_rates_hz  # ~400-1000; a loaded machine less

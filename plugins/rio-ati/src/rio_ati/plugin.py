@@ -21,5 +21,5 @@ def rio_drivers() -> list[Spec]:
 
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec("ati-emulated", "station", f"{_P}:stations/ati-emulated.toml",
+    return [Spec("ati-emulator", "station", f"{_P}:stations/ati-emulator.toml",
                  "a fake arm with a wrist Net F/T, served by an emulated box on 127.0.0.12 (no hardware)")]
