@@ -155,6 +155,12 @@ def test_bimanual_station_steps(reg):
     with ServerManager(servers), env:
         assert env.action_dim == 14
         assert env.robot.describe_action().startswith("arm1_joint_pos (6), arm1_gripper (1), arm2_joint_pos (6)")
+        # every action element named from the drivers (what exports carry as `names`), the arms told apart
+        names = env.robot.action_names()
+        assert names[:7] == [f"arm1_joint{i}" for i in range(1, 7)] + ["arm1_gripper"]
+        assert names[7:] == [f"arm2_joint{i}" for i in range(1, 7)] + ["arm2_gripper"]
+        assert env.robot.observation_names()["arm2_proprio_joints"] == names[7:13]
+        assert env.drivers["arm2"] == "rio.fake_arm"
         left, right = np.full(6, 0.3), np.full(6, -0.3)
         action = env.robot.build_action(arm1_joint_pos=left, arm1_gripper=0.01, arm2_joint_pos=right,
                                         arm2_gripper=0.05)
@@ -172,6 +178,9 @@ def test_humanoid_station_steps(reg):
     servers, _, env = make_station(st, registry=reg)
     with ServerManager(servers), env:
         assert env.robot.describe_action() == "joint_pos (12), hand (6)"
+        names = env.robot.action_names()
+        assert names == [f"joint{i}" for i in range(1, 13)] + [f"hand.joint{i}" for i in range(1, 7)]
+        assert env.robot.observation_names()["hand1_joints"] == names[12:]
         action = np.r_[np.full(12, 0.1), np.full(6, 0.4)]
         env.step(action, t_cmd_target=clock.now() + 0.05)
         assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, action))

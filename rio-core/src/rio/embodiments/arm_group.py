@@ -7,6 +7,8 @@ from typing import Any
 import numpy as np
 
 ACTION_SPACES = ("joint_pos", "eef_pose")
+#: The elements of an `eef_pose`: position (m), then the unit quaternion w, x, y, z.
+EEF_NAMES = ("x", "y", "z", "qw", "qx", "qy", "qz")
 
 
 class ArmGroup:
@@ -26,6 +28,24 @@ class ArmGroup:
             out.append((f"{p}gripper", 1))
         if self.hand:
             out.append((f"{p}hand", self.hand_dof))
+        return out
+
+    def names(self) -> dict[str, list[str]]:
+        """Element names of this group's action parts and observation fields: the arm's joints as its
+        driver names them (`shoulder_pan`; numbered `joint_pos.0` when it names none), the pose's
+        `x` ... `qz`, `gripper`, the hand's joints (`hand.<joint>`), each prefixed like the action labels
+        (`arm1_shoulder_pan` in a Bimanual)."""
+        p, space = self.prefix, self.action_space
+        joints = self.emb.joint_names(self.arm, self.arm_dof) or [f"{space}.{i}" for i in range(self.arm_dof)]
+        joints = [f"{p}{j}" for j in joints]
+        eef = [f"{p}{e}" for e in EEF_NAMES]
+        out = {"action": list(joints if space == "joint_pos" else eef), "joints": joints, "eef": eef}
+        if self.gripper:
+            out["action"].append(f"{p}gripper")
+        if self.hand:
+            hand = self.emb.joint_names(self.hand, self.hand_dof) or [str(i) for i in range(self.hand_dof)]
+            out["hand"] = [f"{p}hand.{j}" for j in hand]
+            out["action"] += out["hand"]
         return out
 
     def read(self) -> dict[str, Any]:
