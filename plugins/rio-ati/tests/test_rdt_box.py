@@ -46,7 +46,7 @@ def quiet(sock: socket.socket, seconds: float = 0.3) -> list[bytes]:
     try:
         while True:
             got.append(sock.recv(65536))
-    except (TimeoutError, socket.timeout):
+    except TimeoutError:
         return got
     finally:
         sock.settimeout(2.0)
@@ -82,7 +82,7 @@ def test_a_sample_count_is_honoured_and_sequences_count_records(box, udp):
     assert quiet(udp, 0.3) == []  # exactly 25, then the box stops by itself
     assert [r.rdt_sequence for r in got] == list(range(1, 26))  # one per record, from 1 at every start
     ft = [r.ft_sequence for r in got]
-    assert all(b >= a for a, b in zip(ft, ft[1:]))  # the box's internal 7 kHz counter never goes back
+    assert all(b >= a for a, b in zip(ft, ft[1:], strict=False))  # the box's internal 7 kHz counter never goes back
     assert ft[-1] - ft[0] >= 7000 * 24 / 500 * 0.5  # ~14 internal samples per record at 500 Hz
     udp.send(rdt.request(rdt.START_REALTIME, 3))
     assert [r.rdt_sequence for r in records(udp, 3)] == [1, 2, 3]

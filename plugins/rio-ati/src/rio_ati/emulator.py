@@ -41,7 +41,8 @@ class NetFTBox:
                              f"torque one of {sorted(TORQUE_UNITS)}")
         self.load = np.asarray(load, dtype=np.float64).reshape(6)
         self.host, self.rate_hz, self.noise, self.buffer_size = host, float(rate_hz), float(noise), int(buffer_size)
-        self.cpf, self.cpt, self.force_unit, self.torque_unit = counts_per_force, counts_per_torque, force_unit, torque_unit
+        self.cpf, self.cpt = counts_per_force, counts_per_torque
+        self.force_unit, self.torque_unit = force_unit, torque_unit
         self.source = source
         #: what the status word of every record carries (set it to emulate a saturated or broken gage)
         self.status = 0

@@ -5,7 +5,8 @@ and attached by the arm, gripper and camera nodes of the same station, whatever 
 them (threads of one process or a process each):
 
 - state, written by the world after every batch of physics steps: `qpos`, `qvel`, `ctrl`, `sensordata`
-  (the scene's sensors: each arm's wrist force/torque, `rio_sim.scenes`), simulated time, under a sequence counter (odd while a write is in progress) and a checksum of the state
+  (the scene's sensors: each arm's wrist force/torque, `rio_sim.scenes`), simulated time, under a sequence
+  counter (odd while a write is in progress) and a checksum of the state
   seeded with the counter (`rio.runtime.slot_check`): a reader accepts its copy only when the checksum of
   the copy matches, which holds on CPUs that reorder memory (ARM) as on x86;
 - commands, one slot per actuator: `target`, `t_target` (a `rio.clock.now()` time), a `stamp`

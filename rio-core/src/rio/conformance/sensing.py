@@ -1,4 +1,5 @@
-"""Kits of the kinds that only publish: cameras, teleop devices and wrench (force/torque) sensors. See `rio.conformance.drivers`."""
+"""Kits of the kinds that only publish: cameras, teleop devices and wrench (force/torque) sensors. See
+`rio.conformance.drivers`."""
 
 from __future__ import annotations
 
