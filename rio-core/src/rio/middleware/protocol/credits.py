@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from rio import clock
-from rio.errors import NodeTimeout, QueueFull, RioError
+from rio.errors import NoCredits, NodeTimeout, RioError
 from rio.middleware.protocol.messages import FULL, INVALID, OK, REQUEST_ID, Throttled, ack_error
 from rio.runtime import wire
 
@@ -36,17 +36,6 @@ log = logging.getLogger("rio.middleware.protocol")
 #: Credits a client assumes when its server's handshake grants none (a server of protocol 3 and older
 #: never refused a peer's first request for room).
 DEFAULT_CREDITS = 1
-
-
-class NoCredits(QueueFull):
-    """`send_request` found no credit left: the node has acknowledged none of the last `credits` requests."""
-
-    def __init__(self, node: str, credits: int, oldest_s: float):
-        self.node, self.credits, self.oldest_s = node, credits, oldest_s
-        RioError.__init__(self, f"node '{node}': request queue full for this client, request not sent: all "
-                                f"{credits} of its request credits are in flight (the oldest unacknowledged for "
-                                f"{oldest_s * 1e3:.3g} ms); the node or the link is not keeping up (lower the "
-                                "command rate, or raise max_pending_per_peer)")
 
 
 @dataclass
