@@ -1,8 +1,8 @@
-"""LeKiwi's wheel commands against the SO-100 arm's, over the same virtual Feetech bus, in the same run.
+"""LeKiwi's wheel commands against the SO-100 arm's, over the same emulated Feetech bus, in the same run.
 
     uv run python bench/lekiwi_wheels.py [--commands 300] [--rounds 3]
 
-Both drivers run as the runtime runs them (`rio.testing.lifecycle`) on private virtual buses (scservo_sdk
+Both drivers run as the runtime runs them (`rio.testing.lifecycle`) on private emulated buses (scservo_sdk
 over a pseudo-terminal, emulated STS3215 servos answering from a thread of this process). For each command
 the clock starts before the driver's write hook and stops when every servo it drives holds the new goal in
 its register (polled under the bus lock every 50 us):
@@ -49,7 +49,7 @@ def wheel_latencies(node: LeKiwiBase, n: int) -> list[float]:
         expect = {sid: T.encode_sign(int(v), 15) for sid, v in zip(node.ids, steps, strict=True)}
         t0 = time.perf_counter()
         node.write_twist(twist)
-        while not _landed(node.virtual, expect, T.GOAL_VELOCITY):
+        while not _landed(node.emulator, expect, T.GOAL_VELOCITY):
             time.sleep(POLL_S)
         out.append(time.perf_counter() - t0)
     return out
@@ -63,7 +63,7 @@ def arm_latencies(node: So100Follower, n: int) -> list[float]:
         expect = group.to_steps(q)
         t0 = time.perf_counter()
         node.write_joints(q)
-        while not _landed(node.servos.conn.virtual, expect, T.GOAL_POSITION):
+        while not _landed(node.servos.conn.emulator, expect, T.GOAL_POSITION):
             time.sleep(POLL_S)
         out.append(time.perf_counter() - t0)
     return out
@@ -93,8 +93,8 @@ def main() -> None:
     args = ap.parse_args()
     n = args.commands
     res: dict[str, list[float]] = {"wl": [], "al": [], "wc": [], "ac": []}
-    with lifecycle(LeKiwiBase(port="virtual", watchdog_s=1e6)) as wheels, \
-            lifecycle(So100Follower(port="virtual", watchdog_s=1e6)) as arm:
+    with lifecycle(LeKiwiBase(port="emulator", watchdog_s=1e6)) as wheels, \
+            lifecycle(So100Follower(port="emulator", watchdog_s=1e6)) as arm:
         q0 = arm.servos.group.read()["joint_pos"]
         for _ in range(args.rounds):
             res["wl"] += wheel_latencies(wheels, n)
@@ -102,7 +102,7 @@ def main() -> None:
             res["wc"] += cycle_times(wheels, n, lambda: wheels.command("twist", np.array([0.1, 0.0, 0.2]),
                                                                        clock.now()))
             res["ac"] += cycle_times(arm, n, lambda: arm.command_joints(q0, clock.now()))
-    print(f"{args.rounds} rounds of {n}, virtual Feetech buses in this process")
+    print(f"{args.rounds} rounds of {n}, emulated Feetech buses in this process")
     wl = row("wheel command -> 3 goal speeds in the registers", res["wl"])
     al = row("arm command -> 5 goal positions in the registers", res["al"])
     wc = row("lekiwi.base cycle() (read, commander, write)", res["wc"])

@@ -15,6 +15,7 @@ from rio.conformance.drivers import (
     CameraConformance,
     GripperConformance,
     SensorConformance,
+    WrenchConformance,
 )
 
 
@@ -52,6 +53,15 @@ class TestSimCamera(InSimWorld, CameraConformance):
     driver = "sim.camera"
     config = {"camera": "front", "width": 48, "height": 32, "depth": True}
     bad_config = {"camera": "no_such_camera"}
+
+
+class TestSimWrench(InSimWorld, WrenchConformance):
+    """The so100's wrist, holding still at home: tared, only the physics' residue remains."""
+
+    driver = "sim.wrench"
+    bad_config = {"arm": "no_such_arm"}
+    tare_tol_n = 0.05
+    tare_tol_nm = 0.01
 
 
 class TestSimWorld(SensorConformance):

@@ -1,4 +1,4 @@
-"""LeKiwi's wheels: the `lekiwi.base` driver (the real scservo_sdk path) against virtual STS3215 servos in
+"""LeKiwi's wheels: the `lekiwi.base` driver (the real scservo_sdk path) against emulated STS3215 servos in
 wheel mode, down to the bytes of the goal speeds; and the base conformance kit on it."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from rio.testing import lifecycle, wait_until
 
 class TestLeKiwiBase(BaseConformance):
     driver = "lekiwi.base"
-    config = {"port": "virtual"}
+    config = {"port": "emulator"}
     tracking_tol = 0.05  # the servo's speed lags its goal (tau 40 ms) and is whole steps/s
     settle_s = 0.4
 
@@ -27,9 +27,9 @@ def _goal_bytes(servo) -> bytes:
 
 
 def test_open_puts_the_wheels_in_wheel_mode_and_commands_signed_speeds():
-    node = LeKiwiBase(port="virtual", enable_on_open=False)
+    node = LeKiwiBase(port="emulator", enable_on_open=False)
     with lifecycle(node):
-        vb = node.virtual
+        vb = node.emulator
         for sid in G.WHEEL_IDS:
             assert vb.servo(sid).reg(T.OPERATING_MODE) == T.VELOCITY_MODE
             assert vb.servo(sid).reg(T.LOCK) == 1  # locked again after the EEPROM write
@@ -54,7 +54,7 @@ def test_open_puts_the_wheels_in_wheel_mode_and_commands_signed_speeds():
 
 
 def test_a_fast_twist_is_scaled_down_as_a_whole():
-    node = LeKiwiBase(port="virtual", max_linear_speed=5.0, max_angular_speed=20.0)
+    node = LeKiwiBase(port="emulator", max_linear_speed=5.0, max_angular_speed=20.0)
     twist = np.array([2.0, 1.0, 3.0])
     steps = node.wheel_steps(twist)
     assert np.abs(steps).max() == G.MAX_WHEEL_STEPS
@@ -63,7 +63,7 @@ def test_a_fast_twist_is_scaled_down_as_a_whole():
 
 
 def test_the_base_drives_and_its_wheels_report_it():
-    node = LeKiwiBase(port="virtual")
+    node = LeKiwiBase(port="emulator")
     with lifecycle(node):
         rate = clock.Rate(node.rate_hz)
         t_end = clock.now() + 1.0
@@ -77,7 +77,7 @@ def test_the_base_drives_and_its_wheels_report_it():
         assert 0.05 < pose[0] < 0.12 and 0.15 < pose[2] < 0.45, pose
         node.disable()  # acknowledged writes of torque: the zero speeds before them have been applied
         for sid in G.WHEEL_IDS:  # torque off with a zero goal speed: nothing spins on at an old speed
-            servo = node.virtual.servo(sid)
+            servo = node.emulator.servo(sid)
             assert servo.reg(T.TORQUE_ENABLE) == 0 and _goal_bytes(servo) == b"\x00\x00"
 
 
@@ -85,24 +85,24 @@ def test_a_servo_fault_stops_the_wheels_and_names_the_servo():
     from rio_so100.errors import ServoFault
     from rio_so100.feetech import protocol as P
 
-    node = LeKiwiBase(port="virtual")
+    node = LeKiwiBase(port="emulator")
     with lifecycle(node):
         node.command("twist", np.array([0.1, 0.0, 0.0]), clock.now())
         for _ in range(5):
             node.cycle()
-        node.virtual.servo(8).forced_error = P.ERR_OVERHEAT
+        node.emulator.servo(8).forced_error = P.ERR_OVERHEAT
         with pytest.raises(ServoFault, match=r"servo 8 \(back_wheel\): overheat"):
             node.cycle()
-        servos = [node.virtual.servo(sid) for sid in G.WHEEL_IDS]  # the stop is a broadcast: no answer to wait for
+        servos = [node.emulator.servo(sid) for sid in G.WHEEL_IDS]  # the stop is a broadcast: no answer to wait for
         assert wait_until(lambda: all(_goal_bytes(s) == b"\x00\x00" for s in servos), timeout=2.0)
 
 
-def test_lekiwi_virtual_with_a_leader_arm_mirrors_the_arm_and_parks_the_base():
+def test_lekiwi_emulator_with_a_leader_arm_mirrors_the_arm_and_parks_the_base():
     """LeKiwi's usual setup: an SO-101 leader drives the arm; the base gets a zero twist each tick."""
     from rio.workflows.teleop import run_teleop
 
     seen = []
-    s = run_teleop("lekiwi-virtual", "so101.leader", device_config={"port": "virtual", "virtual_motion": "wave"},
+    s = run_teleop("lekiwi-emulator", "so101.leader", device_config={"port": "emulator", "emulator_motion": "wave"},
                    middleware="thread", duration=3.0, log=None,
                    on_tick=lambda tick: seen.append((tick.action[-3:].copy(), tick.step.observation.base_odom)))
     assert s.ticks > 30 and seen

@@ -17,9 +17,9 @@ from rio.station.load import load_station
 DRIVERS = {"so100.follower": "arm", "so100.gripper": "gripper", "so100.leader": "teleop",
            "so101.follower": "arm", "so101.gripper": "gripper", "so101.leader": "teleop",
            "lekiwi.base": "base"}
-STATIONS = ["so100-virtual", "so100-bimanual-virtual", "so100-sim", "so100", "so100-bimanual", "so101",
+STATIONS = ["so100-emulator", "so100-bimanual-emulator", "so100-sim", "so100", "so100-bimanual", "so101",
             "so101-bimanual"]
-LEKIWI_STATIONS = ["lekiwi", "lekiwi-virtual", "lekiwi-sim"]
+LEKIWI_STATIONS = ["lekiwi", "lekiwi-emulator", "lekiwi-sim"]
 
 
 def test_drivers_and_stations_are_registered():
@@ -65,15 +65,15 @@ def test_listing_imports_no_sdk():
     assert out.stdout.strip() == "False", out.stderr
 
 
-def test_virtual_bus_command_prints_a_port(capsys):
-    assert main(["so100", "virtual-bus", "--seconds", "0.2"]) == 0
+def test_emulator_command_prints_a_port(capsys):
+    assert main(["so100", "emulator", "--seconds", "0.2"]) == 0
     assert capsys.readouterr().out.startswith("/dev/pts/")
 
 
-def test_calibrate_command_on_a_virtual_arm(capsys, config_home):
-    assert main(["so100", "calibrate", "--port", "virtual", "--device", "leader", "--model", "so101"]) == 0
+def test_calibrate_command_on_an_emulated_arm(capsys, config_home):
+    assert main(["so100", "calibrate", "--port", "emulator", "--device", "leader", "--model", "so101"]) == 0
     out = capsys.readouterr().out
-    saved = config_home / "rio" / "calibration" / "so101-leader" / "virtual-demo.json"
+    saved = config_home / "rio" / "calibration" / "so101-leader" / "emulator-demo.json"
     assert f"saved {saved}" in out and saved.is_file()
     assert "wrist_roll" in out and "rad" in out
 

@@ -10,7 +10,11 @@ Two things an exporter writes differently from the native record, so a trainer c
   when the export recorded the episode's first native action (`rio_attrs`: `first_action`);
 - the environment state: the columns the episode's metadata names as such (`environment_state`, written by
   the recorder: a simulator's object poses), flattened into one `environment_state` vector per step with
-  one name per element (`cube.x`, ..., `cube.qz`, ...), aligned with the observation (read at the same step).
+  one name per element (`cube.x`, ..., `cube.qz`, ...), aligned with the observation (read at the same step);
+- wrenches: a force/torque sensor of the wrench kind (`rio.interfaces.WrenchNode`) is recorded as two native
+  columns, `meta.sensors.<name>.force` and `.torque` (the latest sample at each step); every format exports
+  them as one field `wrench_<name>` of 6 values per step (fx, fy, fz N; tx, ty, tz N m, in the sensor's frame),
+  beside the observation of the same step.
 """
 
 from __future__ import annotations
@@ -47,6 +51,9 @@ def common_fps(eps: list[Episode]) -> float:
 
 #: The exported field of the environment state (`observation.environment_state` in LeRobot).
 ENVIRONMENT_STATE = "environment_state"
+#: The exported field of a wrench sensor: `wrench_<sensor name>`, and the names of its 6 elements.
+WRENCH_PREFIX = "wrench_"
+WRENCH_NAMES = ["fx", "fy", "fz", "tx", "ty", "tz"]
 #: How exported actions pair with observations (`rio_attrs`), see the module docstring.
 ACTIONS_AFTER_OBSERVATIONS = "action[t] is the command issued after observation[t]"
 
@@ -60,7 +67,25 @@ def lowdim(ep: Episode) -> dict[str, np.ndarray]:
     env = environment_state(ep)
     if env is not None:
         out[ENVIRONMENT_STATE] = env[0]
+    out.update(wrenches(ep))
     out["t"] = ep.column("t")
+    return out
+
+
+def wrenches(ep: Episode) -> dict[str, np.ndarray]:
+    """{`wrench_<sensor>`: (T, 6) float64} for every sensor recorded with a 3-vector `force` and `torque`
+    (the wrench kind's keys), sorted by sensor name."""
+    names, out = set(ep.schema.names), {}
+    for col in sorted(names):
+        if not (col.startswith("meta.sensors.") and col.endswith(".force")):
+            continue
+        sensor = col[len("meta.sensors."):-len(".force")]
+        torque = f"meta.sensors.{sensor}.torque"
+        if torque not in names:
+            continue
+        f, t = ep.column(col), ep.column(torque)
+        if f.shape[1:] == (3,) and t.shape[1:] == (3,):
+            out[WRENCH_PREFIX + sensor] = np.concatenate([f, t], axis=1).astype(np.float64)
     return out
 
 
@@ -141,7 +166,9 @@ def element_names(eps: list[Episode], field: str, n: int) -> list[str]:
         for i, name in enumerate(names):
             if name not in found[i]:
                 found[i].append(name)
-    default = list(EEF_NAMES) if field.endswith("eef") and n == len(EEF_NAMES) else [f"{field}_{i}" for i in range(n)]
+    default = (list(EEF_NAMES) if field.endswith("eef") and n == len(EEF_NAMES)
+               else list(WRENCH_NAMES) if field.startswith(WRENCH_PREFIX) and n == len(WRENCH_NAMES)
+               else [f"{field}_{i}" for i in range(n)])
     out = ["|".join(f) if f else default[i] for i, f in enumerate(found)]
     if len(set(out)) != n:  # two elements named alike (a name repeated after padding): numbered instead
         return [f"{field}_{i}" for i in range(n)]

@@ -5,6 +5,7 @@ ALOHA (act, lerobot's aloha converters): one file per episode, OUT/episode_<k>.h
     /observations/qpos            (T, S)   proprio
     /observations/<field>         (T, ...) other observation fields (proprio_eef, ...)
     /observations/environment_state (T, E) the environment state (a simulator's object poses); attrs `names`
+    /observations/wrench_<sensor> (T, 6) a force/torque sensor's fx fy fz (N) tx ty tz (N m)
     /observations/images/<cam>    (T, H, W, 3) uint8
     /observations/depth/<cam>     (T, H, W) uint16 (depth_unit_m units)
     attrs: sim=False, fps, rio (JSON), robot_type (the station's arm driver, when recorded)

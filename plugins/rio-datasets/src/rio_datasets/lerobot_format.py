@@ -5,7 +5,8 @@ frame that step saw), so video and parquet timestamps agree to the microsecond h
 cameras' real rates drifted during recording: lerobot's tolerance checks cannot fail.
 
 Frame t holds `observation.state` (the proprio), the other observation fields, the environment state
-(`observation.environment_state`, float32, one name per element: `cube.x`, ..., `cube.qz`, ...) all read at
+(`observation.environment_state`, float32, one name per element: `cube.x`, ..., `cube.qz`, ...), each
+force/torque sensor's wrench (`observation.wrench_<sensor>`, float32, fx fy fz N, tx ty tz N m) all read at
 step t, and `action`: the command issued after that observation (`common`: native actions shifted by one).
 """
 
@@ -32,6 +33,7 @@ from rio.recording.video import quiet_svt
 from . import lerobot_paths as LL
 from .common import (
     ENVIRONMENT_STATE,
+    WRENCH_PREFIX,
     ExportError,
     check_same_layout,
     common_fps,
@@ -157,6 +159,7 @@ class LeRobotFormat(DatasetFormat):
         env = environment_state(ep)
         if env is not None:  # the environment state is a standard LeRobot feature: exported either way
             mapping[ENVIRONMENT_FEATURE] = ENVIRONMENT_STATE
+        mapping.update({f"observation.{k}": k for k in cols if k.startswith(WRENCH_PREFIX)})  # either way too
         if o.extra_observations:
             mapping.update({f"observation.{k}": k for k in cols
                             if k not in ("proprio", "action", "t", ENVIRONMENT_STATE)})

@@ -45,6 +45,7 @@ from rio.recording.format import DatasetFormat, Progress
 
 from .common import (
     ENVIRONMENT_STATE,
+    WRENCH_PREFIX,
     ExportError,
     check_same_layout,
     common_fps,
@@ -54,6 +55,7 @@ from .common import (
     lowdim,
     robot_type,
     select,
+    wrenches,
 )
 
 #: What to install for this format.
@@ -72,8 +74,19 @@ def _tfds() -> Any:
 
 
 def wrench_columns(ep: Episode) -> list[str]:
-    """The step columns holding a force-torque reading: a field or sensor value named `wrench`."""
-    return [n for n in ep.schema.names if n.rsplit(".", 1)[-1] == "wrench"]
+    """The step columns holding a force-torque reading: a field or sensor value named `wrench`, and each
+    wrench-kind sensor's `force` and `torque` pair (`common.wrenches`), named `meta.sensors.<sensor>.wrench`
+    here; `wrench_values` reads either."""
+    named = [n for n in ep.schema.names if n.rsplit(".", 1)[-1] == "wrench"]
+    pairs = [f"meta.sensors.{k[len(WRENCH_PREFIX):]}.wrench" for k in wrenches(ep)]
+    return named + [p for p in pairs if p not in named]
+
+
+def wrench_values(ep: Episode, col: str) -> np.ndarray:
+    """(T, ...) of one of `wrench_columns(ep)`: the column itself, or a sensor's force and torque joined (6)."""
+    if col in ep.schema.names:
+        return ep.column(col)
+    return wrenches(ep)[WRENCH_PREFIX + col.split(".")[-2]]
 
 
 def dataset_name(root: Path) -> str:
@@ -116,7 +129,7 @@ class RldsFormat(DatasetFormat):
             obs[ENVIRONMENT_STATE] = _tensor(tfds, names[ENVIRONMENT_STATE], "object poses: m, quaternion wxyz")
         for col in wrench:
             key = _wrench_key(col, wrench)
-            width = _width(ep.column(col))
+            width = _width(wrench_values(ep, col))
             axes = ("fx", "fy", "fz", "tx", "ty", "tz") if width == 6 else tuple(map(str, range(width)))
             names[key] = [f"{key}.{a}" for a in axes]
             obs[key] = _tensor(tfds, names[key], f"force-torque reading ({col}): N, N m")
@@ -207,7 +220,7 @@ class RldsFormat(DatasetFormat):
         if ENVIRONMENT_STATE in cols:
             obs[ENVIRONMENT_STATE] = cols[ENVIRONMENT_STATE].reshape(n, -1).astype(np.float32)
         for col in wrench:
-            obs[_wrench_key(col, wrench)] = ep.column(col).reshape(n, -1).astype(np.float32)
+            obs[_wrench_key(col, wrench)] = wrench_values(ep, col).reshape(n, -1).astype(np.float32)
         last = np.arange(n) == n - 1
         success = _success(ep)
         task = self.config.task or ""

@@ -8,6 +8,7 @@
                                            drivers' joint names, `gripper`, `x` ... `qz`)
       data/environment_state (N, E)        the environment state (a simulator's object poses), float64;
                                            its attrs `names`: one per element (cube.x, ..., cube.qz, ...)
+      data/wrench_<sensor>   (N, 6)        a force/torque sensor's fx fy fz (N) tx ty tz (N m), float64
       data/timestamp         (N,)          seconds since the episode start
       data/<camera>_rgb      (N, H, W, 3)  uint8, one chunk per frame
       data/<camera>_depth    (N, H, W)     uint16 in depth_unit_m units (lossless)

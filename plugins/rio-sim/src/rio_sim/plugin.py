@@ -21,6 +21,8 @@ def rio_drivers() -> list[Spec]:
              f"simulated arm ({', '.join(ROBOTS)}): joint and end-effector control, IK"),
         Spec("sim.gripper", "gripper", f"{_S}.gripper:SimGripper",
              "simulated parallel gripper"),
+        Spec("sim.wrench", "sensor", f"{_S}.wrench:SimWrench",
+             "simulated wrist force/torque sensor of a sim arm (wrench kind; MuJoCo force and torque sensors)"),
         Spec("sim.base", "base", f"{_S}.base:SimBase",
              "simulated omni-wheel mobile base (a planar body driven by its body twist; wheel speeds, odometry)"),
         Spec("sim.camera", "camera", f"{_S}.camera:SimCamera",

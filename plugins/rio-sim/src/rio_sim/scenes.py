@@ -28,6 +28,7 @@ from functools import cache, lru_cache
 import numpy as np
 
 from .robots import get_robot
+from .wrist_ft import add_wrist_ft
 
 #: Where the cube and the place pad are, relative to an arm's home tool position (its base frame).
 PICK_OFFSET = (0.0, 0.06, -0.085)
@@ -316,6 +317,7 @@ def build_spec(scene: Scene, max_render: tuple[int, int] = (1280, 960)):
         child = mujoco.MjSpec.from_file(str(robot.path))
         frame = mount.add_frame(pos=list(arm.pos), quat=arm.quat)
         spec.attach(child, prefix=f"{arm.name}/", frame=frame)
+        add_wrist_ft(spec, arm.name, robot.tool_site)
     if scene.humanoid is not None:
         _add_humanoid(spec, scene.humanoid)
     shapes = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,

@@ -131,8 +131,8 @@ def export(
     from pathlib import Path
 
     from rio.cli.datasets_cmd import damaged_warnings
-    from rio.machine.confine import is_inside
     from rio.cli.output import console
+    from rio.machine.confine import is_inside
     from rio.recording import Dataset
     from rio.recording.format import export_dataset, get_format
 

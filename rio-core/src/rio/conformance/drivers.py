@@ -39,10 +39,10 @@ from __future__ import annotations
 from rio.conformance.commandable import ArmConformance, GripperConformance, HandConformance, HumanoidConformance
 from rio.conformance.driver_base import DriverConformance, SensorConformance
 from rio.conformance.mobile import BaseConformance
-from rio.conformance.sensing import CameraConformance, TeleopConformance
+from rio.conformance.sensing import CameraConformance, TeleopConformance, WrenchConformance
 
 __all__ = ["DriverConformance", "SensorConformance", "ArmConformance", "GripperConformance", "HandConformance",
-           "HumanoidConformance", "CameraConformance", "TeleopConformance", "BaseConformance"]
+           "HumanoidConformance", "CameraConformance", "TeleopConformance", "BaseConformance", "WrenchConformance"]
 
 
 # -- `pytest --rio-driver NAME`: the kit of NAME's kind, collected where this module is ------------------

@@ -66,12 +66,12 @@ class ArmGroup:
 
     def apply(self, parts: dict[str, np.ndarray], t: float) -> None:
         p = self.prefix
-        arm = self.emb.clients[self.arm]
+        send = self.emb.send
         if self.action_space == "joint_pos":
-            arm.move_joints(parts[f"{p}joint_pos"], t)
+            send(self.arm, "move_joints", parts[f"{p}joint_pos"], t)
         else:
-            arm.move_eef(parts[f"{p}eef_pose"], t)
+            send(self.arm, "move_eef", parts[f"{p}eef_pose"], t)
         if self.gripper:
-            self.emb.clients[self.gripper].move(float(parts[f"{p}gripper"][0]), t)
+            send(self.gripper, "move", float(parts[f"{p}gripper"][0]), t)
         if self.hand:
-            self.emb.clients[self.hand].move_joints(parts[f"{p}hand"], t)
+            send(self.hand, "move_joints", parts[f"{p}hand"], t)

@@ -14,6 +14,7 @@ import numpy as np
 
 from rio import config as _config
 from rio.config import Configurable
+from rio.errors import NoCredits
 from rio.schema import Observation
 
 
@@ -30,9 +31,20 @@ class Embodiment(Configurable):
         self.clients = dict(clients)
         #: Sample timestamp of each role at the last `observe()`.
         self.timestamps: dict[str, float] = {}
+        #: Commands not sent per role because its node was behind on a network link (`send`).
+        self.behind: dict[str, int] = {}
         for role, client in self.clients.items():  # `env.robot.arm.get_state()`, as in the paper
             setattr(self, role, client)
         super().__init__(config, **fields)
+
+    def send(self, role: str, command: str, *args: Any) -> None:
+        """Call `command(*args)` on `role`'s client. A node behind on a network link (every request credit
+        in flight: `NoCredits`, nothing was sent) skips this command and it is counted in `behind`: the next
+        cycle's command supersedes it, and a control loop never waits on the network."""
+        try:
+            getattr(self.clients[role], command)(*args)
+        except NoCredits:
+            self.behind[role] = self.behind.get(role, 0) + 1
 
     @classmethod
     def roles(cls) -> frozenset[str]:

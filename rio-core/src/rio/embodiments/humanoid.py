@@ -52,6 +52,6 @@ class Humanoid(Embodiment):
         )
 
     def apply(self, parts: dict[str, np.ndarray], t_cmd_target: float) -> None:
-        self.clients["humanoid"].move_joints(parts["joint_pos"], t_cmd_target)
+        self.send("humanoid", "move_joints", parts["joint_pos"], t_cmd_target)
         for r in self.hands:
-            self.clients[r].move_joints(parts[r], t_cmd_target)
+            self.send(r, "move_joints", parts[r], t_cmd_target)

@@ -43,7 +43,7 @@ class MobileManipulator(Embodiment):
 
     def apply(self, parts: dict[str, np.ndarray], t_cmd_target: float) -> None:
         self.group.apply(parts, t_cmd_target)
-        self.clients["base"].move_twist(parts[BASE_TWIST], t_cmd_target)
+        self.send("base", "move_twist", parts[BASE_TWIST], t_cmd_target)
 
     def reset(self) -> None:
         """Stop the base (the arm holds where it is)."""

@@ -21,6 +21,7 @@ at which the target should be reached; None means "as soon as possible" (sent as
 | humanoid | joint_pos (n), joint_vel (n), base_quat (4, wxyz), base_ang_vel (3) rad/s | move_joints(q, t) |
 | camera   | rgb (H,W,3) uint8, intrinsics (3,3); depth (H,W) uint16, depth_scale m | - |
 | teleop   | twist (6: m/s, rad/s), gripper (0 closed .. 1 open), buttons (n)     | - |
+| wrench   | force (3) N, torque (3) N m in the sensor frame (a `sensor` role)    | tare, untare |
 | base     | wheel_pos (n) rad, wheel_vel (n) rad/s, body_twist (3), odom_pose (3)  | move_twist(twist, t) |
 
 A base's `body_twist` is `[vx, vy, wz]` (m/s, rad/s, its own frame), `odom_pose` `[x, y, theta]` (m, rad).
@@ -53,8 +54,10 @@ from rio.interfaces.joints import JointNode
 from rio.interfaces.link import LinkSupervisor
 from rio.interfaces.model_table import ModelTable
 from rio.interfaces.teleop import TeleopNode
+from rio.interfaces.wrench import WrenchNode
 
-__all__ = ["ArmNode", "BaseNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "JointNode",
+__all__ = ["ArmNode", "BaseNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "WrenchNode",
+           "JointNode",
            "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolder", "FAULT_KEYS", "LinkSupervisor", "ModelTable",
            "NetworkDevice", "ServoBus", "IPv4", "Grabber", "CameraError", "SourceLost", "SourceFinished",
            "DampingGuard", "DampingConfig", "BodyDampingConfig", "MotorGainsConfig", "motor_gains"]

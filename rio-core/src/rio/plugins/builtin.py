@@ -76,6 +76,8 @@ def rio_drivers() -> list[Spec]:
         Spec("rio.fake_model_humanoid", "humanoid", f"{f}.humanoid:FakeModelHumanoid",
              "21-joint humanoid upper body with a robot model (wrist IK, legs left alone); tests"),
         Spec("rio.fake_sensor", "sensor", f"{f}.sensors:FakeSensor", f"sensor (a constant reading): {_FAKE}"),
+        Spec("rio.fake_wrench", "sensor", f"{f}.sensors:FakeWrench",
+             f"force/torque sensor (wrench kind; a constant load with noise): {_FAKE}"),
         # Teleop devices that need no hardware
         Spec("teleop.scripted", "teleop", "rio.teleop.scripted:ScriptedTeleop",
              "scripted end-effector moves (pick and place); headless demos and tests"),

@@ -52,7 +52,8 @@ def rio_embodiments() -> list[Spec]:
 @hookspec
 def rio_stations() -> list[Spec]:
     """Packaged station files (kind 'station'); target is an absolute path of a .toml file or a
-    package resource 'package:relative/path.toml' (read with importlib.resources)."""
+    package resource 'package:relative/path.toml' (read with importlib.resources). A renamed station
+    keeps its old names in `formerly` for one release (`rio.station.load.find_station` resolves them)."""
 
 
 @hookspec

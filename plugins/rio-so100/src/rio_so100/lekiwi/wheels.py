@@ -10,8 +10,8 @@ to rad/s, then encoder steps/s, signed as the servo takes them (sign-magnitude, 
 turn a wheel faster than `max_wheel_steps` is scaled down as a whole, so the base keeps its heading.
 
 The wheels share LeKiwi's one bus with the arm (ids 1-6): with the same `port` as the follower and gripper,
-the port lock serializes their transactions. `port = "virtual"` gives the base a private virtual bus with
-servos 7-9 in it (`rio_so100.virtual`, whose servos model wheel mode).
+the port lock serializes their transactions. `port = "emulator"` gives the base a private emulated bus with
+servos 7-9 in it (`rio_so100.emulator`, whose servos model wheel mode).
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ class LeKiwiBase(BaseNode):
         n = self.n_wheels
         self.example_data = {**self.example_data, "wheel_steps": np.zeros(n, np.int64), "load": np.zeros(n),
                              "temperature": np.zeros(n), "voltage": np.zeros(n), "error": np.zeros(n, np.int64)}
-        self.virtual: Any = None
+        self.emulator: Any = None
         self.bus: Any = None
 
     # -- lifecycle ----------------------------------------------------------------------------------
@@ -62,14 +62,14 @@ class LeKiwiBase(BaseNode):
         from ..feetech.bus import FeetechBus
 
         c, path = self.config, self.config.port
-        if c.port == "virtual":
-            from ..virtual import VirtualBus
+        if c.port == "emulator":
+            from ..emulator import FeetechBusEmulator
 
-            self.virtual = VirtualBus(ids=self.ids)
-            path = self.virtual.port
+            self.emulator = FeetechBusEmulator(ids=self.ids)
+            path = self.emulator.port
         names = dict(zip(self.ids, self.wheel_list, strict=True))
         self.bus = FeetechBus(path, baudrate=c.baudrate, retries=c.retries, names=names,
-                              min_timeout_ms=EMULATED_TIMEOUT_MS if self.virtual is not None else 0.0).open()
+                              min_timeout_ms=EMULATED_TIMEOUT_MS if self.emulator is not None else 0.0).open()
         check_present(self.bus, names, c.port)
         for sid in self.ids:  # wheel mode is an EEPROM register: torque off, unlock, write, lock
             self.bus.write(sid, T.TORQUE_ENABLE, 0)
@@ -87,9 +87,9 @@ class LeKiwiBase(BaseNode):
         if self.bus is not None:
             self.bus.close()
             self.bus = None
-        if self.virtual is not None:
-            self.virtual.close()
-            self.virtual = None
+        if self.emulator is not None:
+            self.emulator.close()
+            self.emulator = None
 
     def set_enabled(self, enabled: bool) -> None:
         self.write_steps(np.zeros(self.n_wheels, np.int64))  # never start (or let go) at an old speed
