@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from rio import clock
 from rio.control.filters import LowPassFilter
 from rio.control.teleop import (
     ARM_MODES,
@@ -154,6 +155,13 @@ def far_from_home(binding: ArmBinding, tol: float = FAR_FROM_HOME_RAD) -> str | 
             "track badly from there: `rio home STATION` or --home moves it home first")
 
 
+def _wait_newer(client: Any, t: float, timeout_s: float = 1.0) -> None:
+    """Wait (at most `timeout_s`) for `client` to publish a sample stamped after `t`."""
+    deadline = t + timeout_s
+    while float(client.get_state()["timestamp"]) <= t and clock.now() < deadline:
+        clock.precise_wait(clock.now() + 0.002)
+
+
 class TwistTeleop:
     """Controller (rio.loop.control_loop): see the module docstring. `devices`: {role: connected client}."""
 
@@ -210,7 +218,12 @@ class TwistTeleop:
             if "help" in dir(dev):
                 loop.say(dev.help())
         # after the devices' reset: a run after another (a recording session) must not read the last run's
-        # samples, whose done button would end it at once; nor its end, button edges or verdict
+        # samples, whose done button would end it at once; nor its end, button edges or verdict. The first
+        # sample stamped after the reset returned may still have been read before it (a node publishes while
+        # it answers a call): it is the poll's baseline, so only the samples after it count.
+        t_reset = clock.now()
+        for dev in self.devices.values():
+            _wait_newer(dev, t_reset)
         self.polls = {r: DevicePoll(dev) for r, dev in self.devices.items()}
         self.end = EpisodeEnd()
         self.edges = {r: ButtonEdges() for r in self.devices}
