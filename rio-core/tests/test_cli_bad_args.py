@@ -53,6 +53,7 @@ ACCEPTS = {
     ("replay", "--episode"): {"0"}, ("ur", "emulator", "--exit-with"): {"0", "-5"},
     ("ros2", "bridge", "--domain"): {"0"},
     ("datasets", "view", "--episode"): {"0"}, ("deploy", "--seed"): {"0"}, ("teleop", "--seed"): {"0"},
+    ("teleop", "--reset-time"): {"0"},
     **{("unitree", c, "--domain-id"): {"0"} for c in ("bridge", "check", "damp", "debug-mode", "stand")},
     ("unitree", "stand", "--hold"): {"0"},
 }

@@ -159,3 +159,59 @@ def test_a_command_stream_faster_than_the_cycle_does_not_slow_the_motion(node_hz
         goal = c.step(t_step)
     expected = speed * 2.0
     assert goal[0] > expected - speed * (2 / node_hz + 2 * stream_dt)  # behind by about a cycle, no more
+
+
+def _stream_then_stop(c, until=1.0, dt=1 / 30):
+    """A control loop's stream: a target one period ahead every period, then the loop ends."""
+    t = 0.0
+    while t < until:
+        c.command([0.1 * t, 0.0], t_target=t + 1.5 * dt, now=t)
+        c.step(t + 0.001)
+        t += dt
+    return t
+
+
+def test_home_right_after_a_stream_runs_to_its_end():
+    """The bug: home(seconds=3) sent 0.2 s after a loop's last command was taken for that stream's far target
+    and frozen half-way when the watchdog fired. A declared single move (`move`) runs to its end."""
+    for single in (False, True):
+        c = _cmd(max_step=10.0, watchdog=0.5)
+        t = _stream_then_stop(c) + 0.2
+        (c.move if single else c.command)([0.8, 0.5], t_target=t + 3.0, now=t)
+        for k in range(1, 400):
+            c.step(t + 0.01 * k)
+        if single:
+            assert np.allclose(c.goal, [0.8, 0.5]) and c.holding
+        else:  # what a streamed command still gets: held where the watchdog found it
+            assert c.goal[1] < 0.2 and c.holding
+
+
+def test_a_stream_after_a_single_move_is_still_watched():
+    """A single move does not turn the watchdog off: the stream that follows it is held when it goes quiet."""
+    c = _cmd(max_step=10.0, watchdog=0.2)
+    c.move([0.0, 0.0], t_target=0.1, now=0.0)
+    c.command([0.0, 0.0], t_target=0.2, now=0.15)
+    c.command([1.0, 0.0], t_target=2.0, now=0.2)
+    c.step(0.3)
+    held = c.step(0.5)[0]
+    assert c.holding and held < 0.1 and c.step(2.5)[0] == held
+
+
+def test_a_stream_that_ended_at_its_target_is_not_a_warning(caplog):
+    """The end of every clean run: the loop's last move is over when the watchdog notices the silence, which
+    is logged at debug level; a stream silent mid-move is a warning."""
+    c = _cmd(max_step=10.0, watchdog=0.5)
+    t = _stream_then_stop(c)
+    with caplog.at_level("DEBUG", logger="rio.control"):
+        for k in range(1, 100):
+            c.step(t + 0.01 * k)
+    assert c.holding and c.watchdog_holds == 1
+    assert [r.levelname for r in caplog.records] == ["DEBUG"]
+    caplog.clear()
+    c = _cmd(max_step=10.0, watchdog=0.2)
+    c.command([0.0, 0.0], t_target=0.0, now=-0.1)
+    c.command([1.0, 0.0], t_target=2.0, now=0.0)
+    with caplog.at_level("DEBUG", logger="rio.control"):
+        c.step(0.1)
+        c.step(0.3)
+    assert [r.levelname for r in caplog.records] == ["WARNING"] and "mid-move" in caplog.text

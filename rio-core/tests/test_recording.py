@@ -86,7 +86,7 @@ def test_keep_discard_rerecord_and_episode_budget(tmp_path):
         with pytest.raises(RecordingError):
             rec.start_episode()
     ds = Dataset(root)
-    assert [e["index"] for e in ds.episodes] == [2, 3]  # discarded numbers are never reused
+    assert [e["index"] for e in ds.episodes] == [0, 1]  # kept episodes stay contiguous: discarded numbers reused
     assert ds.summary()["discarded"] == 2
     index = json.loads((root / "dataset.json").read_text())
     assert index["total_steps"] == 10

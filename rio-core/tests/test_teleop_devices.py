@@ -39,6 +39,29 @@ def test_keyboard_reads_keys_from_a_terminal_and_restores_it():
         os.close(slave)
 
 
+def test_a_paused_keyboard_leaves_the_terminal_to_the_prompt_until_its_reset():
+    """Between recorded episodes the keyboard device reads nothing: the key waits in the terminal for the
+    keep / discard prompt; after `reset()` (the next episode) it reads keys again."""
+    import select
+
+    master, slave = os.openpty()
+    path = os.ttyname(slave)
+    try:
+        with ServerManager([serve(KeyboardTeleop, "thread", name="kb3", tty=path, hold_s=0.3)]):
+            with connect(KeyboardTeleop, "thread", name="kb3", tty=path) as kb:
+                kb.pause()
+                os.write(master, b"y")
+                time.sleep(0.3)  # many device cycles
+                assert select.select([slave], [], [], 0)[0]  # still there, unread
+                assert os.read(slave, 1) == b"y"  # what the prompt reads
+                kb.reset()
+                os.write(master, b"w")
+                assert wait_until(lambda: kb.get_state()["twist"][0] > 0)
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
 def test_keyboard_without_a_terminal_says_what_to_do(tmp_path):
     from rio.errors import RioError
 

@@ -9,12 +9,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from rio.cli.teleop_cmd import _record_episodes
+from rio.cli.teleop_cmd import record_episodes
 from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP, episode_verdict
 from rio.station.load import load_station
 from rio.teleop.feedback import DeviceFeedback
 from rio.testing import fake_eef_station
-from rio.workflows.teleop import run_teleop
+from rio.workflows.teleop import record_teleop, run_teleop
 
 STATION = fake_eef_station("verdict-test", 'driver = "rio.fake_teleop"\nbuttons = 4', gripper=False)
 
@@ -47,22 +47,24 @@ def test_the_run_ends_with_the_devices_verdict(station):
 
 def test_record_keeps_and_discards_as_the_device_says(station, tmp_path):
     """Headless with --on-end keep, the device's discard still discards and the session goes on to
-    the next episode (a headless `discard` from --on-end would stop it)."""
-    said = iter([[BUTTON_DONE, BUTTON_DISCARD], [BUTTON_DONE, BUTTON_KEEP], [BUTTON_DONE, BUTTON_KEEP]])
-    runs = []
-
-    def run(recorder=None):
-        pressed = next(said)
-        runs.append(pressed)
-        # a moving device, so every episode has steps to keep
-        return run_teleop(str(station), device_config={"pressed": pressed, "twist": [0.02, 0, 0, 0, 0, 0]},
-                          recorder=recorder, duration=20, log=None)
-
+    the next episode (a headless `discard` from --on-end would stop it); one station session throughout."""
     root = tmp_path / "data"
-    _record_episodes(run, str(root), 2, "keep", load_station(str(station)), None, None, json_out=True)
-    assert len(runs) == 3
+    seq = [[BUTTON_DONE, BUTTON_DISCARD], [BUTTON_DONE, BUTTON_KEEP], [BUTTON_DONE, BUTTON_KEEP]]
+    verdicts = []
+
+    def run(rec, decide):
+        def noting(summary, rec, stop):
+            verdicts.append(summary.details.get("verdict"))
+            return decide(summary, rec, stop)
+
+        return record_teleop(str(station), rec, noting, device_config={"pressed_runs": seq,
+                                                                       "twist": [0.02, 0, 0, 0, 0, 0]},
+                             duration=20, log=None, reset_s=0.0)
+
+    record_episodes(run, str(root), 2, "keep", load_station(str(station)), None, None, json_out=True)
+    assert verdicts == ["discard", "keep", "keep"]
     kept = sorted(p.name for p in root.iterdir() if p.name.startswith("episode"))
-    assert len(kept) == 2
+    assert kept == ["episode_000000", "episode_000001"]
     assert len(list((root / ".discarded").iterdir())) == 1
 
 

@@ -90,6 +90,9 @@ class XArmConnection:
     def connect(self) -> None:
         from xarm.wrapper import XArmAPI
 
+        from .sdk_log import capture_sdk_output
+
+        capture_sdk_output()  # its healthy-run prints read like faults: into the log (rio --debug shows them)
         deadline = time.monotonic() + self.connect_timeout_s
         while True:
             try:

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from rio.cli.args import fraction, key_values, non_negative, not_empty, one_of, positive
+from rio.cli.home_cmd import HOME_SPEED, HomeOption, HomeSpeedOption, YesOption, confirm_homing
 from rio.cli.run_cmd import (
     DurationOption,
     JsonOption,
@@ -59,6 +60,9 @@ def deploy(
     quiet: QuietOption = False,
     device: TeleopOption = None,
     teleop_set: TeleopSetOption = None,
+    home: HomeOption = False,
+    home_speed: HomeSpeedOption = HOME_SPEED,
+    yes: YesOption = False,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
 ) -> None:
@@ -66,13 +70,15 @@ def deploy(
     (--teleop) runs beside it for a policy that reads one (a locomotion policy's velocity command)."""
     from rio.cli.run_cmd import finish, shows_status
     from rio.policy.async_inference import AsyncConfig
+    from rio.station.load import load_station
     from rio.workflows.deploy import run_deploy
 
+    speed = confirm_homing(load_station(station), home_speed, yes) if home else None
     config = AsyncConfig(request_threshold=threshold, blend=blend, crossfade_s=crossfade, on_late=on_late,
                          lowpass_hz=lowpass)
     summary = run_deploy(station, policy, instruction=instruction, record=record, duration=duration,
                          middleware=middleware, rate_hz=rate, config=config, profile=profile,
                          device=device, device_config=key_values(teleop_set, "--teleop-set"),
                          log=lambda m: typer.echo(m, err=True), seed=seed, ready_timeout=ready_timeout,
-                         status=shows_status(quiet, json_out))
+                         status=shows_status(quiet, json_out), home_speed=speed)
     finish(summary, json_out)

@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 
 from rio.cli.args import known_station, non_negative, not_empty, positive
+from rio.cli.home_cmd import HOME_SPEED, HomeOption, HomeSpeedOption, YesOption, confirm_homing
 from rio.cli.run_cmd import JsonOption, MiddlewareOption, ProfileOption, QuietOption, ReadyTimeoutOption, shows_status
 
 
@@ -27,6 +28,9 @@ def replay(
                                                 help="Replay an episode whose files fail their sha256.")] = False,
     ready_timeout: ReadyTimeoutOption = None,
     quiet: QuietOption = False,
+    home: HomeOption = False,
+    home_speed: HomeSpeedOption = HOME_SPEED,
+    yes: YesOption = False,
     json_out: JsonOption = False,
     profile: ProfileOption = None,
 ) -> None:
@@ -34,11 +38,13 @@ def replay(
     from rio.cli.datasets_cmd import damaged_warnings
     from rio.cli.run_cmd import finish
     from rio.recording import Dataset
+    from rio.station.load import load_station
     from rio.workflows.replay import replay_episode
 
+    speed_home = confirm_homing(load_station(station), home_speed, yes) if home else None
     with damaged_warnings():
         summary = replay_episode(Dataset(dataset, allow_damaged=allow_damaged), episode, station,
                                  middleware=middleware, speed=speed, approach_s=approach_s, profile=profile,
                                  log=lambda m: typer.echo(m, err=True), ready_timeout=ready_timeout,
-                                 status=shows_status(quiet, json_out))
+                                 status=shows_status(quiet, json_out), home_speed=speed_home)
     finish(summary, json_out)

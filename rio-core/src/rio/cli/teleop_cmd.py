@@ -3,11 +3,12 @@ done by `rio.workflows.teleop.run_teleop`, so scripts and tests call exactly wha
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
-from rio.cli.args import key_values, one_of, positive
+from rio.cli.args import key_values, non_negative, one_of, positive
+from rio.cli.home_cmd import HOME_SPEED, HomeOption, HomeSpeedOption, YesOption, confirm_homing
 from rio.cli.run_cmd import (
     DurationOption,
     JsonOption,
@@ -66,9 +67,16 @@ def teleop(
     episodes: Annotated[int | None, typer.Option("--episodes", min=1,
                                                  help="With --record: episodes to keep (default 1).")] = None,
     on_end: Annotated[str | None, typer.Option("--on-end", callback=one_of("auto", "ask", "keep", "discard"),
-                                               help="With --record, after each run: ask (keys k/d/r in a terminal), "
-                                                    "keep or discard. Default: ask when interactive, else keep. A "
-                                                    "device's keep/discard button decides without asking.")] = None,
+                                               help="With --record, after each run: ask (a single key in a "
+                                                    "terminal: y keep, n discard, e re-record), keep or discard. "
+                                                    "Default: ask when interactive, else keep. A device's "
+                                                    "keep/discard button decides without asking.")] = None,
+    reset_s: Annotated[float, typer.Option("--reset-time", callback=non_negative, metavar="SECONDS",
+                                           help="With --record --episodes: seconds between episodes, counted "
+                                                "down while the scene resets (the station keeps running).")] = 3.0,
+    home: HomeOption = False,
+    home_speed: HomeSpeedOption = HOME_SPEED,
+    yes: YesOption = False,
     align_speed: Annotated[float, typer.Option(callback=positive,
                                                help="Leader arms: follower speed while aligning to its leader "
                                                     "(rad/s).")] = 0.5,
@@ -81,31 +89,66 @@ def teleop(
         if given is not None and record is None:  # it would do nothing: said, not silently ignored
             raise typer.BadParameter("only means something with --record DIR (recording is off)", param_hint=option)
     from rio.cli.run_cmd import finish, shows_status
-    from rio.workflows.teleop import prepare_station, run_teleop
+    from rio.workflows.teleop import prepare_station, record_teleop, run_teleop
 
     st = prepare_station(station, device, key_values(teleop_set, "--teleop-set"))  # the one load of the run
-
-    def run(recorder=None):
-        return run_teleop(st, instruction=instruction, viz=viz,
-                          duration=duration, middleware=middleware, rate_hz=rate, mode=mode, hand=hand, scale=scale,
-                          max_pos_speed=max_pos_speed, max_rot_speed=max_rot_speed, align_speed=align_speed,
-                          recorder=recorder, profile=profile, log=lambda m: typer.echo(m, err=True), seed=seed,
-                          ready_timeout=ready_timeout,
-                          status=shows_status(quiet, json_out))
-
+    speed = confirm_homing(st, home_speed, yes) if home else None
+    common = dict(viz=viz, mode=mode, hand=hand, scale=scale, max_pos_speed=max_pos_speed,
+                  max_rot_speed=max_rot_speed, align_speed=align_speed)
+    session = dict(duration=duration, middleware=middleware, rate_hz=rate, instruction=instruction, profile=profile,
+                   log=lambda m: typer.echo(m, err=True), seed=seed, ready_timeout=ready_timeout,
+                   status=shows_status(quiet, json_out), home_speed=speed)
     if record is None:
-        finish(run(), json_out)
+        finish(run_teleop(st, **common, **session), json_out)
         return
-    finish(_record_episodes(run, record, episodes or 1, on_end or "auto", st, instruction, rate, json_out), json_out,
+    finish(record_episodes(lambda rec, decide: record_teleop(st, rec, decide, **common, **session, reset_s=reset_s),
+                           record, episodes or 1, on_end or "auto", st, instruction, rate, json_out), json_out,
            printed=True)
 
 
-def _record_episodes(run, root: str, episodes: int, on_end: str, st, instruction: str | None,
-                     rate: float | None, json_out: bool):
-    """One teleop run per episode; after each, keep / discard / re-record: the device's keep or discard
-    button when the run ended on one, else a key in a terminal, or the --on-end choice for headless
-    runs. The recorder makes every kept episode durable at once.
-    A run ended by a signal is kept (headless) and ends the session. Returns the last run's summary."""
+#: The single keys of the prompt between episodes: none is a key of the keyboard teleop (w/s a/d r/f i/k j/l u/o,
+#: space, m, q), so a key pressed a moment too late for the teleop never decides an episode.
+KEYS = {"y": "keep", "n": "discard", "e": "rerecord"}
+
+
+def decider(on_end: str, ask: bool, json_out: bool, read: Any = None) -> Any:
+    """`decide(summary, recorder, stop) -> (choice, go on)` for `record_session`: the device's keep or discard button
+    when the run ended on one; else a single key when `ask` (`read(stopped)`: `rio.cli.keypress.read_key`), even
+    after Ctrl+C; else the --on-end choice, keep by default (a signal: kept, and said). A headless discard ends
+    the session (it would loop forever); a signal always does."""
+    from rio.cli.keypress import read_key
+
+    def decide(summary: Any, rec: Any, stop: Any = None) -> tuple[str, bool]:
+        if not json_out:
+            typer.echo(summary.format())
+        said = summary.details.get("verdict") if not summary.signal else None  # the device's button
+        if said:
+            return ("keep" if said == "keep" else "discard"), True
+        if ask:
+            why = f" (stopped by {summary.signal})" if summary.signal else ""
+            typer.echo(f"{rec.status()}{why}: [y] keep, [n] discard, [e] re-record? ", err=True, nl=False)
+            # a first signal at the prompt: no answer; after one (it ended the run) a second raises Ctrl+C's
+            stopped = (lambda: False) if summary.signal or stop is None else (lambda: stop.received is not None)
+            key = (read or (lambda s: read_key(KEYS, stopped=s)))(stopped)
+            typer.echo(key or "", err=True)
+            if key is None:
+                typer.echo("no answer (stopped): the episode is kept", err=True)
+                return "keep", False
+            return KEYS[key], not summary.signal
+        if summary.signal:
+            typer.echo(f"stopped by {summary.signal} without a terminal to ask: the episode is kept", err=True)
+            return "keep", False
+        choice = on_end if on_end in ("keep", "discard") else "keep"
+        return choice, choice == "keep"
+
+    return decide
+
+
+def record_episodes(session: Any, root: str, episodes: int, on_end: str, st: Any, instruction: str | None,
+                    rate: float | None, json_out: bool, read: Any = None) -> Any:
+    """Record `episodes` episodes into `root` in one station session (`session(recorder, decide)`: the workflow,
+    `record_teleop`); after each, keep / discard / re-record (`decider`). The recorder makes every kept episode
+    durable at once. Returns the last run's summary."""
     import sys
 
     from rio.recording import Recorder, station_depth
@@ -113,26 +156,6 @@ def _record_episodes(run, root: str, episodes: int, on_end: str, st, instruction
     ask = on_end == "ask" or (on_end == "auto" and sys.stdin.isatty())
     with Recorder(root, fps=rate or st.rate_hz, station=st.name, instruction=instruction, cameras=st.has_cameras,
                   depth=station_depth(st), episodes=episodes) as rec:
-        while not rec.done:
-            summary = run(recorder=rec)
-            if not json_out:
-                typer.echo(summary.format())
-            said = summary.details.get("verdict") if not summary.signal else None  # the device's button
-            if said:
-                choice = said[:1]
-            elif ask and not summary.signal:
-                choice = typer.prompt(f"{rec.status()}: [k]eep, [d]iscard or [r]e-record?", default="k")[:1]
-            else:
-                choice = (on_end if on_end not in ("auto", "ask") else "keep")[:1]
-            if choice.lower() == "k":
-                meta = rec.keep()
-                typer.echo(f"kept episode {meta['index'] if meta else '(empty, dropped)'} in {root}", err=True)
-            else:
-                rec.discard()
-                typer.echo("discarded" if choice == "d" else "discarded; recording it again", err=True)
-                if choice == "d" and not ask and not said:
-                    break  # headless discard: do not loop forever
-            if summary.signal:
-                break
+        summary = session(rec, decider(on_end, ask, json_out, read))
     typer.echo(f"dataset {root}: {len(rec.kept)} episode(s) kept", err=json_out)  # --json: stdout is the JSON
     return summary

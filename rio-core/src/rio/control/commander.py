@@ -12,8 +12,13 @@ A commander turns sparse timed targets (`t_cmd_target`) into one goal per driver
   loop, a policy) must keep coming. When none has arrived for `watchdog_s` while a streamed move is still
   under way (a target far ahead, then silence: a crashed or stalled controller), the goal stops where it
   is and the robot holds it until the next command. A single deliberate move (`home(seconds=3)`, a
-  script's `move_joints(q, now + 2)`) runs to its end, and a move that already ended stays at its
-  target. `holding` says that no fresh command is being followed.
+  script's `move_joints(q, now + 2)` sent on its own) runs to its end, and a move that already ended stays at its
+  target. `holding` says that no fresh command is being followed. A move its sender declares single
+  (`move()`: the `home()` API) is never taken for part of a stream, even when it comes right after one:
+  by timing alone, `home(seconds=3)` sent 0.2 s after a control loop's last command looks exactly like a
+  stream that sent a far target and went silent, and was frozen half-way when the watchdog fired.
+  A stream that ends with its move finished (a control loop that ended) is logged at debug level: the
+  hold stops nothing; one that goes silent mid-move is a warning.
 - force limit (`guard`, where the device has a wrench source and the station sets `force_limit`): a
   wrench crossing its limit holds the device where it measures itself to be (not at the goal, which may
   lie inside what it pushes against), as the watchdog holds: until the next command. While the wrench
@@ -90,6 +95,12 @@ class _Commander:
         self._t_cmd = now
         self.holding = False
 
+    def move(self, target, t_target: float, now: float) -> None:
+        """One deliberate move (home, a scripted pose), run to its end whatever came just before it: the
+        watchdog does not hold it, and the next command judges its stream from this one's time."""
+        self.command(target, t_target, now)
+        self._streamed = False
+
     def follow_measured(self, measured, now: float) -> None:
         """For hardware that keeps moving at its last commanded speed between cycles (a velocity-commanded
         base): where it went on, during a late cycle, along the way the goal was heading, the goal starts
@@ -143,10 +154,13 @@ class _Commander:
         quiet = not self.holding and now - self._t_cmd > self.watchdog_s
         if quiet and self._streamed:
             self.watchdog_holds += 1  # a stream went silent (counted once: it holds from here on)
-            log.warning("%s: its stream of commands stopped %.2f s ago: holding (the control loop ended or "
-                        "its link is down)", self.owner, self.watchdog_s)
-            if not (now >= self._interp.t_goal and self._arrived()):
-                self.hold(now)  # mid-move: stop here
+            if now >= self._interp.t_goal and self._arrived():  # it ended where it was heading: a loop ended
+                log.debug("%s: its stream of commands stopped %.2f s ago at its last target: holding there",
+                          self.owner, self.watchdog_s)
+            else:  # mid-move: stop here
+                log.warning("%s: its stream of commands stopped %.2f s ago mid-move: holding where it is (the "
+                            "controller stalled or its link is down)", self.owner, self.watchdog_s)
+                self.hold(now)
         goal = self._clip(self._toward(self.goal, self._interp.sample(now)))
         if self._over_limit and not self._backs_off(goal):
             goal = self.goal  # over the force limit: only a step back toward where it was within it

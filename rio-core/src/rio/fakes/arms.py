@@ -22,12 +22,14 @@ class FakeArm(ifc.ArmNode):
         dof: int = Field(6, ge=1, le=64, description="number of joints (named joint1..N)")
         frozen: bool = Field(False, description="ignore every command, as a disabled or e-stopped arm does (to "
                                                 "check that a workflow notices)")
+        start: list[float] | None = Field(None, description="joint positions it starts at (rad; default: home), "
+                                                            "an arm left away from home (homing tests)")
 
     def default_joint_names(self) -> list[str]:
         return numbered_joints(self.config.dof)
 
     def open(self) -> None:
-        home = self.config.home
+        home = self.config.start if self.config.start is not None else self.config.home
         self.q = np.zeros(self.dof) if home is None else np.asarray(home, dtype=np.float64)
         #: tool travel (m) per joint motion (rad): 3 x dof
         self._carry = 0.1 * (np.arange(3)[:, None] == np.arange(self.dof)[None, :] % 3)

@@ -21,10 +21,24 @@ class FakeTeleop(ifc.TeleopNode):
         gripper: float = Field(1.0, ge=0, le=1, description="0 closed .. 1 open")
         pressed: list[int] = Field(default_factory=list, description="indices of the buttons held from the "
                                                                      "start (1 + 2: done, keep the episode)")
+        pressed_runs: list[list[int]] | None = Field(None, description="the buttons held in each run instead "
+                                                                       "(a run starts at `reset()`; past the "
+                                                                       "list, its last): a recording session")
+
+    def setup(self) -> None:
+        super().setup()
+        self.run = 0  # how many runs have started (`reset()` calls)
+
+    @remote
+    def reset(self) -> float:
+        self.run += 1
+        return 0.0
 
     def read_state(self) -> dict[str, Any]:
         buttons = np.zeros(self.config.buttons, bool)
-        buttons[[i for i in self.config.pressed if i < buttons.size]] = True
+        runs = self.config.pressed_runs
+        pressed = self.config.pressed if not runs else runs[min(max(self.run - 1, 0), len(runs) - 1)]
+        buttons[[i for i in pressed if i < buttons.size]] = True
         return {"twist": np.asarray(self.config.twist, dtype=np.float64), "gripper": self.config.gripper,
                 "buttons": buttons}
 

@@ -210,10 +210,10 @@ class ArmNode(JointNode):
         else:
             self.command_joints(np.asarray(request["joint_pos"]), float(request["t_cmd_target"]))
 
-    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
+    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float, single: bool = False) -> None:
         if self.mode == EEF and self.enabled:  # leave Cartesian streaming from where the arm is
             self.commander.reset(self.measured(), clock.now())
-        super().command_joints(joint_pos, t_cmd_target)
+        super().command_joints(joint_pos, t_cmd_target, single)
         self.mode = JOINT
 
     def command_eef(self, eef_pose: np.ndarray, t_cmd_target: float) -> None:

@@ -100,11 +100,13 @@ class CommandedNode(Node):
         if self.link is not None:
             self.link.check()
 
-    def command(self, field: str, target: Any, t_cmd_target: float) -> None:
+    def command(self, field: str, target: Any, t_cmd_target: float, single: bool = False) -> None:
+        """Head for `target` by `t_cmd_target`; `single`: one deliberate move (`home()`), never held by the
+        watchdog as the end of a stream (`JointCommander.move`)."""
         self.check_ready()
         if not self.enabled:
             raise InvalidRequest(self.name, field, "the device is disabled (call enable() first)")
-        self.commander.command(target, t_cmd_target, clock.now())
+        (self.commander.move if single else self.commander.command)(target, t_cmd_target, clock.now())
 
     # -- remote API ---------------------------------------------------------------------------------
     @remote

@@ -51,6 +51,9 @@ class JointNode(CommandedNode):
                                                                               "order (default: the driver's)")
         home: list[float] | None = Field(None, description="joint positions (rad) that home() moves to "
                                                            "(default: the driver's, else zeros)")
+        rest: list[float] | None = Field(None, description="joint positions (rad) the device rests in, powered "
+                                                           "off (`rio home --rest`; default: the driver's, "
+                                                           "else none)")
         joint_limits: list[tuple[float, float]] | None = Field(
             None, description="[lower, upper] per joint (rad); narrows the hardware's own limits")
         max_step_rad: float = Field(0.05, gt=0, description="largest joint goal change per cycle (rad)")
@@ -61,6 +64,11 @@ class JointNode(CommandedNode):
 
     def default_home(self) -> Any:
         """Home joint positions (rad), or None for zeros."""
+        return None
+
+    def default_rest(self) -> Any:
+        """Rest joint positions (rad): where the device is parked or folded while off (an arm lying on its
+        joint limits), or None when it has none. `rio home --rest` moves there."""
         return None
 
     def hardware_limits(self) -> Any:
@@ -84,7 +92,7 @@ class JointNode(CommandedNode):
         c = self.config
         self.joint_list = list(c.joint_names or self.default_joint_names())
         n = self.dof = len(self.joint_list)
-        for field in ("home", "joint_limits"):
+        for field in ("home", "rest", "joint_limits"):
             value = getattr(c, field)
             if value is not None and len(value) != n:
                 raise ValueError(f"{field} has {len(value)} entries; node '{self.name}' drives {n} joints "
@@ -137,16 +145,37 @@ class JointNode(CommandedNode):
     def handle_request(self, request: dict[str, Any]) -> None:
         self.command_joints(np.asarray(request["joint_pos"]), float(request["t_cmd_target"]))
 
-    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float) -> None:
-        self.command("joint_pos", joint_pos, t_cmd_target)
+    def command_joints(self, joint_pos: np.ndarray, t_cmd_target: float, single: bool = False) -> None:
+        self.command("joint_pos", joint_pos, t_cmd_target, single)
 
     # -- remote API ---------------------------------------------------------------------------------
     @remote
     def home(self, seconds: float = 3.0) -> None:
-        """Move to the home pose, arriving in `seconds` (still limited to `max_step_rad` per cycle)."""
+        """Move to the home pose, arriving in `seconds` (still limited to `max_step_rad` per cycle): one
+        deliberate move, run to its end even right after a control loop's stream of commands."""
+        self.command_joints(np.asarray(self.home_pose()), clock.now() + float(seconds), single=True)
+
+    @remote
+    def home_pose(self) -> list[float]:
+        """The station's `home`, else the driver's `default_home()`, else zeros (rad), clipped to the limits
+        as the commander will."""
         home = self.config.home if self.config.home is not None else self.default_home()
         q = np.zeros(self.dof) if home is None else as_vector("home", home, self.dof)
-        self.command_joints(q, clock.now() + float(seconds))
+        return np.clip(q, self.commander.lower, self.commander.upper).tolist()
+
+    @remote
+    def rest_pose(self) -> list[float] | None:
+        """The station's `rest`, else the driver's `default_rest()` (rad, clipped to the limits), else None."""
+        rest = self.config.rest if self.config.rest is not None else self.default_rest()
+        if rest is None:
+            return None
+        return np.clip(as_vector("rest", rest, self.dof), self.commander.lower, self.commander.upper).tolist()
+
+    @remote
+    def move_to(self, joint_pos: list[float], seconds: float) -> None:
+        """One deliberate move to `joint_pos` (rad), arriving in `seconds` (still limited to `max_step_rad`
+        per cycle), run to its end whatever stream of commands came just before (`rio home`)."""
+        self.command_joints(as_vector("joint_pos", joint_pos, self.dof), clock.now() + float(seconds), single=True)
 
     @remote
     def joint_limits(self) -> list[list[float]]:

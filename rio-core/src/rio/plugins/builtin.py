@@ -34,6 +34,8 @@ def rio_workflows() -> list[Spec]:
              "a policy's success rate on a station's task: N seeded trials, completion times"),
         Spec("replay", "workflow", "rio.cli.replay_cmd:replay", "play a recorded episode back on a station"),
         Spec("run", "workflow", "rio.cli.run_cmd:run", "your own controller (module:Class) on a station"),
+        Spec("home", "workflow", "rio.cli.home_cmd:home",
+             "move a station's arms, hands or humanoid to their home (or rest) pose at a bounded speed"),
     ]
 
 

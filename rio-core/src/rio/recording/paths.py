@@ -64,7 +64,7 @@ def parse_episode_dir(name: str) -> tuple[int, bool] | None:
 
 def set_aside_index(name: str) -> int | None:
     """The episode index of an entry of .discarded/ or .quarantine/ ('episode_000003.partial-20240101-120000'),
-    so a new episode never reuses its number."""
+    so a new episode does not reuse a quarantined episode's number (`Recorder.next_index`)."""
     parsed = parse_episode_dir(name.split("-")[0])
     return parsed[0] if parsed else None
 

@@ -243,12 +243,16 @@ class Recorder:
 
     # -- episodes -----------------------------------------------------------------------------------
     def next_index(self) -> int:
-        """Never reuses a number, not even a discarded or quarantined episode's (its copy keeps it)."""
+        """The index the next episode gets: one past the last finished, partial or quarantined episode, so the
+        kept episodes of a dataset are numbered 0, 1, 2, ... without gaps. A discarded episode's number is used
+        again (its copy in .discarded/ keeps a timestamped name, nothing clashes; a re-recorded episode gets
+        the number, and on a task station the start, of the one it replaces); a quarantined episode's is not
+        (`rio datasets repair` may bring it back)."""
         assert self.index is not None  # read by open()
         used = set(L.scan(self.root)) | {e["index"] for e in self.index["episodes"]}
-        for aside in (self.root / L.DISCARDED, self.root / L.QUARANTINE):
-            if aside.is_dir():
-                used |= {k for k in (L.set_aside_index(d.name) for d in aside.iterdir()) if k is not None}
+        aside = self.root / L.QUARANTINE
+        if aside.is_dir():
+            used |= {k for k in (L.set_aside_index(d.name) for d in aside.iterdir()) if k is not None}
         return max(used) + 1 if used else 0
 
     def start_episode(self, instruction: str | None = None, metadata: dict | None = None) -> int:

@@ -167,9 +167,12 @@ class HandTeleop:
         roles = [r for r in ("hand", "hand2") if r in robot.clients]
         self.dex = {r: DexterousHand(r, robot.clients[r], loop.say) for r in roles}
         self.feedback = DeviceFeedback({"teleop": self.device}, log=loop.say)
-        self.poll = DevicePoll(self.device)  # buttons OR-ed over every sample since the last cycle
         if "reset" in dir(self.device):
             self.device.reset()
+        # after the device's reset, with a fresh end: a run after another (a recording session) does not read
+        # the last run's done button
+        self.poll = DevicePoll(self.device)  # buttons OR-ed over every sample since the last cycle
+        self.end = EpisodeEnd()
         if "help" in dir(self.device):
             loop.say(self.device.help())
         self.t_prev: float | None = None

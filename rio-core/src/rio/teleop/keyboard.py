@@ -77,6 +77,7 @@ class KeyboardTeleop(TeleopNode):
         self.tty, self.keys = c.tty, KeyTwist(c.speed, c.rot_speed, c.hold_s, c.buttons)
         self._fd: int | None = None
         self._saved: list[Any] | None = None  # the terminal's settings, restored on close
+        self._paused = False  # between episodes of a recording session the terminal is the prompt's
 
     def open(self) -> None:
         import termios
@@ -109,7 +110,7 @@ class KeyboardTeleop(TeleopNode):
         t = clock.now()
         assert self._fd is not None  # opened in open()
         try:
-            data = os.read(self._fd, 64)
+            data = b"" if self._paused else os.read(self._fd, 64)
         except BlockingIOError:
             data = b""
         for ch in data.decode(errors="ignore"):
@@ -119,7 +120,14 @@ class KeyboardTeleop(TeleopNode):
     @remote
     def reset(self) -> float:
         self.keys.done = False
+        self._paused = False
         return 0.0
+
+    @remote
+    def pause(self) -> None:
+        """Stop reading the terminal until the next `reset()`: between the episodes of a recording session
+        the keep / discard / re-record prompt reads it, and a key read here would be lost to it."""
+        self._paused = True
 
     @remote
     def help(self) -> str:

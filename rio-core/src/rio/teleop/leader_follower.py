@@ -106,6 +106,7 @@ class LeaderFollower:
         robot = loop.env.robot
         self.dt, self.say = loop.dt, loop.say
         for p in self.pairs:
+            p.aligned, p.t_aligned = False, None  # every run aligns first (the follower may have gone home)
             p.q_cmd = np.asarray(robot.clients[p.arm_role].get_state()["joint_pos"], dtype=np.float64).copy()
             p.start_error = float(np.max(np.abs(np.asarray(p.leader.get_state()["joint_pos"]) - p.q_cmd)))
             if p.gripper_label:

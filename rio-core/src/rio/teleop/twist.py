@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from rio import clock
 from rio.control.filters import LowPassFilter
 from rio.control.teleop import (
     ARM_MODES,
@@ -135,6 +136,32 @@ def _needed(owed: np.ndarray, speeds: np.ndarray) -> float:
     return float(np.max(dist[ok] / np.broadcast_to(speeds, dist.shape)[ok], initial=0.0))
 
 
+#: Joint distance from the home pose (rad, any joint) past which an arm starting end-effector teleop is warned about.
+FAR_FROM_HOME_RAD = 0.5
+
+
+def far_from_home(binding: ArmBinding, tol: float = FAR_FROM_HOME_RAD) -> str | None:
+    """A warning when the arm starts end-effector teleop more than `tol` rad (any joint) from its home pose (a
+    folded arm resting on its limits tracks badly: 1.99 rad of joint error, the tool went up instead of along
+    the script), else None. An arm without the `home_pose` API is not judged."""
+    if "home_pose" not in dir(binding.client):
+        return None
+    q = np.asarray(binding.client.get_state()["joint_pos"], dtype=np.float64)
+    err = np.abs(q - np.asarray(binding.client.home_pose(), dtype=np.float64))
+    if float(np.max(err, initial=0.0)) <= tol:
+        return None
+    j = int(np.argmax(err))
+    return (f"{binding.role} started end-effector teleop {err[j]:.2f} rad from its home pose (joint {j}); it may "
+            "track badly from there: `rio home STATION` or --home moves it home first")
+
+
+def _wait_newer(client: Any, t: float, timeout_s: float = 1.0) -> None:
+    """Wait (at most `timeout_s`) for `client` to publish a sample stamped after `t`."""
+    deadline = t + timeout_s
+    while float(client.get_state()["timestamp"]) <= t and clock.now() < deadline:
+        clock.precise_wait(clock.now() + 0.002)
+
+
 class TwistTeleop:
     """Controller (rio.loop.control_loop): see the module docstring. `devices`: {role: connected client}."""
 
@@ -151,6 +178,7 @@ class TwistTeleop:
         self.end = EpisodeEnd()
         self.arms: list[Any] = []
         self.expected_s = 0.0  # how long the device says its run lasts (a script), 0 when open-ended
+        self.start_warnings: list[str] = []
 
     def reset(self, loop: Any) -> None:
         robot = loop.env.robot
@@ -164,6 +192,9 @@ class TwistTeleop:
             self.arms = bind_arms(robot)
             for b in self.arms:
                 b.reset_target()
+        self.start_warnings = [w for b in self.arms if isinstance(b, ArmBinding) and (w := far_from_home(b))]
+        for w in self.start_warnings:
+            loop.say(f"WARNING: {w}")
         self.has_base = "base" in robot.clients
         if not self.has_base:
             self.switch.modes = ARM_MODES
@@ -175,7 +206,6 @@ class TwistTeleop:
                       for b in self.arms}
         self.row = {b.role: [b2.role for b2 in self.arms if self.drive[b2.role] == self.drive[b.role]].index(b.role)
                     for b in self.arms}  # which of its device's `twists` rows drives the arm
-        self.polls = {r: DevicePoll(dev) for r, dev in self.devices.items()}
         self.travel = {f"device '{r}'": Travel() for r in self.devices}  # what each stage moved (travel.py)
         self.travel.update({f"{b.role} target": Travel() for b in self.arms})
         for lowpass in self.filters.values():  # every run starts from rest
@@ -187,6 +217,16 @@ class TwistTeleop:
                 self.expected_s = max(self.expected_s, float(dev.reset() or 0.0))
             if "help" in dir(dev):
                 loop.say(dev.help())
+        # after the devices' reset: a run after another (a recording session) must not read the last run's
+        # samples, whose done button would end it at once; nor its end, button edges or verdict. The first
+        # sample stamped after the reset returned may still have been read before it (a node publishes while
+        # it answers a call): it is the poll's baseline, so only the samples after it count.
+        t_reset = clock.now()
+        for dev in self.devices.values():
+            _wait_newer(dev, t_reset)
+        self.polls = {r: DevicePoll(dev) for r, dev in self.devices.items()}
+        self.end = EpisodeEnd()
+        self.edges = {r: ButtonEdges() for r in self.devices}
         self.t_prev: float | None = None
         if loop.duration is None and self.expected_s > 0:  # a script: its length, with room to finish
             loop.duration = self.expected_s + 10.0
@@ -246,6 +286,7 @@ class TwistTeleop:
             summary.details["base_odometry"] = [round(x, 4), round(y, 4), round(th, 4)]
             summary.lines.append(f"base: odometry ({x:+.3f}, {y:+.3f}) m, heading {np.degrees(th):+.1f} deg")
         self.end.report(summary)
+        summary.warnings += self.start_warnings
         if self.visual is not None:
             summary.details["viz"] = self.visual.where
             summary.lines.append(f"viz: {self.visual.where}")

@@ -25,7 +25,7 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
                on_tick: Callable[[Tick], None] | None = None, log: Callable[[str], None] | None = print,
                ready_timeout: float | None = None, profile: str | None = None, registry: Any = None,
                device: str | None = None, device_config: dict | None = None, seed: int | None = None,
-               episode: int | None = None, status: bool = False) -> RunSummary:
+               episode: int | None = None, status: bool = False, home_speed: float | None = None) -> RunSummary:
     """Run `policy` (a `--policy` SPEC; default: the station's policy component) on `station`
     (registered name, .toml path or `Station`) until `duration` seconds pass or a stop signal.
     Each tick's `info` holds the schedule's `sample` (None while holding) and the `chunk` that landed.
@@ -48,4 +48,4 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
     return run_workflow(without_role(st, POLICY_ROLE), make, middleware=middleware, rate_hz=rate_hz, duration=duration,
                         instruction=instruction, record=record, on_tick=on_tick, profile=profile,
                         registry=registry, log=log, seed=seed, episode=episode, ready_timeout=ready_timeout,
-                        status=status)
+                        status=status, home_speed=home_speed)

@@ -18,7 +18,8 @@ from rio.recording.replay import EpisodeReplay, check_compatible, check_timing, 
 def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str | None = None, speed: float = 1.0,
                    approach_s: float = 2.0, on_tick: Callable[[Tick], None] | None = None, profile: str | None = None,
                    log: Callable[[str], None] | None = print, allow_damaged: bool = False,
-                   ready_timeout: float | None = None, status: bool = False) -> RunSummary:
+                   ready_timeout: float | None = None, status: bool = False,
+                   home_speed: float | None = None) -> RunSummary:
     from rio.workflows.run import run_workflow
 
     check_timing(speed, approach_s)
@@ -38,7 +39,7 @@ def replay_episode(dataset: Any, episode: int, station: Any, *, middleware: str 
     task = (ep.meta.get("metadata") or {}).get("task") or {}  # the recording's task episode: the same start
     summary = run_workflow(station, make, middleware=middleware, rate_hz=ep.fps * speed, on_tick=on_tick,
                            profile=profile, log=log, seed=task.get("seed"), episode=task.get("episode"),
-                           ready_timeout=ready_timeout, status=status)
+                           ready_timeout=ready_timeout, status=status, home_speed=home_speed)
     if not valid.all():
         summary.warnings.append(f"{int((~valid).sum())} steps without an action skipped")
     return summary

@@ -36,6 +36,8 @@ class Session:
     stop: Any = None
     #: the control rate the session's loops run at (Hz)
     rate_hz: float = 0.0
+    #: the `ServerManager` running the station's nodes (their `pids()`)
+    manager: Any = None
 
     def started(self, manager: Any) -> None:
         """Tell the run about nodes a controller started itself (`ServerManager`): with `--profile`, their
@@ -79,7 +81,7 @@ def open_session(station: Any, *, middleware: str | None = None, rate_hz: float 
             f"{next(iter(clients.values())).mw.name}) ...")
         with ServerManager(servers, station=st.name, ready_timeout=ready_timeout or st.ready_timeout_s,
                            progress=say) as manager, contextlib.ExitStack() as stack:
-            session = Session(env, clients, stack, st, say, prof, stop, float(rate_hz or st.rate_hz))
+            session = Session(env, clients, stack, st, say, prof, stop, float(rate_hz or st.rate_hz), manager)
             session.started(manager)
             stack.enter_context(env)
             env.instruction = instruction
@@ -92,7 +94,7 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
                  record: str | None = None, recorder: Any = None, on_tick: Callable[[Tick], None] | None = None,
                  profile: str | None = None, registry: Any = None, log: Callable[[str], None] | None = print,
                  seed: int | None = None, episode: int | None = None, ready_timeout: float | None = None,
-                 status: bool = False) -> RunSummary:
+                 status: bool = False, home_speed: float | None = None) -> RunSummary:
     """Run the controller `make_controller(session)` builds on `station` (name, .toml path or `Station`).
     `record`: a dataset directory to record this run into as one episode; `recorder`: an open Recorder
     instead (a multi-episode session). `profile`: a directory for the trace, timeline and stats.
@@ -100,12 +102,20 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
     `seed` (`Env.reset`; None: the task's own seed); `episode` defaults to the index the recorded episode
     will get (so each episode of a dataset has its own start), else 0. `ready_timeout`: seconds the station's
     nodes may take to start (default: the station's `ready_timeout_s`). `status`: show the live status line
-    (`rio.loop.status`) on the terminal while the loop runs."""
+    (`rio.loop.status`) on the terminal while the loop runs. `home_speed`: move every joint device to its home
+    pose at this speed (rad/s) before the controller starts (`rio.workflows.home`)."""
     say = log or (lambda _m: None)
     with open_session(station, middleware=middleware, rate_hz=rate_hz, instruction=instruction, profile=profile,
                       registry=registry, log=log, seed=seed, episode=episode,
                       ready_timeout=ready_timeout) as session:
         env, stack, stop = session.env, session.stack, session.stop
+        homed = None
+        if home_speed is not None:
+            from rio.workflows.home import home_devices
+
+            homed = home_devices(env.robot.clients, speed=home_speed, log=say)
+            for line in homed.lines():
+                say(line)
         controller = make_controller(session)
         if record:
             from rio.recording import Recorder
@@ -120,6 +130,8 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
         loop = ControlLoop(env, controller, rate_hz=session.rate_hz, duration=duration, recorder=recorder,
                            on_tick=on_tick, stop=stop, trace=prof.trace if prof is not None else None, log=say)
         summary = loop.run()
+        if homed is not None and not homed.arrived:
+            summary.warnings += [line[len("WARNING: "):] for line in homed.lines() if line.startswith("WARNING: ")]
     return finish_session(summary, session, record)
 
 
