@@ -101,7 +101,8 @@ def _record_episodes(run, root: str, episodes: int, on_end: str, st, instruction
     """One teleop run per episode; after each, keep / discard / re-record: the device's keep or discard
     button when the run ended on one, else a key in a terminal, or the --on-end choice for headless
     runs. The recorder makes every kept episode durable at once.
-    A run ended by a signal is kept (headless) and ends the session. Returns the last run's summary."""
+    A run ended by a signal is kept (headless) and ends the session; so does a run in which a node stopped,
+    faulted or was stopped (its summary's events). Returns the last run's summary."""
     import sys
 
     from rio.recording import Recorder, station_depth
@@ -128,7 +129,7 @@ def _record_episodes(run, root: str, episodes: int, on_end: str, st, instruction
                 typer.echo("discarded" if choice == "d" else "discarded; recording it again", err=True)
                 if choice == "d" and not ask and not said:
                     break  # headless discard: do not loop forever
-            if summary.signal:
+            if summary.signal or summary.problem:  # stopped, or a node went wrong: the session ends here
                 break
     typer.echo(f"dataset {root}: {len(rec.kept)} episode(s) kept", err=json_out)  # --json: stdout is the JSON
     return summary

@@ -17,6 +17,7 @@ import numpy as np
 from rio import clock
 from rio.control.reservoir import Reservoir
 from rio.embodiments.arm_group import ACTION_SPACES
+from rio.errors import NodeDiedError
 from rio.loop.summary import ArmTracking, ObjectMotion
 
 ARM_ROLES = ("arm", "arm2")
@@ -109,7 +110,14 @@ class ArmTracker:
             a.measure(t)
 
     def report(self) -> list[ArmTracking]:
-        return [a.report() for a in self.arms]
+        """Each arm's tracking; an arm whose node has stopped has none (the summary names that node)."""
+        out = []
+        for a in self.arms:
+            try:
+                out.append(a.report())
+            except NodeDiedError:
+                continue
+        return out
 
     def wait_still(self, timeout: float, period: float = 0.05, tol_rad: float = 1e-4) -> bool:
         """Wait, at most `timeout` s, until no arm's joints move more than `tol_rad` in `period`: the run

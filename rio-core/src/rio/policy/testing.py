@@ -109,6 +109,25 @@ class CrashPolicy(SleepPolicy):
 CrashConfig = CrashPolicy.Config
 
 
+class NanPolicy(SleepPolicy):
+    """A model whose output turns to NaN mid-run (a diverged network, a bad input): the node must stop, the
+    robot hold, and the run say why in one line."""
+
+    name = "testing.nan"
+    class Config(StandInConfig):
+        nan_after: int = Field(2, ge=0, description="return NaN actions after this many chunks")
+
+    def setup(self) -> None:
+        self.calls = 0
+
+    def infer(self, obs: Observation) -> np.ndarray:
+        self.calls += 1
+        actions = super().infer(obs)
+        if self.calls > self.config.nan_after:
+            actions[:, 0] = np.nan
+        return actions
+
+
 def frame_signature(cam: Camera) -> np.ndarray:
     """A camera frame as 5 numbers: its timestamp and the 64-bit checksums of its rgb and depth arrays, each
     as two exact 32-bit halves (-1, -1 without depth). Equal signatures: the same frame, bit for bit."""
@@ -154,3 +173,7 @@ class CrashPolicyNode(PolicyNode):
 
 class FrameEchoPolicyNode(PolicyNode):
     policy_class = FrameEchoPolicy
+
+
+class NanPolicyNode(PolicyNode):
+    policy_class = NanPolicy
