@@ -19,7 +19,10 @@ class FakeArm(ifc.ArmNode):
     directly and leaves the joints where they are."""
 
     class Config(ifc.ArmNode.Config):
-        defaults = {"max_step_rad": 0.5, "max_tool_step_m": 0.05, "max_tool_step_rad": 0.5}
+        defaults = {"max_step_rad": 0.5, "max_tool_step_m": 0.05, "max_tool_step_rad": 0.5,
+                    "workspace": Field(((-1.0, -1.0, -1.0), (1.0, 1.0, 1.0)), description=(
+                        "[[x, y, z] lower, [x, y, z] upper] (m): the box the tool stays in (a fake has no model "
+                        "to take its reach from: 1 m around where its tool starts at zero joints)"))}
         dof: int = Field(6, ge=1, le=64, description="number of joints (named joint1..N)")
         frozen: bool = Field(False, description="ignore every command, as a disabled or e-stopped arm does (to "
                                                 "check that a workflow notices)")

@@ -271,11 +271,15 @@ class ControlLoop:
         if finish is not None:
             finish(s)
         for a in s.arms:
+            if a.clipped:
+                s.warnings.append(f"{a.role}: {a.clipped} of {a.commands} commands asked for the tool outside its "
+                                  "workspace box and were clipped to it (the tool held at the box's edge)")
             if not a.followed:
+                why = ("most of what it was commanded lay outside its workspace box" if a.clipped else
+                       "disabled, e-stopped, in another control mode, or commands not reaching it")
                 s.warnings.append(f"{a.role} was commanded over {a.commanded_path_m:.3f} m / "
                                   f"{a.commanded_joint_path_rad:.3f} rad but moved {a.path_m:.3f} m / "
-                                  f"{a.joint_path_rad:.3f} rad: it did not follow (disabled, e-stopped, "
-                                  "in another control mode, or commands not reaching it)")
+                                  f"{a.joint_path_rad:.3f} rad: it did not follow ({why})")
 
 
 def _unless_gone(measure: Callable[[], Any], default: Any = None) -> Any:

@@ -56,6 +56,10 @@ class ArmTracking:
     gripper: float | None = None
     #: the measured joints at the end
     final_q: np.ndarray | None = None
+    #: commands the run sent the arm, and how many of them its workspace box cut (`rio.control.workspace`;
+    #: None: the arm does not say)
+    commands: int = 0
+    clipped: int | None = None
 
     @property
     def followed(self) -> bool:
@@ -204,6 +208,8 @@ def _arm_line(a: ArmTracking) -> str:
         parts.append(f"joint error max {mx:.3f} / mean {mean:.3f} / final {final:.3f} rad;")
     if a.gripper is not None:
         parts.append(f"gripper {a.gripper * 1000:.0f} mm;")
+    if a.clipped:
+        parts.append(f"{a.clipped} of {a.commands} commands clipped to its workspace;")
     if not a.followed:
         parts.append("DID NOT FOLLOW its commands;")
     return " ".join(parts).rstrip(";")

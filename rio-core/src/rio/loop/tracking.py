@@ -50,6 +50,9 @@ class _Arm:
         self.last_cmd: np.ndarray | None = None
         self.errors = Reservoir()  # only max and mean are reported; both exact
         self.path = self.cmd_path = self.joint_path = self.cmd_joint_path = 0.0
+        #: targets the arm's workspace box had cut before the run (its samples count since the node opened)
+        self.clipped_before = int(s["clipped"]) if "clipped" in s else None
+        self.commands = 0
 
     def command(self, part: np.ndarray, t_target: float) -> None:
         part = np.asarray(part, dtype=np.float64)
@@ -59,6 +62,7 @@ class _Arm:
             else:
                 self.cmd_joint_path += float(np.linalg.norm(part - self.last_cmd))
         self.last_cmd = part.copy()
+        self.commands += 1
         self.pending.append((t_target, self.last_cmd))
 
     def _error(self, cmd: np.ndarray, tool: np.ndarray, q: np.ndarray) -> float:
@@ -85,11 +89,13 @@ class _Arm:
         final = self._error(self.last_cmd, tool, q) if self.last_cmd is not None else float("nan")
         stats = (errs.max, errs.mean, final) if errs.mean is not None else None
         g = None if self.gripper is None else float(self.gripper.get_state()["position"])
+        clipped = int(s["clipped"]) - self.clipped_before if self.clipped_before is not None else None
         return ArmTracking(self.role, self.space, self.start, tool,
                            self.last_cmd.copy() if self.space == "eef_pose" and self.last_cmd is not None else None,
                            self.path, self.cmd_path, self.joint_path, self.cmd_joint_path,
                            joint_err_rad=stats if self.space == "joint_pos" else None,
-                           eef_err_m=stats if self.space == "eef_pose" else None, gripper=g, final_q=q.copy())
+                           eef_err_m=stats if self.space == "eef_pose" else None, gripper=g, final_q=q.copy(),
+                           commands=self.commands, clipped=clipped)
 
 
 class ArmTracker:
