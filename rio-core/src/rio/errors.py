@@ -41,6 +41,14 @@ class NodeDiedError(RioError):
         super().__init__(f"node '{node}' is not running" + (f": {detail}" if detail else ""))
 
 
+class TooManyConnections(RioError):
+    """A node's server refused this client's connection: it serves as many as it may (the node runs)."""
+
+    def __init__(self, node: str, where: str, why: str):
+        self.node, self.where, self.why = node, where, why
+        super().__init__(f"node '{node}': its server at {where} refused the connection: {why}")
+
+
 class NodeTimeout(RioError, TimeoutError):
     """A node did not answer within the allotted time while still apparently alive."""
 
