@@ -15,6 +15,7 @@ import os
 import signal
 import subprocess
 import sys
+import textwrap
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,18 +42,28 @@ EXTRA = {("teleop",): ["--teleop", "scripted"], ("top",): ["--once"], ("plugins"
 
 #: Bad numbers; an option that accepts one of them says so here (`(command, option): {values}`).
 BAD_NUMBERS = ("abc", "nan", "inf", "-5", "0")
+#: More bad numbers for options with a range of their own, by option name: a rate outside 1..10000 Hz (`--rate
+#: 1e-9` ran past `--duration 1`), a certificate validity past what a date can hold (`--days 99999999` was a
+#: traceback).
+BAD_NUMBERS_OF = {"--rate": ("1e-9", "100000"), "--days": ("99999999",)}
 ACCEPTS = {
     ("deploy", "--threshold"): {"0"}, ("deploy", "--crossfade"): {"0"}, ("replay", "--approach"): {"0"},
+    ("eval", "--seed"): {"0"}, ("eval", "--threshold"): {"0"}, ("eval", "--crossfade"): {"0"},
+    ("eval", "--hold"): {"0"},
     ("replay", "--episode"): {"0"}, ("ur", "emulator", "--exit-with"): {"0", "-5"},
     ("ros2", "bridge", "--domain"): {"0"},
-    ("datasets", "view", "--episode"): {"0"},
+    ("datasets", "view", "--episode"): {"0"}, ("deploy", "--seed"): {"0"}, ("teleop", "--seed"): {"0"},
     **{("unitree", c, "--domain-id"): {"0"} for c in ("bridge", "check", "damp", "debug-mode", "stand")},
     ("unitree", "stand", "--hold"): {"0"},
 }
 #: Parameters that are paths of directories to write into / read from, or station names, by name.
 STATION_PARAMS = {"station"}
 DATASET_PARAMS = {"dataset", "src"}
-OUTPUT_DIR_PARAMS = {"record", "profile", "output"}
+OUTPUT_DIR_PARAMS = {"record", "profile", "output", "out", "directory"}
+#: Where nothing can be created: under a regular file (any system) and under /proc (Linux): `--record
+#: /proc/x`, `--profile /proc/x`, `rio export DS /proc/x`, `rio keys generate /proc/x`, `rio ros2 definitions
+#: /proc/x` ended in tracebacks once the first file was written.
+UNWRITABLE = (FILE + "/sub",) + (("/proc/x",) if Path("/proc/self").is_dir() else ())
 EXISTING_DIR_PARAMS = {"plugin_dir"}
 #: Strings for which '' is a fair value.
 EMPTY_OK = {"instruction", "name"}
@@ -122,16 +133,16 @@ def _values(path: tuple[str, ...], param) -> list[str]:
     ann, name = _annotation(param), param.name
     opt = param.opts[0] if param.param_type_name == "option" else name
     if ann in ("float", "int"):
-        return [v for v in BAD_NUMBERS if v not in ACCEPTS.get((*path, opt), set())]
-    if ann == "bool" or path[0] not in CORE_GROUPS:
-        return []  # plugins' string options: their values mean something only to the device
+        return [v for v in BAD_NUMBERS + BAD_NUMBERS_OF.get(opt, ()) if v not in ACCEPTS.get((*path, opt), set())]
+    if ann == "bool" or (path[0] not in CORE_GROUPS and name not in OUTPUT_DIR_PARAMS):
+        return []  # plugins' string options: their values mean something only to the device (paths excepted)
     out = [] if name in EMPTY_OK or param.multiple or param.nargs != 1 else [""]
     if name in STATION_PARAMS:
         out += ["no-such-station", DIR, MISSING + ".toml"]
     if name in DATASET_PARAMS:
         out += [MISSING, FILE]
     if name in OUTPUT_DIR_PARAMS:
-        out += [FILE]
+        out += [FILE, *UNWRITABLE]
     if name in EXISTING_DIR_PARAMS:
         out += [MISSING, FILE]
     return out
@@ -141,9 +152,22 @@ APP = build_app()
 CORE_GROUPS = {name for name in typer.main.get_command(build_app(load_plugins=False)).commands}
 
 
+#: Cases a value table cannot make: a good value the rest of the command line makes useless (`--episodes`
+#: without `--record` was silently ignored), or a value only the option's meaning makes bad (an address that
+#: is no address was written into a certificate). (command, option, what is added to its valid command line).
+COMBINATIONS = [
+    (("teleop",), "--episodes", ["--episodes", "5"]),
+    (("teleop",), "--on-end", ["--on-end", "keep"]),
+    (("keys", "generate"), "--address", ["--address", "rio-acme=not an ip"]),
+    (("keys", "generate"), "--address", ["--address", "rio-acme=-bad-.lab"]),
+    (("keys", "add"), "--address", ["--address", "rio-acme=a..b"]),
+]
+
+
 def _cases() -> list:
     params = []
-    for path, cmd in _leaves(typer.main.get_command(APP)):
+    commands = dict(_leaves(typer.main.get_command(APP)))
+    for path, cmd in commands.items():
         base = _base(path, cmd)
         if base is None or path == ("bench", "middleware"):  # bench parses its own arguments
             continue
@@ -152,6 +176,11 @@ def _cases() -> list:
             for value in _values(path, param):
                 case = Case(path, opt, _with(base, param, value), value, path in SUBPROCESS)
                 params.append(pytest.param(case, id=case.id))
+    for path, opt, extra in COMBINATIONS:
+        base = _base(path, commands[path])
+        assert base is not None, path
+        case = Case(path, opt, (*base, *extra), extra[-1], path in SUBPROCESS)
+        params.append(pytest.param(case, id=case.id))
     return params
 
 
@@ -285,3 +314,46 @@ def test_sigint_during_start_up_of_a_real_station(paths):
     out, err = p.communicate(timeout=30)
     assert "Traceback" not in out + err, err
     assert p.returncode == EXIT_INTERRUPTED, (p.returncode, out, err)
+
+
+def test_ctrl_c_while_the_command_line_is_imported_is_one_line_and_130(monkeypatch, capsys):
+    """The first half second of every command is spent importing typer and rich (`rio.cli.app`); Ctrl-C
+    there was a KeyboardInterrupt traceback."""
+    import builtins
+
+    from rio.cli import main
+
+    real_import = builtins.__import__
+
+    def importing(name, *args, **kwargs):
+        if name == "rio.cli.app":
+            raise KeyboardInterrupt
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", importing)
+    try:
+        code = main(["plugins", "list"])
+    except KeyboardInterrupt:
+        pytest.fail("KeyboardInterrupt escaped rio.cli.main (a traceback for the user)")
+    assert code == EXIT_INTERRUPTED and capsys.readouterr().err == "error: interrupted\n"
+
+
+def test_a_real_sigint_while_typer_is_imported(tmp_path):
+    """The real signal, at a moment fixed by an import hook rather than by a timer: the process sends itself
+    SIGINT when `typer` is looked for, i.e. while `rio.cli.main` imports the command line."""
+    script = textwrap.dedent("""
+        import os, signal, sys
+
+        class Interrupt:
+            def find_spec(self, name, path=None, target=None):
+                if name == "typer":
+                    os.kill(os.getpid(), signal.SIGINT)
+                return None
+
+        sys.meta_path.insert(0, Interrupt())
+        from rio.cli import main
+        sys.exit(main(["plugins", "list"]))
+    """)
+    p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert "Traceback" not in p.stderr, p.stderr
+    assert (p.returncode, p.stderr) == (EXIT_INTERRUPTED, "error: interrupted\n")

@@ -28,7 +28,7 @@ from rio.recording import (
 from rio.recording import paths as L
 from rio.recording import recorder as recorder_mod
 from rio.recording.durable import AppendFile
-from rio.recording.format import DatasetFormat
+from rio.recording.format import DatasetFormat, ExportError
 from rio.recording.synthetic import record_synthetic
 from rio.schema import SingleArmObs, Step
 
@@ -138,12 +138,13 @@ def test_export_refuses_a_damaged_episode_before_writing(ds, tmp_path):
 
 def test_a_failed_export_removes_what_it_wrote_and_only_that(ds, tmp_path):
     out = tmp_path / "out"
-    with pytest.raises(OSError):
+    full = r"the export failed: No space left on device \[ENOSPC\]; its partial output was removed"
+    with pytest.raises(ExportError, match=full):  # one line, not the writer's OSError and its traceback
         export_dataset(_Npz(fail_after=1), Dataset(ds), out)
     assert not out.exists()
     out.mkdir()
     (out / "mine.txt").write_text("keep me")
-    with pytest.raises(OSError):
+    with pytest.raises(ExportError, match=full):
         export_dataset(_Npz(fail_after=1), Dataset(ds), out)
     assert sorted(p.name for p in out.iterdir()) == ["mine.txt"]
 
@@ -299,3 +300,13 @@ def test_enospc_while_writing_leaves_a_repairable_episode(tmp_path, monkeypatch)
     ep = Dataset(tmp_path / "ds").episode(0)
     assert len(ep) == 25
     np.testing.assert_allclose(ep.column("action")[:, 0], 0.01 * np.arange(25), rtol=1e-6)
+
+
+def test_a_dataset_where_nothing_can_be_created_is_one_error(tmp_path):
+    """`--record` is tried by the command line first; a script calling the recorder gets one error too."""
+    from rio.recording import RecordingError
+
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(RecordingError, match=r"file/ds: cannot record here \(Not a directory\)"), \
+            Recorder(tmp_path / "file" / "ds", fps=30):
+        pass

@@ -69,6 +69,28 @@ def test_bad_machine_names_are_refused_before_anything_is_written(tmp_path, name
     assert not (tmp_path / "k").exists()
 
 
+@pytest.mark.parametrize(("addresses", "days", "said"), [
+    ({"robot": ["not an ip"]}, 30, "'not an ip' is neither an IP address nor a host name"),
+    ({"robot": ["-robot.lab"]}, 30, "'-robot.lab' is neither"),
+    ({"robot": ["a" * 64 + ".lab"]}, 30, "is neither"),
+    ({}, 0, "valid for 1 to 36500 days"),
+    ({}, 99999999, "valid for 1 to 36500 days"),  # was an OverflowError traceback after the directory was made
+])
+def test_addresses_and_validity_are_checked_before_anything_is_written(tmp_path, addresses, days, said):
+    with pytest.raises(ConfigError, match=said):
+        keys.generate(tmp_path / "lab", ["robot"], addresses, days=days)
+    assert not (tmp_path / "lab").exists()
+
+
+def test_keys_where_nothing_can_be_written_are_one_error_and_leave_nothing(tmp_path):
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ConfigError, match="exists and is not a directory"):
+        keys.generate(tmp_path / "file", ["robot"])
+    with pytest.raises(ConfigError, match=r"file/lab: cannot write the keys here: Not a directory"):
+        keys.generate(tmp_path / "file" / "lab", ["robot"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+
 def test_load_names_what_is_wrong(lab, tmp_path):
     with pytest.raises(ConfigError, match="does not exist"):
         keys.load(tmp_path / "nowhere")

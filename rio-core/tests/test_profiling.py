@@ -344,3 +344,12 @@ def test_gpu_columns_from_nvml(monkeypatch):
                                      "mem_used_mb_max": 2048.0, "samples": 2}
     assert sampler.table().splitlines()[-1] == (
         "GPU: NVIDIA Test: utilisation mean 40.0 %, max 40.0 %; memory in use max 2048.0 MB")
+
+
+def test_a_profile_where_nothing_can_be_written_is_one_error(tmp_path):
+    from rio.errors import ConfigError
+
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ConfigError, match=r"file/prof: cannot write the profile here \(Not a directory\)"), \
+            Profile(tmp_path / "file" / "prof"):
+        pass

@@ -140,7 +140,7 @@ def test_field_errors_give_full_paths_all_at_once(reg):
 
 
 def test_top_level_errors(reg):
-    with pytest.raises(ConfigError, match=r"rate_hz: Input should be greater than 0"):
+    with pytest.raises(ConfigError, match=r"rate_hz: Input should be greater than or equal to 1"):
         parse_station({"name": "s", "rate_hz": 0, "components": {"arm": {"driver": "rio.fake_arm"}}}, registry=reg)
     with pytest.raises(ConfigError, match=r"name: required field missing"):
         parse_station({"components": {"arm": {"driver": "rio.fake_arm"}}}, registry=reg)

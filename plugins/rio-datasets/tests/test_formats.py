@@ -133,7 +133,7 @@ def test_cli_export_refuses_damaged_episodes_and_leaves_no_output(native, tmp_pa
 
 
 def test_a_failing_export_removes_its_partial_output(native, tmp_path, monkeypatch):
-    from rio.recording.format import export_dataset
+    from rio.recording.format import ExportError, export_dataset
 
     pytest.importorskip("zarr")
 
@@ -142,6 +142,6 @@ def test_a_failing_export_removes_its_partial_output(native, tmp_path, monkeypat
 
     monkeypatch.setattr("rio_datasets.zarr_format.lowdim", boom)
     out = tmp_path / "x.zarr"
-    with pytest.raises(OSError):
+    with pytest.raises(ExportError, match=r"No space left on device \[ENOSPC\]; its partial output was removed"):
         export_dataset(get_format("zarr"), Dataset(native), out)
     assert not out.exists()

@@ -13,7 +13,7 @@ import pytest
 from rio_unitree.commands import is_damping
 from rio_unitree.dds import ARM_SDK, LOWCMD, LOWSTATE, Participant
 from rio_unitree.g1 import WEIGHT_SLOT, joint_names
-from rio_unitree.testing import Tap
+from rio_unitree.testing import Tap, publishing
 from rio_unitree.wire import LowCmd, LowState
 
 from rio import clock
@@ -178,6 +178,37 @@ def test_a_robot_that_goes_quiet_is_a_named_fault(make_bridge, domain_id):
             node.enable()
 
 
+def test_the_bridge_keeps_publishing_while_its_physics_is_slow(make_bridge, monkeypatch):
+    """A physics step that takes 0.3 s (a host too loaded to run MuJoCo in real time): rt/lowstate goes out at
+    its rate meanwhile, the latest state each time, as a robot's does (published from the physics thread at
+    simulated times, the stream stopped with the physics: Dex3 state gaps of up to 0.9 s under load)."""
+    from rio_unitree.bridge.sim import Bridge
+
+    slow: list[float] = []
+    sent: list[float] = []
+    step = Bridge._step
+
+    def slow_step(self):
+        if not slow and len(sent) > 20:
+            slow.append(time.monotonic())
+            time.sleep(0.3)
+        step(self)
+
+    monkeypatch.setattr(Bridge, "_step", slow_step)
+    bridge = make_bridge(state_rate_hz=200.0)
+    writer = bridge._state_out
+
+    class Timed:  # the bridge's rt/lowstate writer, noting when each state went out
+        def write(self, data):
+            sent.append(time.monotonic())
+            return writer.write(data)
+
+    bridge._state_out = Timed()
+    assert wait_until(lambda: bool(slow) and time.monotonic() > slow[0] + 0.35, 10.0), "the physics never ran"
+    during = [t for t in sent if slow[0] + 0.05 < t < slow[0] + 0.25]
+    assert len(during) >= 5, (len(during), bridge.counts)  # 200 Hz: ~40 in 0.2 s on a quiet machine
+
+
 def test_no_lowstate_at_open_is_a_named_error_within_the_timeout(domain_id):
     node = g1(domain_id, connect_timeout_s=0.5)
     t0 = time.monotonic()
@@ -189,28 +220,34 @@ def test_no_lowstate_at_open_is_a_named_error_within_the_timeout(domain_id):
 
 
 def test_a_lowstate_with_a_wrong_crc_is_not_believed(domain_id):
-    unsigned = LowState()
-    unsigned.crc = 1
-    data, stop = unsigned.encode(fix_crc=False), threading.Event()
-    with Participant(domain_id, "lo") as p:
-        out = p.writer(LOWSTATE)
-
-        def publish():
-            while not stop.is_set():
-                out.write(data)
-                time.sleep(0.005)
-
-        thread = threading.Thread(target=publish)
-        thread.start()
-        try:
+    wrong = LowState()
+    wrong.crc = 1
+    with Participant(domain_id, "lo") as p, publishing(p.writer(LOWSTATE), wrong.encode(fix_crc=False)):
+        for peer in ("robot", "simulator"):  # a simulator's state may be unsigned, never wrongly signed
             with pytest.raises(TimeoutError, match="arrived with a wrong CRC"):
-                g1(domain_id, connect_timeout_s=0.5).open()
-            trusting = g1(domain_id, check_state_crc=False, control="lowcmd", enable_on_open=False)
-            with lifecycle(trusting):  # e.g. Unitree's unitree_mujoco, which does not sign its state
+                g1(domain_id, connect_timeout_s=0.5, peer=peer, control="lowcmd").open()
+
+
+def test_a_simulator_s_unsigned_state_is_believed_when_the_station_says_so(domain_id):
+    """Unitree's unitree_mujoco publishes rt/lowstate with CRC 0: refused from a robot (the error says what
+    to set), believed with peer = "simulator" (and with the field's old name, check_state_crc = false)."""
+    unsigned = LowState().encode(fix_crc=False)
+    with Participant(domain_id, "lo") as p, publishing(p.writer(LOWSTATE), unsigned):
+        with pytest.raises(TimeoutError, match=r'arrived unsigned, CRC 0.*set peer = "simulator"'):
+            g1(domain_id, connect_timeout_s=0.5, control="lowcmd").open()
+        for fields in ({"peer": "simulator"}, {"check_state_crc": False}):
+            trusting = g1(domain_id, control="lowcmd", enable_on_open=False, **fields)
+            assert trusting.config.peer == "simulator"
+            with lifecycle(trusting):
                 assert trusting.cycle()["joint_pos"].shape == (29,)
-        finally:
-            stop.set()
-            thread.join()
+
+
+def test_arm_sdk_that_nobody_reads_is_an_error(domain_id):
+    """unitree_mujoco does not listen on rt/arm_sdk: a station left on control = "arm_sdk" would run to a
+    normal end with the arms never moved. The driver refuses to start, naming the fix."""
+    with Participant(domain_id, "lo") as p, publishing(p.writer(LOWSTATE), LowState().encode()):
+        with pytest.raises(ConnectionError, match=r'nothing reads rt/arm_sdk.*set control = "lowcmd"'):
+            g1(domain_id, connect_timeout_s=0.5).open()
 
 
 @pytest.mark.parametrize("fields, problem", [

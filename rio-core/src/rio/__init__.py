@@ -8,7 +8,10 @@ without loading numpy, pydantic or a middleware.
 from __future__ import annotations
 
 from importlib import import_module
-from typing import TYPE_CHECKING, Any
+
+#: typing's TYPE_CHECKING without importing typing (a few ms at the start of every `rio` command, during
+#: which Ctrl-C would end in a traceback: see `rio.cli.main`); type checkers take it as typing's.
+TYPE_CHECKING = False
 
 _EXPORTS = {
     "NodeClient": ".runtime.client",
@@ -25,6 +28,8 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
+    from typing import Any
+
     from rio.errors import (
         InvalidRequest,
         NodeDiedError,

@@ -18,6 +18,11 @@ __all__ = ["now", "precise_wait", "Schedule", "Rate", "CountRate", "set_timer_sl
 
 now = _time.monotonic
 
+#: The control rates RIO accepts (Hz), from a station file (`rate_hz`) or `--rate`. Below 1 Hz a loop's first
+#: tick comes long after any `--duration` (it ran 10^9 s past `--duration 1` at `--rate 1e-9`); above 10 kHz
+#: no general-purpose OS keeps the deadlines.
+RATE_RANGE_HZ = (1.0, 10_000.0)
+
 _SPIN_S = 0.001
 
 

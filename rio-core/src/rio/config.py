@@ -40,9 +40,12 @@ log = logging.getLogger("rio.config")
 
 class Config(BaseModel):
     """Base of every component's config model: unknown fields are errors (a typo in a station file must
-    not be silently ignored)."""
+    not be silently ignored), and every number is finite: `inf` or `nan` in a station file (TOML has both)
+    would pass any `gt=`/`le=` bound one way or another (nan compares false to everything) and quietly
+    switch off what the number limits (`max_step_rad = inf`, `joint_limits = [[nan, 1]]`,
+    `call_timeout = inf`); refused, naming the field."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     #: {field: default} for inherited fields, or {field: Field(default, <more constraints>)}: the field keeps
     #: its type, constraints and description (`class Config(ArmNode.Config): defaults = {"rate_hz": 250.0}`).
     defaults: ClassVar[Mapping[str, Any]] = {}
@@ -113,7 +116,7 @@ def accept_renamed(model: type, data: Any) -> Any:
             out[new] = out.pop(old)
     for field, table in values.items():
         value = out.get(field)
-        if isinstance(value, str) and value in table:
+        if isinstance(value, (str, bool)) and value in table:  # (a flag that became a choice: True/False)
             _notice(model, f"{field} = {value!r}", repr(table[value]))
             out[field] = table[value]
     return out

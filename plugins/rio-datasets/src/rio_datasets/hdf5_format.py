@@ -17,11 +17,16 @@ robomimic: one file, OUT.hdf5
 Row t holds the observation fields and the environment state read at step t and the action issued after
 that observation (`common`: native actions shifted by one). Images are gzip-compressed chunks of one frame
 (lossless); state keeps its dtype (exact).
+
+Every file is written through `hdf5_file.GuardedFile`, so an I/O error (a full disk) never reaches the
+HDF5 library's close path (where it crashed the process): it ends the export as one error line.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, Literal
 
@@ -43,6 +48,7 @@ from .common import (
     rio_attrs,
     select,
 )
+from .hdf5_file import GuardedFile
 from .native_writer import episode_steps, name_environment_state, open_recorder
 
 #: The environment state's dataset in each style.
@@ -51,6 +57,21 @@ ENV_KEY = {"aloha": "environment_state", "robomimic": "object"}
 
 def _frames(ep: Any, cam: str, kind: str) -> np.ndarray:
     return np.stack(list(ep.step_frames(cam, kind)))
+
+
+@contextlib.contextmanager
+def _new_file(path: Path) -> Iterator[tuple[Any, Callable[[], None]]]:
+    """(an h5py File being written at `path`, check): `check()` raises the I/O error the file kept, if any
+    (see `hdf5_file`); called after each dataset and, here, once the file is closed."""
+    import h5py
+
+    guard = GuardedFile(path)
+    try:
+        with h5py.File(guard, "w") as f:
+            yield f, guard.check
+    finally:
+        guard.close()
+    guard.check()
 
 
 class Hdf5Format(DatasetFormat):
@@ -67,7 +88,7 @@ class Hdf5Format(DatasetFormat):
         kw = {"compression": "gzip", "compression_opts": self.config.compression} if self.config.compression else {}
         group.create_dataset(name, data=x, chunks=(1, *x.shape[1:]), **kw)
 
-    def _write_episode(self, ep: Any, obs: Any, top: Any, aloha: bool) -> None:
+    def _write_episode(self, ep: Any, obs: Any, top: Any, aloha: bool, check: Callable[[], None]) -> None:
         cols = lowdim(ep)
         t = cols.pop("t")
         action = cols.pop("action", None)
@@ -82,19 +103,18 @@ class Hdf5Format(DatasetFormat):
                 continue
             obs.create_dataset(name, data=x)
         obs.create_dataset("timestamp", data=t - t[0])
+        check()
         for cam, kind in image_streams(ep, depth=self.config.depth):
             x = _frames(ep, cam, kind)
             if aloha:
                 self._image(obs.require_group("images" if kind == "rgb" else "depth"), cam, x)
             else:
                 self._image(obs, f"{cam}_{'image' if kind == 'rgb' else 'depth'}", x)
-        attrs = json.dumps(rio_attrs(ep))
-        (top if aloha else top).attrs["rio"] = attrs
+            check()
+        top.attrs["rio"] = json.dumps(rio_attrs(ep))
 
     def export(self, dataset: Dataset, out: Path, *, episodes: list[int] | None = None,
                progress: Progress | None = None) -> dict[str, Any]:
-        import h5py
-
         eps = select(dataset, episodes)
         check_same_layout(eps)
         fps = common_fps(eps)
@@ -105,22 +125,22 @@ class Hdf5Format(DatasetFormat):
             if any(out.glob("episode_*.hdf5")):
                 raise ExportError(f"{out} already holds episode_*.hdf5 files")
             for k, ep in enumerate(eps):
-                with h5py.File(out / f"episode_{k}.hdf5", "w") as f:
+                with _new_file(out / f"episode_{k}.hdf5") as (f, check):
                     f.attrs["sim"], f.attrs["fps"] = False, fps
-                    self._write_episode(ep, f.create_group("observations"), f, aloha=True)
+                    self._write_episode(ep, f.create_group("observations"), f, aloha=True, check=check)
                 done += len(ep)
                 if progress:
                     progress(done, total, f"episode {ep.index}")
             return {"episodes": len(eps), "steps": total, "style": "aloha", "path": str(out)}
         if out.exists():
             raise ExportError(f"{out} already exists")
-        with h5py.File(out, "w") as f:
+        with _new_file(out) as (f, check):
             data = f.create_group("data")
             for k, ep in enumerate(eps):
                 demo = data.create_group(f"demo_{k}")
                 n = len(ep)
                 demo.attrs["num_samples"] = n
-                self._write_episode(ep, demo.create_group("obs"), demo, aloha=False)
+                self._write_episode(ep, demo.create_group("obs"), demo, aloha=False, check=check)
                 demo.create_dataset("rewards", data=np.zeros(n))
                 dones = np.zeros(n, np.int64)
                 dones[-1] = 1

@@ -24,6 +24,7 @@ import pyarrow.parquet as pq
 from pydantic import Field
 
 from rio.config import Config
+from rio.machine.confine import inside
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
 from rio.recording.video import quiet_svt
@@ -286,8 +287,11 @@ class LeRobotFormat(DatasetFormat):
                         vf, video_pos[cam] = None, next_pos(video_pos[cam])
                     if vf is None:
                         h, w = features[key]["shape"][:2]
-                        vf = videos[cam] = _VideoFile(out / LL.VIDEO_PATH.format(
-                            video_key=key, chunk_index=video_pos[cam][0], file_index=video_pos[cam][1]), fps, h, w, o)
+                        where = LL.VIDEO_PATH.format(video_key=key, chunk_index=video_pos[cam][0],
+                                                     file_index=video_pos[cam][1])
+                        # the camera's name came from episode.json: its video stays inside the export
+                        vf = videos[cam] = _VideoFile(inside(out, where, source=ep.path / "episode.json",
+                                                             field=f"camera {cam!r}"), fps, h, w, o)
                     start = vf.frames
                     step_every = max(1, n // 30)
                     real = f"{cam}.rgb" in ep.streams
@@ -379,8 +383,9 @@ class LeRobotFormat(DatasetFormat):
                 images = {}
                 for key in video_keys:
                     cam = key.split(".")[-1]
-                    path = src / info["video_path"].format(video_key=key, chunk_index=r[f"videos/{key}/chunk_index"],
-                                                          file_index=r[f"videos/{key}/file_index"])
+                    where = info["video_path"].format(video_key=key, chunk_index=r[f"videos/{key}/chunk_index"],
+                                                      file_index=r[f"videos/{key}/file_index"])
+                    path = inside(src, where, source=src / LL.INFO_PATH, field=f"video_path of '{key}'")
                     images[(cam, "rgb")] = _segment(path, r[f"videos/{key}/from_timestamp"], b - a, fps)
                 meta = rio_eps[e_i] if e_i < len(rio_eps) else {}
                 task_idx = part.column("task_index").to_pylist()

@@ -47,7 +47,7 @@ def episode_steps(lowdim: dict[str, np.ndarray], images: dict[tuple[str, str], I
     observation fields ("proprio", ...) and perhaps "environment_state" (named `env_names` when the data
     comes from elsewhere); `images` maps (camera, kind) to one frame per step (depth as uint16 units or float
     meters). `rio_meta`: what a RIO export recorded of the episode (`common.rio_attrs`)."""
-    cls: type[Observation] = load_class(observation_class) if observation_class else Observation
+    cls: type[Observation] = load_class(observation_class, Observation) if observation_class else Observation
     fields = set(cls.__dataclass_fields__)
     n = len(next(iter(lowdim.values())))
     times = np.arange(n) / fps if t is None else np.asarray(t, dtype=np.float64)

@@ -27,6 +27,7 @@ import numpy as np
 from pydantic import Field
 
 from rio.config import Config
+from rio.machine.confine import inside
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
 
@@ -52,6 +53,32 @@ def _zarr():
     return zarr
 
 
+def _settle(timeout_s: float = 30.0) -> None:
+    """Wait for the writes zarr still has under way on its IO thread. When one chunk write fails (a full
+    disk), zarr raises at once while the chunks written with it go on in the background: a partial output
+    removed then would be written again behind the cleanup. Best effort: zarr's own loop, if it has one."""
+    import asyncio
+
+    try:
+        from zarr.core import sync
+    except ImportError:
+        return
+    loop = sync.loop[0]
+    if loop is None or not loop.is_running():
+        return
+
+    async def pending() -> None:
+        me = asyncio.current_task()
+        tasks = [t for t in asyncio.all_tasks() if t is not me]
+        if tasks:
+            await asyncio.wait(tasks, timeout=timeout_s)
+
+    try:
+        asyncio.run_coroutine_threadsafe(pending(), loop).result(timeout_s + 5)
+    except Exception:  # noqa: BLE001 - the cleanup goes on; nothing more can be done here
+        pass
+
+
 def _name(field: str) -> str:
     return "state" if field == "proprio" else field
 
@@ -67,14 +94,21 @@ class ZarrFormat(DatasetFormat):
     def export(self, dataset: Dataset, out: Path, *, episodes: list[int] | None = None,
                progress: Progress | None = None) -> dict[str, Any]:
         zarr = _zarr()
-        from numcodecs import Blosc
-
         eps = select(dataset, episodes)
         check_same_layout(eps)
         fps = common_fps(eps)
         out = Path(out)
         if out.exists():
             raise ExportError(f"{out} already exists")
+        try:
+            return self._write(zarr, eps, fps, out, progress)
+        except BaseException:
+            _settle()  # zarr's writes still under way would recreate files after the cleanup
+            raise
+
+    def _write(self, zarr: Any, eps: list, fps: float, out: Path, progress: Progress | None) -> dict[str, Any]:
+        from numcodecs import Blosc
+
         comp = Blosc(cname="zstd", clevel=self.config.compression_level, shuffle=Blosc.BITSHUFFLE)
         root = zarr.open_group(str(out), mode="w", zarr_format=2)
         data, meta = root.create_group("data"), root.create_group("meta")
@@ -83,7 +117,8 @@ class ZarrFormat(DatasetFormat):
         streams = image_streams(eps[0], depth=self.config.depth)
 
         def array(name: str, shape: tuple, dtype: Any, chunks: tuple) -> Any:
-            if name not in arrays:
+            if name not in arrays:  # a camera's name (from episode.json) is part of it: it stays inside `out`
+                inside(out, f"data/{name}", source=eps[0].path / "episode.json", field=f"array {name!r}")
                 arrays[name] = data.create_array(name, shape=(total, *shape), chunks=(chunks[0], *shape[:len(shape)])
                                                  if len(chunks) == 1 else chunks, dtype=dtype, compressor=comp)
             return arrays[name]
@@ -108,6 +143,8 @@ class ZarrFormat(DatasetFormat):
                     if len(batch) == 64:
                         a[start:start + 64] = np.stack(batch)
                         start, batch = start + 64, []
+                        if progress:  # also where export_dataset checks free space
+                            progress(done + start - pos, total, f"episode {ep.index}: {cam} {kind}")
                 if batch:
                     a[start:start + len(batch)] = np.stack(batch)
             pos += n

@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from rio.cli.args import known_station, not_empty, one_of, positive
+from rio.cli.args import known_station, not_empty, one_of, output_dir, positive, rate_hz
 
 from .messages import DISTROS
 
@@ -26,8 +26,9 @@ def bridge(
                                            help="Station name (`rio stations list`) or path of a .toml file.")],
     domain: Annotated[int, typer.Option("--domain", envvar="ROS_DOMAIN_ID", min=0, max=232,
                                         help="ROS domain id (default: $ROS_DOMAIN_ID, else 0).")] = 0,
-    rate: Annotated[float, typer.Option("--rate", callback=positive,
-                                        help="Publishing rate (Hz); commands are applied at this rate too.")] = 30.0,
+    rate: Annotated[float, typer.Option("--rate", callback=rate_hz,
+                                        help="Publishing rate (Hz, 1 to 10000); commands are applied at this rate "
+                                             "too.")] = 30.0,
     connect: Annotated[list[str] | None, typer.Option(
         "--connect", callback=endpoints,
         help="zenoh endpoint to connect to, repeatable (default: the local rmw_zenoh router, tcp/127.0.0.1:7447; "
@@ -45,6 +46,13 @@ def bridge(
                                                    help="Override the station's middleware.")] = None,
     duration: Annotated[float | None, typer.Option("--duration", "-d", callback=positive,
                                                    help="Stop after this many seconds.")] = None,
+    keys: Annotated[str | None, typer.Option("--keys", callback=not_empty,
+                                             help="This machine's keys directory (`rio keys generate`): every link "
+                                                  "is mutual TLS with the station's CA; needed for endpoints beyond "
+                                                  "127.0.0.1 (or --insecure).")] = None,
+    insecure: Annotated[bool, typer.Option("--insecure", help="Listen or connect beyond 127.0.0.1 without keys: "
+                                                              "anyone who reaches the port can command the robot "
+                                                              "(said at every start).")] = False,
 ) -> None:
     """Start STATION and publish it to ROS 2: joint states, end-effector poses, TF and camera images;
     follow joint trajectories and cmd_vel from ROS through each arm's own safety limits (Ctrl-C stops)."""
@@ -60,7 +68,7 @@ def bridge(
     except ValueError as e:
         raise typer.BadParameter(str(e)) from None
     ros = RosOptions(domain=domain, distro=distro, connect=tuple(connect or DEFAULT_CONNECT),
-                     listen=tuple(listen or DEFAULT_LISTEN))
+                     listen=tuple(listen or DEFAULT_LISTEN), keys=keys, insecure=insecure, commands=not read_only)
     with StopSignals() as stop:
         with open_bridge(station, middleware=middleware, ros=ros, options=options) as running:
             node = running.bridge.ros
@@ -94,7 +102,7 @@ def endpoints(value: list[str] | None) -> list[str] | None:
 
 @app.command()
 def definitions(
-    directory: Annotated[str, typer.Argument(callback=not_empty, help="Where to write <pkg>/msg/<Type>.msg.")],
+    directory: Annotated[str, typer.Argument(callback=output_dir, help="Where to write <pkg>/msg/<Type>.msg.")],
     distro: Distro = "jazzy",
 ) -> None:
     """Write the standard ROS 2 message definitions the bridge uses as .msg files (from rosbags' typestore,

@@ -108,16 +108,23 @@ def msg_text(types: MessageTypes, name: str) -> str:
 
 def write_definitions(directory: str | Path, distro: str = "jazzy") -> Path:
     """Write every message of `distro`'s typestore as `<directory>/<pkg>/msg/<Type>.msg`; returns the
-    directory. Files already there with the same text are left alone."""
+    directory. Files already there with the same text are left alone. A directory that cannot be written
+    (a file on the way, no permission, /proc) is one ConfigError naming it."""
+    from rio.errors import ConfigError
+
     types = message_types(distro)
     root = Path(directory)
-    for name in types.store.fielddefs:
-        pkg, kind, typ = name.split("/")
-        path = root / pkg / kind / f"{typ}.msg"
-        text = msg_text(types, name)
-        if not path.is_file() or path.read_text() != text:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text)
+    try:
+        for name in types.store.fielddefs:
+            pkg, kind, typ = name.split("/")
+            path = root / pkg / kind / f"{typ}.msg"
+            text = msg_text(types, name)
+            if not path.is_file() or path.read_text() != text:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_text(text)
+    except OSError as e:
+        where = f" ({e.filename})" if e.filename else ""
+        raise ConfigError(f"{root}: cannot write the message definitions here: {e.strerror or e}{where}") from None
     return root
 
 

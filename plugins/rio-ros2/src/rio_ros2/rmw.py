@@ -14,7 +14,8 @@ What rmw_zenoh expects, and what this module does:
 The session is a zenoh peer like rmw_zenoh's: it connects to the endpoints given (by default a
 router on this machine, `tcp/127.0.0.1:7447`, what `ros2 run rmw_zenoh_cpp rmw_zenohd` listens on),
 listens on loopback, and never scouts by multicast. A router that is not up yet is retried in the
-background, so the node starts either way.
+background, so the node starts either way. With a machine's keys every link is mutual TLS with the
+station's CA (`security`).
 """
 
 from __future__ import annotations
@@ -42,12 +43,22 @@ def mangle(name: str) -> str:
     return name.replace("/", "%") if name else "%"
 
 
-def session_config(connect: Sequence[str], listen: Sequence[str]) -> Any:
+def session_config(connect: Sequence[str], listen: Sequence[str], keys: Any = None, domain: int = 0) -> Any:
+    """The session's zenoh config; with `keys` (`rio.machine.keys.MachineKeys`) every link is mutual TLS
+    (`tcp/` endpoints become `tls/`) and only machines the keys trust exchange the domain's traffic."""
     import zenoh
 
     c = zenoh.Config()
     c.insert_json5("mode", '"peer"')
     c.insert_json5("scouting/multicast/enabled", "false")
+    if keys is not None:
+        from rio.middleware.zenoh import secure_links, tls_endpoints
+
+        from .security import ROS_MESSAGES, key_exprs
+
+        connect, listen = tls_endpoints(list(connect)), tls_endpoints(list(listen))
+        for path, value in secure_links(keys, key_exprs(domain), ROS_MESSAGES).items():
+            c.insert_json5(path, json.dumps(value))
     c.insert_json5("connect/endpoints", json.dumps(list(connect)))
     c.insert_json5("listen/endpoints", json.dumps(list(listen)))
     return c
@@ -121,14 +132,14 @@ class RosNode:
     the graph."""
 
     def __init__(self, name: str, *, namespace: str = "/", domain: int = 0, types: MessageTypes,
-                 connect: Sequence[str] = DEFAULT_CONNECT, listen: Sequence[str] = DEFAULT_LISTEN):
+                 connect: Sequence[str] = DEFAULT_CONNECT, listen: Sequence[str] = DEFAULT_LISTEN, keys: Any = None):
         import zenoh
 
         if not 0 <= int(domain) <= 232:
             raise ValueError(f"ROS domain id must be 0..232, got {domain}")
         self.name, self.namespace, self.domain, self.types = name, namespace, int(domain), types
         try:
-            self.session = zenoh.open(session_config(connect, listen))
+            self.session = zenoh.open(session_config(connect, listen, keys, self.domain))
         except zenoh.ZError as e:
             from rio.errors import ConfigError
 

@@ -5,7 +5,8 @@ the station's nodes that no `[machines]` section places elsewhere, and connects 
 other machines at their fixed addresses (where `rio serve STATION --machine NAME` runs them). Teleop
 devices and policies are not started (ROS is the one commanding); grippers and sensors are, though not
 bridged (a simulated world is a sensor its arms and cameras need). The ROS side is a node
-`rio_<station>` on a zenoh session of its own (`rmw.RosNode`).
+`rio_<station>` on a zenoh session of its own (`rmw.RosNode`), on loopback unless keys are given or the
+risk is accepted (`security`), checked before the station starts.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from typing import Any
 
 from rio.station import roles as R
 
+from . import security
 from .bridge import Bridge, BridgeOptions, bridged_roles
 from .messages import message_types
 from .rmw import DEFAULT_CONNECT, DEFAULT_LISTEN, RosNode
@@ -32,6 +34,12 @@ class RosOptions:
     distro: str = "jazzy"
     connect: Sequence[str] = DEFAULT_CONNECT
     listen: Sequence[str] = DEFAULT_LISTEN
+    #: this machine's keys directory (`rio keys generate`): every link mutual TLS (`security`)
+    keys: str | None = None
+    #: allow endpoints beyond loopback without keys (every start says so)
+    insecure: bool = False
+    #: whether the bridge takes commands (for the warning's wording only: `BridgeOptions.commands` decides)
+    commands: bool = True
 
 
 @dataclass
@@ -70,6 +78,8 @@ def open_bridge(station: Any, *, middleware: str | None = None, ros: RosOptions 
     from rio.station.load import load_station
 
     ros = ros or RosOptions()
+    keys = security.check(ros)  # endpoints beyond loopback without keys: refused before anything starts
+    security.warn_if_exposed(ros)
     types = message_types(ros.distro)  # an unknown distribution fails before anything starts
     st = load_station(station)
     roles = bridged_roles(st.components)
@@ -81,5 +91,5 @@ def open_bridge(station: Any, *, middleware: str | None = None, ros: RosOptions 
         clients = {r: stack.enter_context(factories[r]()) for r in roles}
         name = node_name(st.name)
         node = stack.enter_context(RosNode(name, namespace="/", domain=ros.domain, types=types,
-                                           connect=ros.connect, listen=ros.listen))
+                                           connect=ros.connect, listen=ros.listen, keys=keys))
         yield RunningBridge(Bridge(clients, node, options), manager, {r: factories[r] for r in roles}, name)

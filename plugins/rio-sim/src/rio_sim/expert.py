@@ -28,7 +28,7 @@ from rio.control.teleop import BUTTON_DISCARD, BUTTON_DONE, BUTTON_KEEP
 from rio.interfaces import TeleopNode
 from rio.runtime.node import remote
 
-from .attached import Attached
+from .attached import WorldAttachment
 from .expert_plan import PHASES, ArmPlan, View
 
 #: Success must hold this long (simulated s) before the expert says keep.
@@ -84,7 +84,7 @@ class WorldReader:
         return np.concatenate([r @ twist_world[:3], r @ twist_world[3:]])
 
 
-class SimExpert(Attached, TeleopNode):
+class SimExpert(TeleopNode):
     default_mode: ClassVar[str] = "translation_rotation"
 
     class Config(TeleopNode.Config):
@@ -98,7 +98,7 @@ class SimExpert(Attached, TeleopNode):
 
     def setup(self) -> None:
         super().setup()
-        self.world = self.config.world
+        self.sim = WorldAttachment(self.config.world)
         self.reader: WorldReader | None = None
         self.plans: list[ArmPlan] = []
         self.started = False
@@ -111,13 +111,13 @@ class SimExpert(Attached, TeleopNode):
     def open(self) -> None:
         from .scenes import get_scene
 
-        self.attach_world()
-        self.reader = WorldReader(self.model, get_scene(self.bus.scene), self.config.arms or None)
+        self.sim.attach()
+        self.reader = WorldReader(self.sim.model, get_scene(self.sim.bus.scene), self.config.arms or None)
         if len(self.reader.arms) > len(self.example_data["grippers"]):
             raise ValueError(f"arms: {len(self.reader.arms)} arms, at most {len(self.example_data['grippers'])}")
 
     def close(self) -> None:
-        self.detach_world()
+        self.sim.detach()
 
     @remote
     def reset(self) -> float:
@@ -132,7 +132,7 @@ class SimExpert(Attached, TeleopNode):
         twists, grippers, phases = np.zeros((n, 6)), np.ones(n), np.zeros(n, np.int64)
         buttons = np.zeros(self.config.buttons, bool)
         if self.started:
-            s = self.world_state()
+            s = self.sim.state()
             t = float(s["sim_time"])
             views = self.reader.views(t, s["qpos"], s["qvel"])
             for i, (plan, view) in enumerate(zip(self.plans, views, strict=True)):
@@ -153,7 +153,7 @@ class SimExpert(Attached, TeleopNode):
                 return "keep"
         else:
             self.t_success = None
-        number, t0, limit = self.bus.read_episode()
+        number, t0, limit = self.sim.bus.read_episode()
         if number and limit > 0 and t - t0 >= limit - self.config.give_up_s:
             return "discard"
         if all(p.done for p in self.plans) and not placed:

@@ -12,7 +12,15 @@ import sys
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the `rio` script; returns the exit status (rio.cli.app.RioGroup says which)."""
-    from rio.cli.app import run
+    """Entry point of the `rio` script; returns the exit status (rio.cli.app.RioGroup says which).
 
+    Ctrl-C while the command line itself is imported (typer, rich: the first half second of every
+    command) is an interruption like any other: one line and 130, not a KeyboardInterrupt traceback. That
+    is why this module and `rio/__init__.py` import next to nothing: the script's `from rio.cli import main`
+    runs before any handler can."""
+    try:
+        from rio.cli.app import run
+    except KeyboardInterrupt:
+        sys.stderr.write("error: interrupted\n")
+        return 130  # rio.cli.app.EXIT_INTERRUPTED, which could not be imported
     return run(sys.argv[1:] if argv is None else argv)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -28,6 +29,16 @@ def _number(value: N, ok: bool, what: str) -> N:
 def positive(value: N) -> N:
     """A rate, speed, duration or interval: finite and > 0 (None: not given)."""
     return _number(value, value is not None and value > 0, "a finite number > 0")
+
+
+def rate_hz(value: N) -> N:
+    """A control or publishing rate: finite and within `rio.clock.RATE_RANGE_HZ` (the range a station's
+    `rate_hz` has too). `--rate 1e-9` passed `positive` and made a first tick 10^9 s away, past any
+    `--duration`."""
+    from rio.clock import RATE_RANGE_HZ
+
+    lo, hi = RATE_RANGE_HZ
+    return _number(value, value is not None and lo <= value <= hi, f"a rate from {lo:g} to {hi:g} Hz")
 
 
 def non_negative(value: N) -> N:
@@ -60,12 +71,33 @@ def one_of(*choices: str):
 
 
 def output_dir(value: P) -> P:
-    """A directory to write into (a dataset to record into, a profile): absent (created later) or a
-    directory, never an existing file, checked before the station starts rather than after."""
+    """A directory to write into (a dataset to record into, a profile, an export): absent (created later)
+    or a directory, never an existing file, and somewhere this user can create things (`writable_problem`),
+    checked before the station starts rather than when the first file is written (`--record /proc/x` ended
+    in a traceback after the run)."""
     not_empty(value)
     if value is not None and Path(value).exists() and not Path(value).is_dir():
         raise typer.BadParameter(f"'{value}' is a file, not a directory")
+    if value is not None and (why := writable_problem(Path(value))):
+        raise typer.BadParameter(f"'{value}' cannot be written: {why}")
     return value
+
+
+def writable_problem(path: Path) -> str | None:
+    """Why nothing can be created at or inside `path`, found by trying: a temporary directory is made (and
+    removed at once) in `path` if it is a directory, else in its nearest existing parent, which must be a
+    directory. None when that works. Permissions alone cannot tell (root passes every access check and
+    still cannot write into /proc); trying can."""
+    import tempfile
+
+    where = next((p for p in (path, *path.parents) if p.exists()), Path("."))
+    if not where.is_dir():
+        return f"'{where}' is a file, not a directory"
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".rio-probe-", dir=where))
+    except OSError as e:
+        return f"{e.strerror or e} (in '{where}')"
+    return None
 
 
 def existing_dir(value: P) -> P:

@@ -2,11 +2,14 @@
 progress bar. Formats come from plugins (`rio_dataset_formats` hook; rio-datasets ships these).
 
 The episodes are verified first: a damaged one (a file differing from its recorded sha256) is refused
-in one line naming it, unless `--allow-damaged` (then a warning per damaged episode). A failed export
-leaves no partial output behind (`rio.recording.format.export_dataset`)."""
+in one line naming it, unless `--allow-damaged` (then a warning per damaged episode). `--episodes` is
+checked against the dataset's episodes before anything is read (a range is never expanded past them).
+A failed export leaves no partial output behind and ends in one line, and an output inside the dataset is
+refused (`rio.recording.format.export_dataset`)."""
 
 from __future__ import annotations
 
+import bisect
 import re
 from typing import Annotated
 
@@ -15,7 +18,8 @@ import typer
 from rio.cli.args import not_empty, output_dir
 from rio.errors import ConfigError
 
-_EPISODE_PART = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+)\s*)?$")
+#: An episode index or a range of them; 18 digits at most (an int64, and no 10^5-digit number to parse).
+_EPISODE_PART = re.compile(r"^\s*(\d{1,18})\s*(?:-\s*(\d{1,18})\s*)?$")
 
 
 def parse_options(items: list[str] | None) -> dict[str, str]:
@@ -28,11 +32,12 @@ def parse_options(items: list[str] | None) -> dict[str, str]:
     return out
 
 
-def parse_episodes(text: str | None) -> list[int] | None:
-    """'0,2,5-7' -> [0, 2, 5, 6, 7]; anything else is one ConfigError quoting the bad part."""
+def parse_episodes(text: str | None) -> list[tuple[int, int]] | None:
+    """'0,2,5-7' -> [(0, 0), (2, 2), (5, 7)] (inclusive ranges, never expanded here: '0-99999999999' is two
+    numbers, not 10^11 of them); anything else is one ConfigError quoting the bad part."""
     if text is None:
         return None
-    out: list[int] = []
+    out: list[tuple[int, int]] = []
     for part in text.split(","):
         m = _EPISODE_PART.match(part)
         if m is None:
@@ -40,8 +45,39 @@ def parse_episodes(text: str | None) -> list[int] | None:
         a, b = int(m.group(1)), int(m.group(2) if m.group(2) is not None else m.group(1))
         if b < a:
             raise ConfigError(f"--episodes '{text}': the range '{part.strip()}' ends before it starts")
-        out.extend(k for k in range(a, b + 1) if k not in out)
+        out.append((a, b))
     return out
+
+
+def choose_episodes(text: str, ranges: list[tuple[int, int]], have: list[int]) -> list[int]:
+    """The episodes `ranges` name, in the order given (each once), every one of them checked against the
+    dataset's episode indices `have` first: one missing is one ConfigError naming it and what there is.
+    Costs the size of the dataset, not of the ranges."""
+    known = sorted(set(have))
+    out: list[int] = []
+    seen: set[int] = set()
+    for a, b in ranges:
+        lo, hi = bisect.bisect_left(known, a), bisect.bisect_right(known, b)
+        if hi - lo != b - a + 1:  # some index of a..b is not an episode: the first one missing
+            missing = next((k for i, k in enumerate(range(a, b + 1)) if lo + i >= hi or known[lo + i] != k))
+            raise ConfigError(f"--episodes '{text}': the dataset has no episode {missing} "
+                              f"(its episodes: {_ranges_text(known)})")
+        for k in known[lo:hi]:
+            if k not in seen:
+                seen.add(k)
+                out.append(k)
+    return out
+
+
+def _ranges_text(indices: list[int]) -> str:
+    """[0, 1, 2, 5] -> '0-2, 5' (sorted input); 'none' for no episode."""
+    runs: list[list[int]] = []
+    for k in indices:
+        if runs and k == runs[-1][1] + 1:
+            runs[-1][1] = k
+        else:
+            runs.append([k, k])
+    return ", ".join(f"{a}-{b}" if b > a else f"{a}" for a, b in runs) or "none"
 
 
 def run_with_progress(label: str, fn):
@@ -83,9 +119,10 @@ def export(
     from rio.recording import Dataset
     from rio.recording.format import export_dataset, get_format
 
-    chosen = parse_episodes(episodes)
+    ranges = parse_episodes(episodes)
     opts = parse_options(option)
     ds = Dataset(dataset, allow_damaged=allow_damaged)
+    chosen = None if ranges is None else choose_episodes(str(episodes), ranges, [e["index"] for e in ds.episodes])
     f = get_format(fmt, opts)
     if not f.can_export:
         raise ConfigError(f"format '{fmt}' cannot export")

@@ -10,7 +10,7 @@ from typing import Annotated
 
 import typer
 
-from rio.cli.args import not_empty, positive
+from rio.cli.args import not_empty, output_dir
 
 app = typer.Typer(help="Keys that authenticate and encrypt a station's links between machines.",
                   no_args_is_help=True)
@@ -22,14 +22,29 @@ _ADDRESSES = typer.Option("--address", "-a", help="NAME=HOST: an address the mac
 
 
 def _addresses(items: list[str] | None, names: list[str]) -> dict[str, list[str]]:
+    """`--address NAME=HOST` values, each checked (a machine named, an IP address or host name) before
+    anything is written."""
+    from rio.machine.keys import address_problem
+
     out: dict[str, list[str]] = {}
     for item in items or []:
         name, sep, host = item.partition("=")
         if not sep or not host or name not in names:
             raise typer.BadParameter(f"'{item}': expected NAME=HOST with NAME one of {', '.join(names)}",
                                      param_hint="--address")
+        if (why := address_problem(host)) is not None:
+            raise typer.BadParameter(f"'{item}': {why}", param_hint="--address")
         out.setdefault(name, []).append(host)
     return out
+
+
+def _days(value: int) -> int:
+    """A certificate's validity: 1 to `rio.machine.keys.MAX_DAYS` days."""
+    from rio.machine.keys import MAX_DAYS
+
+    if not 1 <= value <= MAX_DAYS:
+        raise typer.BadParameter(f"must be a number of days from 1 to {MAX_DAYS}, not {value}")
+    return value
 
 
 def _cryptography() -> None:
@@ -43,11 +58,12 @@ def _cryptography() -> None:
 
 @app.command("generate")
 def generate(
-    out: Annotated[str, typer.Argument(callback=not_empty, help="Directory to create (holds the CA and one "
-                                                                "directory per machine).")],
+    out: Annotated[str, typer.Argument(callback=output_dir, help="Directory to create (holds the CA and one "
+                                                                 "directory per machine).")],
     names: Annotated[list[str], _NAMES],
     addresses: Annotated[list[str] | None, _ADDRESSES] = None,
-    days: Annotated[int, typer.Option(callback=positive, help="Validity of the certificates in days.")] = 3650,
+    days: Annotated[int, typer.Option(callback=_days, help="Validity of the certificates in days (up to 36500).")]
+    = 3650,
 ) -> None:
     """A new station CA and keys for each named machine."""
     from rio.machine import keys
@@ -62,7 +78,8 @@ def add(
     out: Annotated[str, typer.Argument(callback=not_empty, help="A directory made by `rio keys generate`.")],
     names: Annotated[list[str], _NAMES],
     addresses: Annotated[list[str] | None, _ADDRESSES] = None,
-    days: Annotated[int, typer.Option(callback=positive, help="Validity of the certificates in days.")] = 3650,
+    days: Annotated[int, typer.Option(callback=_days, help="Validity of the certificates in days (up to 36500).")]
+    = 3650,
 ) -> None:
     """Keys for more machines, signed by the same CA; every machine's peers/ learns them."""
     from rio.machine import keys

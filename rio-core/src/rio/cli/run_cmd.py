@@ -12,7 +12,7 @@ from typing import Annotated, Any
 
 import typer
 
-from rio.cli.args import complete_station, key_values, known_station, not_empty, output_dir, positive
+from rio.cli.args import complete_station, key_values, known_station, not_empty, output_dir, positive, rate_hz
 from rio.cli.exit_status import EXIT_NOT_FOLLOWED, exit_code
 
 __all__ = ["EXIT_NOT_FOLLOWED", "exit_code", "finish", "load_controller", "run", "shows_status"]
@@ -22,12 +22,12 @@ ProfileOption = Annotated[str | None, typer.Option(
     "--profile", callback=output_dir, metavar="DIR",
     help="Write a trace (Perfetto / chrome://tracing), a timeline PNG and a CPU/RAM/GPU table to this directory.")]
 StationArgument = Annotated[str, typer.Argument(
-    callback=known_station, metavar="STATION", autocompletion=complete_station,
+    callback=known_station, autocompletion=complete_station,
     help="Station name (`rio stations list`) or path of a .toml file.")]
 DurationOption = Annotated[float | None, typer.Option(
     "--duration", "-d", callback=positive, metavar="SECONDS", help="Stop after this many seconds.")]
 RateOption = Annotated[float | None, typer.Option(
-    "--rate", callback=positive, metavar="HZ", help="Control rate (Hz; default: the station's).")]
+    "--rate", callback=rate_hz, metavar="HZ", help="Control rate (Hz, 1 to 10000; default: the station's).")]
 RecordOption = Annotated[str | None, typer.Option(
     "--record", callback=output_dir, metavar="DIR",
     help="Record the run as an episode of the dataset DIR (created if absent).")]

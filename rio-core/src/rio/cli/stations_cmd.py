@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from rio.cli.args import not_empty
 from rio.cli.run_cmd import MiddlewareOption, StationArgument
 
 app = typer.Typer(help="Station files.", no_args_is_help=True)
@@ -35,14 +36,16 @@ def check(
     middleware: MiddlewareOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
 ) -> None:
-    """Validate a station completely (drivers, their fields, middleware options, embodiment) and show
-    what it contains; imports the drivers' code but starts nothing."""
+    """Validate a station completely (drivers, their fields, middleware options, embodiment, the network
+    checks of a start: nodes placed on other machines) and show what it contains; imports the drivers' code
+    but starts nothing."""
     from rio.cli.output import console, print_json, table
     from rio.station import load_station
-    from rio.station.build import load_node_class, resolve_embodiment, resolve_middleware
+    from rio.station.build import check_network, load_node_class, resolve_embodiment, resolve_middleware
 
     st = load_station(station)
     mw = resolve_middleware(st, middleware)
+    check_network(st, mw)
     emb, options = resolve_embodiment(st)
     for role in st.components:
         load_node_class(st, role)
@@ -75,10 +78,17 @@ def show(station: StationArgument) -> None:
     typer.echo(text, nl=not text.endswith("\n"))
 
 
+def _toml_path(value: str) -> str:
+    not_empty(value)
+    if not value.endswith(".toml"):
+        raise typer.BadParameter(f"{value}: a station file ends in .toml")
+    return value
+
+
 @app.command("copy")
 def copy(
     station: StationArgument,
-    path: Annotated[str, typer.Argument(help="The .toml file to write.", show_default=False)],
+    path: Annotated[str, typer.Argument(callback=_toml_path, help="The .toml file to write.", show_default=False)],
     force: Annotated[bool, typer.Option("--force", help="Replace the file if it exists.")] = False,
 ) -> None:
     """Write a station's file to PATH to make it yours, and list the lines its author marked to change for
@@ -90,8 +100,6 @@ def copy(
 
     text, source = read_station_text(station)
     out = Path(path)
-    if out.suffix != ".toml":
-        raise RioError(f"{out}: a station file ends in .toml")
     if out.exists() and not force:
         raise RioError(f"{out} exists; pass --force to replace it")
     edits = [(n, line.strip()) for n, line in enumerate(text.splitlines(), start=2) if "EDIT" in line]

@@ -63,11 +63,12 @@ def teleop(
     quiet: QuietOption = False,
     record: RecordOption = None,
     seed: SeedOption = None,
-    episodes: Annotated[int, typer.Option("--episodes", min=1, help="With --record: episodes to keep.")] = 1,
-    on_end: Annotated[str, typer.Option("--on-end", callback=one_of("auto", "ask", "keep", "discard"),
-                                        help="With --record, after each run: ask (keys k/d/r in a terminal), keep "
-                                             "or discard. Default: ask when interactive, else keep. A device's "
-                                             "keep/discard button decides without asking.")] = "auto",
+    episodes: Annotated[int | None, typer.Option("--episodes", min=1,
+                                                 help="With --record: episodes to keep (default 1).")] = None,
+    on_end: Annotated[str | None, typer.Option("--on-end", callback=one_of("auto", "ask", "keep", "discard"),
+                                               help="With --record, after each run: ask (keys k/d/r in a terminal), "
+                                                    "keep or discard. Default: ask when interactive, else keep. A "
+                                                    "device's keep/discard button decides without asking.")] = None,
     align_speed: Annotated[float, typer.Option(callback=positive,
                                                help="Leader arms: follower speed while aligning to its leader "
                                                     "(rad/s).")] = 0.5,
@@ -76,6 +77,9 @@ def teleop(
 ) -> None:
     """Teleoperate a station's arm(s): a twist device in end-effector space, a leader arm joint by joint.
     Prints a summary when it ends."""
+    for given, option in ((episodes, "--episodes"), (on_end, "--on-end")):
+        if given is not None and record is None:  # it would do nothing: said, not silently ignored
+            raise typer.BadParameter("only means something with --record DIR (recording is off)", param_hint=option)
     from rio.cli.run_cmd import finish, shows_status
     from rio.workflows.teleop import prepare_station, run_teleop
 
@@ -92,7 +96,7 @@ def teleop(
     if record is None:
         finish(run(), json_out)
         return
-    finish(_record_episodes(run, record, episodes, on_end, st, instruction, rate, json_out), json_out,
+    finish(_record_episodes(run, record, episodes or 1, on_end or "auto", st, instruction, rate, json_out), json_out,
            printed=True)
 
 

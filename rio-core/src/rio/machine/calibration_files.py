@@ -4,12 +4,17 @@
 (`kind` names the device family and role: `so101-leader`, `gello-xarm7`), so a station file says
 `calibration = "left"` and the driver finds the file. A name that looks like a path (has '/' or ends
 in .json) is used as given. Files are written whole or not at all: a crash mid-save never leaves a
-half-written calibration that would move a servo wrongly."""
+half-written calibration that would move a servo wrongly.
+
+A name is data (a station file someone shared says it): its file must stay in that folder, symlinks
+resolved (`rio.machine.confine`). A path is what the user chose and is used as given."""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
+
+from rio.machine.confine import inside
 
 
 def config_home() -> Path:
@@ -18,10 +23,12 @@ def config_home() -> Path:
 
 
 def calibration_path(name: str, kind: str) -> Path:
-    """A calibration name -> its file; a path as given."""
+    """A calibration name -> its file, which stays in the calibration folder of `kind` (`confine.inside`:
+    a name from a shared station file must not reach elsewhere through a symlink); a path as given."""
     if name.endswith(".json") or "/" in name:
         return Path(name).expanduser()
-    return config_home() / "calibration" / kind / f"{name}.json"
+    folder = config_home() / "calibration" / kind
+    return inside(folder, f"{name}.json", source=f"calibration '{name}'", field=f"its file in {folder}")
 
 
 def save_text(path: Path, text: str) -> Path:

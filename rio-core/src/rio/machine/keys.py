@@ -19,11 +19,14 @@ added later with `rio keys add`); it is never needed to run a station. Secret fi
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import ipaddress
 import os
 import re
+import shutil
 import stat
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,6 +36,11 @@ from rio.errors import ConfigError
 NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_\-]{0,62}$")
 _CA_DIR = "ca"
 _DAYS = 3650
+#: Longest validity a certificate gets (100 years): a certificate cannot end after 9999-12-31, and the date
+#: arithmetic overflowed (a traceback) for `--days 99999999`.
+MAX_DAYS = 36500
+#: One label of a host name (RFC 1123): letters, digits and '-' inside, 1 to 63 characters.
+_LABEL = re.compile(r"^[A-Za-z0-9](?:[A-Za-z0-9-]{0,61}[A-Za-z0-9])?$")
 
 
 @dataclass(frozen=True)
@@ -124,13 +132,21 @@ def generate(out: str | os.PathLike[str], names: list[str], addresses: dict[str,
     root = Path(os.path.expanduser(os.fspath(out)))
     if (root / _CA_DIR).exists():
         raise ConfigError(f"{root} already holds a station CA: add machines with `rio keys add {root} --name ...`")
-    _check_names(names)
-    root.mkdir(parents=True, exist_ok=True)
-    ca_key, ca_cert = _new_ca(days)
-    (root / _CA_DIR).mkdir(mode=0o700)
-    _write(root / _CA_DIR / "ca.key", _pem_key(ca_key), secret=True)
-    _write(root / _CA_DIR / "ca.pem", _pem_cert(ca_cert))
-    return add(root, names, addresses, days)
+    _check_request(names, addresses, days)  # everything that can be refused, before anything is written
+    if root.exists() and not root.is_dir():
+        raise ConfigError(f"{root} exists and is not a directory: name a new directory for the keys")
+    existed = root.exists()
+    try:
+        with _writing(root):
+            root.mkdir(parents=True, exist_ok=True)
+            ca_key, ca_cert = _new_ca(days)
+            (root / _CA_DIR).mkdir(mode=0o700)
+            _write(root / _CA_DIR / "ca.key", _pem_key(ca_key), secret=True)
+            _write(root / _CA_DIR / "ca.pem", _pem_cert(ca_cert))
+        return add(root, names, addresses, days)
+    except ConfigError:  # nothing half made is left: what this call created goes
+        shutil.rmtree(root if not existed else root / _CA_DIR, ignore_errors=True)
+        raise
 
 
 def add(out: str | os.PathLike[str], names: list[str], addresses: dict[str, list[str]] | None = None,
@@ -144,17 +160,25 @@ def add(out: str | os.PathLike[str], names: list[str], addresses: dict[str, list
     ca_dir = root / _CA_DIR
     if not (ca_dir / "ca.key").is_file():
         raise ConfigError(f"{root}: no station CA (ca/ca.key): make one with `rio keys generate {root} --name ...`")
-    _check_names(names)
+    _check_request(names, addresses, days)
     taken = [n for n in names if (root / n).exists()]
     if taken:
         raise ConfigError(f"{root}: {', '.join(taken)} already exist (remove a machine's directory to re-key it)")
     check_private(ca_dir / "ca.key")
     ca_key = serialization.load_pem_private_key((ca_dir / "ca.key").read_bytes(), password=None)
     ca_cert = x509.load_pem_x509_certificate((ca_dir / "ca.pem").read_bytes())
-    made = []
-    for name in names:
-        made.append(_machine(root, name, ca_key, ca_cert, (addresses or {}).get(name, []), days))
-    _share_public_keys(root)
+    made: list[Path] = []
+    started: list[Path] = []
+    try:
+        with _writing(root):
+            for name in names:
+                started.append(root / name)
+                made.append(_machine(root, name, ca_key, ca_cert, (addresses or {}).get(name, []), days))
+            _share_public_keys(root)
+    except ConfigError:  # the machines of this call, half made or not, go
+        for d in started:
+            shutil.rmtree(d, ignore_errors=True)
+        raise
     return made
 
 
@@ -162,6 +186,42 @@ def machines(out: str | os.PathLike[str]) -> list[str]:
     """The machine directories under a `generate` directory."""
     root = Path(os.path.expanduser(os.fspath(out)))
     return sorted(p.name for p in root.iterdir() if (p / "identity").is_file()) if root.is_dir() else []
+
+
+def address_problem(host: str) -> str | None:
+    """Why `host` cannot be written into a certificate as an address a machine is reached at (None: it
+    can): an IP address, or a host name of RFC 1123 labels ('robot-1.lab'); `rio keys generate --address
+    'a=not an ip'` wrote a certificate naming "not an ip"."""
+    try:
+        ipaddress.ip_address(host)
+        return None
+    except ValueError:
+        pass
+    if not host or len(host) > 253 or not all(_LABEL.match(label) for label in host.removesuffix(".").split(".")):
+        return f"'{host}' is neither an IP address nor a host name (letters, digits, '-' and dots)"
+    return None
+
+
+def _check_request(names: list[str], addresses: dict[str, list[str]] | None, days: int) -> None:
+    """Names, addresses and validity of a `generate`/`add`, all checked before anything is written."""
+    _check_names(names)
+    for name, hosts in (addresses or {}).items():
+        for host in hosts:
+            if (why := address_problem(host)) is not None:
+                raise ConfigError(f"address of machine '{name}': {why}")
+    if isinstance(days, bool) or not isinstance(days, int) or not 1 <= days <= MAX_DAYS:
+        raise ConfigError(f"validity of {days!r} days: a certificate is valid for 1 to {MAX_DAYS} days")
+
+
+@contextlib.contextmanager
+def _writing(root: Path) -> Iterator[None]:
+    """An OSError while writing keys (no permission, a full disk, a path under /proc) as one ConfigError
+    naming the directory, not a traceback."""
+    try:
+        yield
+    except OSError as e:
+        where = f" ({e.filename})" if e.filename else ""
+        raise ConfigError(f"{root}: cannot write the keys here: {e.strerror or e}{where}") from None
 
 
 def _check_names(names: list[str]) -> None:
@@ -175,8 +235,6 @@ def _check_names(names: list[str]) -> None:
 
 
 def _machine(root: Path, name: str, ca_key: Any, ca_cert: Any, addresses: list[str], days: int) -> Path:
-    import shutil
-
     import zmq
 
     d = root / name
@@ -196,8 +254,6 @@ def _machine(root: Path, name: str, ca_key: Any, ca_cert: Any, addresses: list[s
 
 def _share_public_keys(root: Path) -> None:
     """Every machine's `peers/` holds every machine's public key."""
-    import shutil
-
     dirs = [root / n for n in machines(root)]
     for src in dirs:
         own = src / "peers" / f"{src.name}.key"

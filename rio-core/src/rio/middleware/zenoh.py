@@ -78,24 +78,36 @@ def _config(mode: str, listen: list[str], connect: list[str], connect_timeout: f
 
 
 def _secure(keys: MachineKeys, station: str) -> dict[str, Any]:
-    """Mutual TLS on every link, and access control: only machines this one trusts, only RIO's keys.
+    """Mutual TLS on every link and access control for RIO's message kinds under `rio/<station>/**`."""
+    return secure_links(keys, [f"rio/{station}/**"], _ACL_MESSAGES)
 
-    Only `tls` links are opened or accepted. The station's CA is the only root, this machine's certificate
-    serves both directions and each side proves itself (`enable_mtls`). Names are not verified: clients
-    connect to whatever address a node advertises, and a certificate names only the machine and the
-    addresses given to `rio keys generate` (measured: another address fails); what authenticates is the
-    private CA plus the access control: deny by default, allow RIO's message kinds under `rio/<station>/**`
-    only to and from certificates whose common name is a machine in `peers/` (one removed from `peers/`
-    connects but sees and sends nothing)."""
+
+def secure_links(keys: MachineKeys, key_exprs: list[str], messages: list[str]) -> dict[str, Any]:
+    """The zenoh settings (config path -> value) that authenticate and encrypt every link with `keys` and let
+    through only `messages` under `key_exprs`, to and from machines this one trusts. Also what other zenoh
+    users of a station's keys build on (the ROS 2 bridge: its domain's key expressions).
+
+    Only `tls` links are opened or accepted (a `tcp/` peer cannot even connect). The station's CA is the only
+    root, this machine's certificate serves both directions and each side proves itself (`enable_mtls`).
+    Names are not verified: clients connect to whatever address a node advertises, and a certificate names
+    only the machine and the addresses given to `rio keys generate` (measured: another address fails); what
+    authenticates is the private CA plus the access control: deny by default, allow `messages` under
+    `key_exprs` only to and from certificates whose common name is a machine in `peers/` (one removed from
+    `peers/` connects but sees and sends nothing)."""
     tls = {"root_ca_certificate": str(keys.ca), "enable_mtls": True, "verify_name_on_connect": False,
            "listen_certificate": str(keys.tls_cert), "listen_private_key": str(keys.tls_key),
            "connect_certificate": str(keys.tls_cert), "connect_private_key": str(keys.tls_key)}
     acl = {"enabled": True, "default_permission": "deny",
-           "rules": [{"id": "rio", "permission": "allow", "flows": ["ingress", "egress"], "messages": _ACL_MESSAGES,
-                      "key_exprs": [f"rio/{station}/**"]}],
+           "rules": [{"id": "rio", "permission": "allow", "flows": ["ingress", "egress"], "messages": list(messages),
+                      "key_exprs": list(key_exprs)}],
            "subjects": [{"id": "trusted", "cert_common_names": sorted(keys.peers)}],
            "policies": [{"id": "trusted", "rules": ["rio"], "subjects": ["trusted"]}]}
     return {"transport/link/protocols": ["tls"], "transport/link/tls": tls, "access_control": acl}
+
+
+def tls_endpoints(endpoints: list[str]) -> list[str]:
+    """With keys every link is TLS: `tcp/host:port` is reached (or listened on) as `tls/host:port`."""
+    return [f"tls/{e.split('/', 1)[1]}" if _proto(e) == "tcp" else e for e in endpoints]
 
 
 def _free_port(host: str) -> int:
@@ -114,9 +126,7 @@ def _proto(endpoint: str) -> str:
     return endpoint.split("/", 1)[0] if "/" in endpoint else ""
 
 
-def _tls(endpoints: list[str]) -> list[str]:
-    """With keys every link is TLS: a router given as `tcp/host:port` is reached as `tls/host:port`."""
-    return [f"tls/{e.split('/', 1)[1]}" if _proto(e) == "tcp" else e for e in endpoints]
+_tls = tls_endpoints
 
 
 def _prefix(station: str, node: str) -> str:

@@ -16,6 +16,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from rio.errors import ConfigError
 from rio.profiling.stats import ProcessSampler, _Unavailable
 from rio.profiling.trace import PART_SUFFIX, Trace, merge_parts
 
@@ -78,7 +79,10 @@ class Profile:
 
     # -- during the run -----------------------------------------------------------------------------
     def __enter__(self) -> Profile:
-        self.parts.mkdir(parents=True, exist_ok=True)
+        try:
+            self.parts.mkdir(parents=True, exist_ok=True)
+        except OSError as e:  # one line naming the folder, not a traceback after the station started
+            raise ConfigError(f"{self.out}: cannot write the profile here ({e.strerror or e})") from None
         for old in self.parts.glob(f"*{PART_SUFFIX}"):  # a previous run into the same folder
             old.unlink()
         enable(self.parts)

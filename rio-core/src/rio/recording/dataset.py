@@ -10,7 +10,9 @@ Reading refuses damaged data: before a file's contents are first used it is chec
 and sha256 its episode.json recorded, and a mismatch raises `DamagedEpisode` naming the episode and
 file (an all-zero steps.bin must never reach an export or a robot as zero actions). `allow_damaged=True`
 reads it anyway, with one `DamagedEpisodeWarning` per episode. Damaged metadata (dataset.json,
-episode.json, steps.json) is a one-line ConfigError naming the file.
+episode.json, steps.json) is a one-line ConfigError naming the file, and so is a name in it that points
+outside the dataset (`rio.machine.confine`: an episode `dir`, a `files` key, a stream's file): such a
+name is never followed, by any reader.
 """
 
 from __future__ import annotations
@@ -25,8 +27,10 @@ from typing import Any
 import numpy as np
 
 from rio.errors import ConfigError, RioError
+from rio.machine.confine import OutsideRoot, inside
 from rio.recording import index as I
 from rio.recording import paths as L
+from rio.recording.checks import file_problems
 from rio.recording.durable import read_json, sha256_file
 from rio.recording.episode_writer import FRAME_RECORD
 from rio.recording.flatten import StepSchema
@@ -58,6 +62,8 @@ class Verification:
 
     results: dict[str, str | None] = field(default_factory=dict)
     warned: bool = False
+    #: what `checks.file_problems` found (None: not checked yet)
+    consistency: list[str] | None = None
 
 
 def load_schema(path: Path) -> StepSchema:
@@ -159,17 +165,24 @@ class Episode:
             raise DatasetError(f"episode {self.index} has no stream '{key}' (streams: {sorted(self.streams)})")
         return self.streams[key]
 
+    def file(self, name: str, field: str) -> Path:
+        """The path of file `name` that episode.json names in `field`, confined to the episode directory
+        (`OutsideRoot`, naming episode.json and the field, if it points outside)."""
+        return inside(self.path, name, source=self.path / L.EPISODE_META, field=field)
+
     def frame_times(self, camera: str, kind: str = "rgb") -> np.ndarray:
         """(N,) records (t: capture time, step: first step that saw the frame)."""
         info = self.stream(camera, kind)
+        path = self.file(info["frames_file"], f"streams[{L.stream_key(camera, kind)!r}].frames_file")
         self.require_intact(info["frames_file"])
-        return np.fromfile(self.path / info["frames_file"], FRAME_RECORD, count=info["frames"])
+        return np.fromfile(path, FRAME_RECORD, count=info["frames"])
 
     def frames(self, camera: str, kind: str = "rgb") -> Iterator[np.ndarray]:
         """Every encoded frame of a stream, in order (depth: uint16 in `depth_unit_m` units)."""
         info = self.stream(camera, kind)
+        path = self.file(info["file"], f"streams[{L.stream_key(camera, kind)!r}].file")
         self.require_intact(info["file"])
-        yield from read_frames(self.path / info["file"], kind, info["height"], info["width"])
+        yield from read_frames(path, kind, info["height"], info["width"])
 
     def step_frame_index(self, camera: str, kind: str = "rgb") -> np.ndarray:
         return self.column(f"cam.{camera}.{kind}")
@@ -217,9 +230,12 @@ class Episode:
     def file_problem(self, name: str) -> str | None:
         """Why file `name` differs from what episode.json recorded (None: intact, or not recorded)."""
         want = self.meta.get("files", {}).get(name)
-        p = self.path / name
         if not isinstance(want, dict):
             return None
+        try:
+            p = self.file(name, f"files[{name!r}]")
+        except OutsideRoot as e:
+            return str(e)
         if not p.exists():
             return f"{name}: missing"
         if p.stat().st_size != want.get("bytes") or sha256_file(p) != want.get("sha256"):
@@ -227,8 +243,15 @@ class Episode:
         return None
 
     def verify(self) -> list[str]:
-        """Files whose size or sha256 differ from episode.json (empty: the episode is intact)."""
-        return [bad for name in self.meta.get("files", {}) if (bad := self.file_problem(name))]
+        """Files whose size or sha256 differ from episode.json, and values of episode.json the files
+        contradict (`checks.file_problems`); empty: the episode is intact."""
+        return [bad for name in self.meta.get("files", {}) if (bad := self.file_problem(name))] + self.consistency()
+
+    def consistency(self) -> list[str]:
+        """`checks.file_problems`, once per Verification (steps, frames and videos against episode.json)."""
+        if self.verification.consistency is None:
+            self.verification.consistency = file_problems(self)
+        return self.verification.consistency
 
     def require_intact(self, *names: str) -> None:
         """Refuse to read damaged data: files `names` (default: all of them) are checked once against
@@ -248,8 +271,18 @@ class Episode:
                           stacklevel=2)
 
     def check(self) -> None:
-        """`require_intact` for every file: what export and replay call before using an episode."""
+        """`require_intact` for every file, and episode.json's values against the files (a length steps.bin
+        does not hold, a "video" that is none): what export, replay and merge call before using an episode."""
         self.require_intact()
+        bad = self.consistency()
+        if not bad:
+            return
+        if not self.allow_damaged:
+            raise DamagedEpisode(self.path, bad)
+        if not self.verification.warned:
+            self.verification.warned = True
+            warnings.warn(DamagedEpisodeWarning(f"{self.path}: damaged episode used anyway: {'; '.join(bad)}"),
+                          stacklevel=2)
 
 
 def episode_problems(path: Path) -> list[str]:
@@ -287,9 +320,15 @@ class Dataset:
     def fps(self) -> float | None:
         return self.index.get("fps")
 
+    def episode_dir(self, entry: dict[str, Any]) -> Path:
+        """An index entry's directory, confined to the dataset (`OutsideRoot` naming dataset.json and the
+        entry otherwise: a downloaded index must not send readers elsewhere)."""
+        pos = next((k for k, e in enumerate(self.episodes) if e is entry), entry.get("index"))
+        return inside(self.root, entry["dir"], source=self.root / L.INDEX, field=f"episodes[{pos}].dir")
+
     def _open(self, entry: dict[str, Any]) -> Episode:
         v = self._verification.setdefault(entry["index"], Verification())
-        return Episode(self.root / entry["dir"], allow_damaged=self.allow_damaged, verification=v)
+        return Episode(self.episode_dir(entry), allow_damaged=self.allow_damaged, verification=v)
 
     def episode(self, k: int) -> Episode:
         """Episode by its index (the number in its directory name)."""
@@ -306,17 +345,29 @@ class Dataset:
         """{episode directory: problems} for every indexed episode that is not intact (hashes every file)."""
         out = {}
         for e in self.episodes:
-            if bad := episode_problems(self.root / e["dir"]):
+            try:
+                path = self.episode_dir(e)
+            except OutsideRoot as err:
+                out[e["dir"]] = [str(err)]
+                continue
+            if bad := episode_problems(path):
                 out[e["dir"]] = bad
         return out
+
+    def _dir_or_none(self, entry: dict[str, Any]) -> Path | None:
+        try:
+            return self.episode_dir(entry)
+        except OutsideRoot:
+            return None
 
     def partials(self) -> list[Path]:
         return [p for p, partial in L.scan(self.root).values() if partial]
 
     def summary(self) -> dict[str, Any]:
         eps = self.episodes
-        dirs = [self.root / e["dir"] for e in eps]
-        size = sum(f.stat().st_size for d in dirs if d.is_dir() for f in d.iterdir() if f.is_file())
+        dirs = [d for e in eps if (d := self._dir_or_none(e)) is not None]
+        size = sum(f.stat().st_size for d in dirs if d.is_dir() for f in d.iterdir()
+                   if f.is_file() and not f.is_symlink())
         cams = sorted({k for e in eps for k in e.get("cameras", {})})
         return {"path": str(self.root), "episodes": len(eps), "steps": self.index.get("total_steps", 0),
                 "fps": self.fps, "station": self.index.get("station"), "embodiment": self.index.get("embodiment"),

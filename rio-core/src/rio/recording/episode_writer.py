@@ -21,6 +21,7 @@ import numpy as np
 
 from rio import clock
 from rio.errors import FrameGone
+from rio.machine.confine import inside
 from rio.recording import paths as L
 from rio.recording.durable import AppendFile, describe_files, fsync_dir, move_aside, write_json_atomic
 from rio.recording.encoder import EncoderProcess
@@ -138,7 +139,12 @@ class EpisodeWriter:
             self._event({"step": i, "meta": changed})
 
     def _start(self, step: Any) -> None:
-        self.schema = StepSchema.from_step(step, self.action_dim)
+        schema = StepSchema.from_step(step, self.action_dim)
+        for cam, kinds in schema.cameras.items():  # a camera's name becomes file names: they stay in the episode
+            for kind in kinds:
+                for name in (L.video_file(cam, kind), L.frames_file(cam, kind)):
+                    inside(self.dir, name, source=self.dir, field=f"camera {cam!r}")
+        self.schema = schema
         write_json_atomic(self.dir / L.STEPS_SCHEMA, self.schema.to_json())
         self.steps = AppendFile(self.dir / L.STEPS)
 

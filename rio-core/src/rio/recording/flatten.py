@@ -84,11 +84,21 @@ def class_path(cls: type) -> str:
     return f"{cls.__module__}:{cls.__qualname__}"
 
 
-def load_class(path: str) -> type:
+def load_class(path: str, base: type | None = None) -> type:
+    """'module:Qualified.Name' -> the class. With `base`, anything but a subclass of it is one ConfigError:
+    the path comes from a dataset's steps.json, and what it names is then called with the step's fields
+    (`os:system` must not be)."""
+    from rio.errors import ConfigError
+
     mod, _, name = path.partition(":")
-    obj: Any = importlib.import_module(mod)
-    for part in name.split("."):
-        obj = getattr(obj, part)
+    try:
+        obj: Any = importlib.import_module(mod)
+        for part in name.split("."):
+            obj = getattr(obj, part)
+    except (ImportError, AttributeError, ValueError) as e:
+        raise ConfigError(f"class '{path}' cannot be loaded ({type(e).__name__}: {e})") from None
+    if base is not None and not (isinstance(obj, type) and issubclass(obj, base)):
+        raise ConfigError(f"'{path}' is not {base.__name__} or a subclass of it; refused")
     return obj
 
 
@@ -174,7 +184,7 @@ class StepSchema:
 
     # -- records -> steps ---------------------------------------------------------------------------
     def observation(self, rec: np.void | np.ndarray, cameras: dict[str, Camera] | None = None) -> Observation:
-        cls = load_class(self.observation_class)
+        cls = load_class(self.observation_class, Observation)
         kw: dict[str, Any] = {}
         names = {f.name for f in dataclasses.fields(cls)}
         for name in self.names:

@@ -6,22 +6,38 @@ native `Dataset`; import writes a native dataset with a `Recorder`, so imported 
 crash-safe layout and checks as recorded data.
 
 `export_dataset` is the one way to export: it verifies the chosen episodes first (a damaged one is
-refused before anything is written, unless the dataset was opened with `allow_damaged`), and a failed
-export removes what it had written, so a partial output never passes for a finished one.
+refused before anything is written, unless the dataset was opened with `allow_damaged`), refuses an
+output inside the dataset it reads, checks free space before it starts and about once a second while it
+runs (through the progress calls), and a failed export, whatever stopped it (a full disk, a permission,
+Ctrl-C), removes what it had written, so a partial output never passes for a finished one. An I/O error
+ends as one `ExportError` line saying what failed and that the partial output is gone.
 """
 
 from __future__ import annotations
 
+import errno
 import shutil
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
 
 from rio.config import Config, Configurable
-from rio.recording.dataset import Dataset
+from rio.machine.confine import is_inside
+from rio.recording import recorder as R
+from rio.recording.dataset import Dataset, DatasetError
 
 #: progress(done, total, what): called as work advances (the CLI draws a rich progress bar from it)
 Progress = Callable[[int, int, str], None]
+
+#: Free space below which an export does not start, and stops (the recorder's margin).
+MIN_FREE_BYTES = R.MIN_FREE_BYTES
+#: Seconds between free-space checks while an export runs (at its progress calls).
+_SPACE_EVERY_S = 1.0
+
+
+class ExportError(DatasetError):
+    """An export that cannot start or could not finish (its partial output is removed)."""
 
 
 class DatasetFormat(Configurable):
@@ -61,19 +77,67 @@ def get_format(name: str, options: dict[str, Any] | None = None, registry: Any =
 
 
 def export_dataset(fmt: DatasetFormat, dataset: Dataset, out: str | Path, *, episodes: list[int] | None = None,
-                   progress: Progress | None = None) -> dict[str, Any]:
-    """`fmt.export` after verifying the episodes it will read; if it fails, whatever it created at
-    `out` is removed (what was there before is left alone)."""
+                   progress: Progress | None = None, min_free_bytes: int = MIN_FREE_BYTES) -> dict[str, Any]:
+    """`fmt.export` after verifying the episodes it will read (see the module docstring); if it fails,
+    whatever it created at `out` is removed (what was there before is left alone). `min_free_bytes`: the
+    free space on `out`'s disk below which it does not start, and stops."""
     out = Path(out)
+    if is_inside(out, dataset.root):
+        raise ExportError(f"{out}: inside the dataset it would be exported from ({dataset.root}); "
+                          "write the export somewhere else")
     chosen = episodes if episodes is not None else [e["index"] for e in dataset.episodes]
     for k in chosen:
         dataset.episode(k).check()
+    space = _SpaceWatch(out, min_free_bytes)
+    space.check("not starting the export")
     before = _entries(out)
+
+    def advance(done: int, total: int, what: str) -> None:
+        space.check("export stopped", every_s=_SPACE_EVERY_S)
+        if progress is not None:
+            progress(done, total, what)
+
     try:
-        return fmt.export(dataset, out, episodes=episodes, progress=progress)
-    except BaseException:
+        return fmt.export(dataset, out, episodes=episodes, progress=advance)
+    except BaseException as e:
         _remove_new(out, before)
-        raise
+        cause = _os_error(e)
+        if cause is None or isinstance(e, DatasetError):
+            raise
+        what = errno.errorcode.get(cause.errno or 0, "")
+        where = f" ({cause.filename})" if cause.filename else ""
+        raise ExportError(f"{out}: the export failed: {cause.strerror or cause}{f' [{what}]' if what else ''}"
+                          f"{where}; its partial output was removed") from None
+
+
+class _SpaceWatch:
+    """Free space on the disk an export writes to: `check` raises ExportError below `min_free` (at most once
+    per `every_s` seconds it measures; `rio.recording.recorder.free_bytes`, which tests replace)."""
+
+    def __init__(self, out: Path, min_free: int):
+        self.out, self.min_free, self.t_last = out, int(min_free), -float("inf")
+        self.where = next((p for p in (out, *out.parents) if p.exists()), Path("."))
+
+    def check(self, doing: str, every_s: float = 0.0) -> None:
+        now = time.monotonic()
+        if now - self.t_last < every_s or self.min_free <= 0:
+            return
+        self.t_last = now
+        free = R.free_bytes(self.where)
+        if free < self.min_free:
+            raise ExportError(f"{self.out}: {doing}: {free / 1e6:.1f} MB free on its disk, an export needs "
+                              f"{self.min_free / 1e6:.0f} MB; free some space" +
+                              ("; its partial output was removed" if doing != "not starting the export" else ""))
+
+
+def _os_error(e: BaseException | None) -> OSError | None:
+    """The OSError behind a failure (itself, or what it was raised from or during), None if none."""
+    seen = 0
+    while e is not None and seen < 16:
+        if isinstance(e, OSError):
+            return e
+        e, seen = e.__cause__ or e.__context__, seen + 1
+    return None
 
 
 def _entries(out: Path) -> set[str] | None:

@@ -8,12 +8,14 @@ the index rewrite, the episode is complete on disk but missing here; `rebuild` (
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Any
 
 from rio.errors import ConfigError, RioError
 from rio.recording import paths as L
+from rio.recording.checks import metadata_problems
 from rio.recording.durable import read_json, write_json_atomic
 
 
@@ -46,16 +48,40 @@ def load(root: Path) -> dict[str, Any]:
     if not isinstance(eps, list) or not all(isinstance(e, dict) and isinstance(e.get("index"), int)
                                             and isinstance(e.get("dir"), str) for e in eps):
         raise ConfigError(f"{path}: damaged (its episode list is not a list of {{index, dir}} entries){hint}")
+    for k, e in enumerate(eps):
+        if bad := _entry_problem(e):
+            raise ConfigError(f"{path}: damaged (episodes[{k}].{bad}){hint}")
     return data
 
 
+def _entry_problem(entry: dict[str, Any]) -> str | None:
+    """What is wrong with the values of one index entry that `rio datasets info` shows (None: nothing)."""
+    def number(v: Any) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+    if "length" in entry and not (isinstance(entry["length"], int) and entry["length"] >= 0):
+        return f"length: {entry['length']!r} is not a number of steps"
+    for key in ("duration_s", "fps"):
+        if entry.get(key) is not None and not number(entry[key]):
+            return f"{key}: {entry[key]!r} is not a finite number"
+    if entry.get("instruction") is not None and not isinstance(entry["instruction"], str):
+        return f"instruction: a {type(entry['instruction']).__name__}, not text"
+    cams = entry.get("cameras", {})
+    if not isinstance(cams, dict) or not all(isinstance(v, dict) for v in cams.values()):
+        return "cameras: not a table of camera streams"
+    return None
+
+
 def load_episode_meta(path: Path) -> dict[str, Any]:
-    """An episode directory's episode.json; damaged (or not an episode's) is one ConfigError naming it."""
+    """An episode directory's episode.json; damaged, not an episode's, or holding impossible values
+    (`checks.metadata_problems`: fps 0, a stream of an unknown kind) is one ConfigError naming it."""
     meta_path = path / L.EPISODE_META
     meta = read_json(meta_path)
-    if not isinstance(meta, dict) or not isinstance(meta.get("index"), int) or not isinstance(meta.get("length"), int) \
-            or not isinstance(meta.get("fps"), (int, float)):
+    if not isinstance(meta, dict) or not all(k in meta for k in ("index", "length", "fps")):
         raise ConfigError(f"{meta_path}: damaged (not an episode's metadata: index, length and fps are required)")
+    problems = metadata_problems(meta)
+    if problems:
+        raise ConfigError(f"{meta_path}: damaged (impossible values: {'; '.join(problems)})")
     meta.setdefault("dir", path.name)
     return meta
 
@@ -108,5 +134,7 @@ def rebuild(root: Path, *, salvage: bool = False) -> tuple[dict[str, Any], list[
             notes.append(f"added {path.name} (finished but missing from the index)")
     for e in old["episodes"]:
         if e["index"] not in {x["index"] for x in new["episodes"]}:
-            notes.append(f"dropped {e.get('dir')} from the index (its directory is missing)")
+            there = "\x00" not in e["dir"] and (root / e["dir"]).exists() and L.escapes(root, root / e["dir"])
+            notes.append(f"dropped {e.get('dir')} from the index (" + ("it points outside the dataset)" if there
+                                                                        else "its directory is missing)"))
     return new, notes

@@ -46,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from rio.machine.confine import inside
 from rio.recording import index as I
 from rio.recording import paths as L
 from rio.recording.dataset import DamagedEpisode, Dataset, DatasetError, Episode
@@ -110,7 +111,7 @@ def embodiment_mix(dataset: Dataset) -> dict[str, int]:
     out: dict[str, int] = {}
     for e in dataset.episodes:
         try:
-            tag = embodiment_of(I.load_episode_meta(dataset.root / e["dir"]))["tag"]
+            tag = embodiment_of(I.load_episode_meta(dataset.episode_dir(e)))["tag"]
         except RioError:
             continue
         out[tag] = out.get(tag, 0) + 1
@@ -308,7 +309,9 @@ def _write_episode(out: Path, index: int, ep: Episode, inp: _Input, fields: dict
     for name in recorded:
         if name in files:
             continue
-        files[name] = _copy_checked(ep.path / name, partial / name, recorded[name])
+        field = f"files[{name!r}]"  # read from the input's episode.json: confined on both sides
+        files[name] = _copy_checked(ep.file(name, field), inside(partial, name, source=ep.path / L.EPISODE_META,
+                                                                 field=field), recorded[name])
     rec_path = ep.path / L.RECORDING
     if rec_path.exists():  # what repair rebuilds episode.json from: keeps the merge facts too
         try:

@@ -24,8 +24,11 @@ leaves is a readable prefix; `rio datasets repair` turns it into a finished epis
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
+
+from rio.machine.confine import is_inside
 
 FORMAT = "rio-dataset"
 VERSION = 1
@@ -79,16 +82,22 @@ def frames_file(camera: str, kind: str) -> str:
     return f"{stream_key(camera, kind)}.frames.bin"
 
 
+def escapes(root: Path, entry: Path) -> bool:
+    """Whether an entry of the dataset directory resolves outside it (a symlinked episode directory)."""
+    return not is_inside(entry, root) or os.path.realpath(entry) == os.path.realpath(root)
+
+
 def scan(root: Path) -> dict[int, tuple[Path, bool]]:
     """Episode directories under `root`: index -> (path, is_partial). A finished directory wins over
     a partial one of the same index (which a crash between rename steps cannot produce, but a
-    user's copy might)."""
+    user's copy might). One that is a symlink out of the dataset is left out (`escapes`): nothing
+    reads it, and repair never writes there."""
     out: dict[int, tuple[Path, bool]] = {}
     if not root.is_dir():
         return out
     for p in sorted(root.iterdir()):
         parsed = parse_episode_dir(p.name) if p.is_dir() else None
-        if parsed is None:
+        if parsed is None or escapes(root, p):
             continue
         idx, partial = parsed
         if idx in out and not out[idx][1]:

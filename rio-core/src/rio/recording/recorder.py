@@ -26,6 +26,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from rio.env import environment_names
 from rio.errors import RioError
 from rio.machine import host
 from rio.recording import index as I
@@ -37,8 +38,6 @@ from rio.recording.video import VideoOptions, video_problem
 
 #: free space below which no episode starts and one in progress is ended (kept while it still can be)
 MIN_FREE_BYTES = 64 << 20
-#: The elements of a recorded pose (position in m, then the unit quaternion w, x, y, z).
-POSE_NAMES = ("x", "y", "z", "qw", "qx", "qy", "qz")
 
 
 class RecordingError(RioError):
@@ -150,8 +149,8 @@ class Recorder:
         world: `object_names()`, rows of its `object_poses`), as `environment_state`, {column: element
         names} (`cube.x`, ..., `cube.qz`), which exporters turn into `observation.environment_state`."""
         self.info["station"] = self.info.get("station") or getattr(env, "station", None)
-        state = {f"meta.sensors.{name}.object_poses": [f"{o}.{c}" for o in client.object_names() for c in POSE_NAMES]
-                 for name, client in (getattr(env, "sensors", None) or {}).items() if "object_names" in dir(client)}
+        state = {f"meta.sensors.{name}.object_poses": names
+                 for name, names in environment_names(getattr(env, "sensors", None) or {}).items()}
         if state:
             self.info["environment_state"] = state
         robot = getattr(env, "robot", None)
@@ -170,8 +169,11 @@ class Recorder:
             return self
         if self.cameras and (why := video_problem(self.video, depth=self.depth)) is not None:
             raise RecordingError(f"cannot record the station's cameras: {why}")
-        self.root.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.root / L.LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.root / L.LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as e:  # a path that cannot hold a dataset (a file on the way, /proc, no permission)
+            raise RecordingError(f"{self.root}: cannot record here ({e.strerror or e})") from None
         if not host.try_lock(fd):
             os.close(fd)
             raise RecordingError(f"another recorder is writing {self.root} (it holds {self.root / L.LOCK})") from None

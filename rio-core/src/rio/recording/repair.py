@@ -32,6 +32,7 @@ import numpy as np
 
 from rio.errors import RioError
 from rio.machine import host
+from rio.machine.confine import OutsideRoot, inside
 from rio.recording import index as I
 from rio.recording import paths as L
 from rio.recording.dataset import episode_problems, load_schema
@@ -149,7 +150,13 @@ def repair_partial(root: Path, path: Path, index: int, report: RepairReport) -> 
     notes: list[str] = []
     for cam, kinds in schema.cameras.items():
         for kind in kinds:
-            key, vfile, ffile = L.stream_key(cam, kind), path / L.video_file(cam, kind), path / L.frames_file(cam, kind)
+            key = L.stream_key(cam, kind)
+            try:  # the camera's name comes from steps.json: its files must stay in the episode
+                vfile = inside(path, L.video_file(cam, kind), source=schema_path, field=f"cameras[{cam!r}]")
+                ffile = inside(path, L.frames_file(cam, kind), source=schema_path, field=f"cameras[{cam!r}]")
+            except OutsideRoot as e:
+                set_aside(root, path, f"its step layout names a camera outside the episode ({e})", report)
+                return
             logged = ffile.stat().st_size // FRAME_RECORD.itemsize if ffile.exists() else 0
             if not vfile.exists() or logged == 0:
                 decodable, clean, shape = 0, True, None

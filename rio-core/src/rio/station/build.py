@@ -156,6 +156,16 @@ def make_station(station: str | os.PathLike | Station, *, middleware: str | None
     return servers, clients, env
 
 
+def check_network(st: Station, mw: Middleware) -> None:
+    """What a start checks of the station's network, without starting anything (`rio stations check`):
+    every node placed on another machine (`[machines]`) is served there with options its middleware accepts,
+    so an address beyond loopback without keys (or `insecure = true`) is refused here as at every start.
+    The middleware's own options were checked when `mw` was made (`resolve_middleware`)."""
+    for machine, sec in st.machines.items():
+        for role in sec.nodes:
+            _placed(st, mw, role, machine)
+
+
 def _placed(st: Station, mw: Middleware, role: str, machine: str) -> tuple[Middleware, dict[str, Any]]:
     """(the middleware a placed node is served with on its machine, the address others reach it at)."""
     sec = st.machines[machine]

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from rio.clock import RATE_RANGE_HZ
 from rio.plugins.specs import Spec
 
 if TYPE_CHECKING:
@@ -17,14 +18,14 @@ if TYPE_CHECKING:
 class MiddlewareSection(BaseModel):
     """`[middleware]`: `name` plus that middleware's own options (checked by its `Config` model)."""
 
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
     name: str = "shm"
 
 
 class EmbodimentSection(BaseModel):
     """`[embodiment]` (optional): `name` overrides inference; other keys go to its `Config` model."""
 
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
     name: str | None = None
 
 
@@ -36,7 +37,7 @@ class MachineSection(BaseModel):
     `port` on (in `nodes` order; zmq takes two per node), so the other machines can reach it without a
     directory service."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     #: Host name or IP address at which the other machines reach this one.
     address: str = Field(min_length=1, max_length=253)
     #: Roles served there (the rest run where the control loop runs).
@@ -48,12 +49,15 @@ class MachineSection(BaseModel):
 
 
 class StationFile(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    #: Every number finite (`rate_hz = inf` passed `gt=0` and made a loop that never sleeps), as in
+    #: components' configs (`rio.config.Config`).
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     #: Also the middleware namespace (zenoh key expressions, shm segment names): keep it short.
     name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_\-]*$", max_length=64)
     description: str = ""
-    #: Rate of the control loop (Hz); `Env.step` targets commands one period ahead by default.
-    rate_hz: float = Field(30.0, gt=0)
+    #: Rate of the control loop (Hz), within `rio.clock.RATE_RANGE_HZ`; `Env.step` targets commands one
+    #: period ahead by default.
+    rate_hz: float = Field(30.0, ge=RATE_RANGE_HZ[0], le=RATE_RANGE_HZ[1])
     #: How long its nodes may take to be ready before the start is given up (a node that says how long it
     #: waits for its device, `connect_timeout_s`, gets that plus 15 s where longer). `--ready-timeout` overrides.
     ready_timeout_s: float = Field(60.0, gt=0, le=3600)
