@@ -67,6 +67,10 @@ _POLL_MS = int(POLL_S * 1000)
 _ROUTER_HWM = 2
 #: Messages the ROUTER thread takes in a row before it forwards other threads' answers.
 _BATCH = 64
+#: Refused connections kept open for the client's HELLO, to tell it why (beyond: closed without a word) ...
+_REFUSED_MAX = 16
+#: ... for at most this long (s), and this long after the answer, so that it leaves before the close.
+_REFUSAL_S = 1.0
 _WILDCARD = ("0.0.0.0", "*", "", "::")
 #: Handshake failures a client's monitor reports when the two sides' authentication disagree.
 _AUTH_EVENTS = (zmq.EVENT_HANDSHAKE_FAILED_AUTH | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
@@ -113,6 +117,7 @@ class ZmqServer(NetworkServer):
         self._conns: dict[int, Any] = {}  # file descriptor -> the peer's (host, port), while connected
         self.admission.idle_s = math.inf  # an idle zmq connection holds nothing: only strangers are timed out
         self._fd_of: dict[Any, int] = {}  # identity -> the file descriptor of its connection
+        self._refused: dict[int, tuple[str, float]] = {}  # fd of a refused connection -> (why, when to close it)
 
     def _socket(self, kind: int, option: int | None = None, value: int = 0) -> zmq.Socket:
         s = self._ctx.socket(kind)
@@ -206,14 +211,21 @@ class ZmqServer(NetworkServer):
                     continue
                 peer, body = msg[0].bytes, msg[1].buffer
                 try:
-                    self._fd_of[peer] = msg[1].get(zmq.SRCFD)
+                    fd = msg[1].get(zmq.SRCFD)
                 except zmq.ZMQError:  # a libzmq without the property: connections are not told apart
-                    pass
+                    fd = None
+                if fd is not None and fd in self._refused:
+                    self._on_refused(fd, peer, bytes(body[:1]))
+                    continue
+                if fd is not None:
+                    self._fd_of[peer] = fd
                 self.heard(peer)
                 try:
                     self.on_message(peer, bytes(body[:1]), body[1:])
                 except Exception:  # never let one bad message end the thread
                     log.exception("node '%s': while handling a zmq message", self.name)
+            if self._refused:
+                self._close_refused()
 
     # -- connections (rio.middleware.protocol.admission) ---------------------------------------------
     def _connections(self, monitor: zmq.Socket) -> None:
@@ -233,13 +245,35 @@ class ZmqServer(NetworkServer):
                 if where is None:  # gone already: its DISCONNECTED follows
                     continue
                 self._conns[fd] = where
-                if self.admit(fd, where[0]) is not None:
+                why = self.admit(fd, where[0])
+                if why is None:
+                    continue
+                if len(self._refused) < _REFUSED_MAX:  # its client hears why in the answer to its HELLO
+                    self._refused[fd] = (why, clock.now() + self.admission.handshake_s)
+                else:
                     self._disconnect(fd, "refused")
             elif event["event"] == zmq.EVENT_DISCONNECTED:
                 self._conns.pop(fd, None)
+                self._refused.pop(fd, None)
                 self.admission.left(fd)
                 for peer in [p for p, f in self._fd_of.items() if f == fd]:  # bounded by the connections open
                     del self._fd_of[peer]
+
+    def _on_refused(self, fd: int, peer: bytes, kind: bytes) -> None:
+        """A message on a refused connection: a HELLO is told why (TooManyConnections at its client), anything
+        else is dropped; the connection is closed `_REFUSAL_S` later."""
+        why, _ = self._refused[fd]
+        if kind == HELLO:
+            self._send(peer, HELLO, self.refusal(why))
+        else:
+            self._warn("node '%s': dropped a message on a refused connection from %s", self.name, self._conns.get(fd))
+        self._refused[fd] = (why, min(self._refused[fd][1], clock.now() + _REFUSAL_S))
+
+    def _close_refused(self) -> None:
+        now = clock.now()
+        for fd in [fd for fd, (_, t) in self._refused.items() if t <= now]:
+            del self._refused[fd]
+            self._disconnect(fd, "refused")
 
     def heard(self, peer: Any) -> None:
         fd = self._fd_of.get(peer)

@@ -55,12 +55,13 @@ class NetworkConfig(MiddlewareConfig):
                                    "all peers together (raised to one message where that is larger): what a node "
                                    "keeps for its peers is bounded whatever their number; past it, the peer holding "
                                    "the most gives way, as past max_pending")
-    max_connections: int = Field(64, ge=1, description="connections a node serves at once, where the transport has "
-                                 "connections (portal); a newcomer takes the slot of the oldest that has not finished "
-                                 "its handshake, else is refused with 'too many connections'")
-    max_connections_per_address: int = Field(32, ge=1, description="the same from one address")
+    max_connections: int = Field(128, ge=1, description="connections a node serves at once, where the transport has "
+                                 "connections (zmq, portal; a zmq client has two); a newcomer takes the slot of the "
+                                 "oldest that has not finished its handshake, else is refused with 'too many "
+                                 "connections'")
+    max_connections_per_address: int = Field(64, ge=1, description="the same from one address")
     handshake_timeout_s: float = Field(5.0, gt=0, description="a connection that has not finished the handshake "
-                                       "after this long is dropped (portal)")
+                                       "after this long is dropped (zmq, portal)")
     idle_timeout_s: float = Field(30.0, gt=0, description="a connection that has sent nothing for this long is "
                                   "dropped (portal; a client's long poll goes out every heartbeat)")
 

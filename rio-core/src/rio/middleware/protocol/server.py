@@ -184,6 +184,11 @@ class NetworkServer(ServerTransport):
                           "epoch": self._epoch, "count": last[0] if last else 0, "newest": last[1] if last else None,
                           "heartbeat_s": self.config.heartbeat_s})
 
+    def refusal(self, why: str) -> bytes:
+        """The answer to a HELLO on a connection `admit` refused (where the transport can only answer one):
+        its client raises `TooManyConnections` with `why`."""
+        return wire.pack({"protocol": m.VERSION, "node": self.name, "refused": why})
+
     def _ack(self, peer: Hashable, rid: int, status: int, a: Any, b: Any, tag: Any) -> None:
         if status == m.OK:
             self.vouch(peer, new=False)

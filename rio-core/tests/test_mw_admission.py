@@ -1,6 +1,7 @@
-"""Who may hold a connection to a portal node (rio.middleware.protocol.admission): connections that never
-finish the handshake lock nobody out, silent ones are closed, and a client refused for want of room is told
-"too many connections", not that the node is not running. Attacks are raw TCP sockets."""
+"""Who may hold a connection to a node (rio.middleware.protocol.admission; portal and zmq, whose peers are
+connections): connections that never finish the handshake lock nobody out, silent ones are closed, and a
+client refused for want of room is told "too many connections", not that the node is not running. Attacks
+are raw TCP sockets."""
 
 from __future__ import annotations
 
@@ -60,15 +61,19 @@ def test_a_connection_without_handshake_is_closed_and_a_real_client_stays_past_t
             assert c.echo(1.5) == 1.5
 
 
-def test_a_node_without_room_says_too_many_connections():
-    """Clients that finished their handshake hold their slots; the next one is refused with the reason, as
-    TooManyConnections (a RioError), not NodeDiedError ("not running")."""
-    with ServerManager("portal", [serve(EchoNode, name="full")], mw_options={"max_connections_per_address": 2}):
-        with connect(EchoNode, "portal", name="full") as a, connect(EchoNode, "portal", name="full") as b:
+@pytest.mark.parametrize("mw, per_client", [("portal", 1), ("zmq", 2)])
+def test_a_node_without_room_says_too_many_connections(mw, per_client):
+    """Clients that finished their handshake hold their slots (a zmq client has two connections, a portal
+    client one); the next one is refused with the reason, as TooManyConnections (a RioError), not
+    NodeDiedError ("not running") nor, on zmq, a failed authentication."""
+    options = {"max_connections_per_address": 2 * per_client}
+    with ServerManager(mw, [serve(EchoNode, name="full")], mw_options=options):
+        with connect(EchoNode, mw, name="full") as a, connect(EchoNode, mw, name="full") as b:
             assert a.echo(1.0) == 1.0 and b.echo(2.0) == 2.0
             with pytest.raises(TooManyConnections, match="too many connections") as e:
-                connect(EchoNode, "portal", name="full")
+                connect(EchoNode, mw, name="full")
             assert not isinstance(e.value, NodeDiedError) and "not running" not in str(e.value)
             assert a.echo(3.0) == 3.0  # the refusal cost the others nothing
-        with connect(EchoNode, "portal", name="full") as c:  # their slots are free again once they left
+        time.sleep(0.5)  # the server has seen them leave
+        with connect(EchoNode, mw, name="full") as c:  # their slots are free again once they left
             assert c.echo(4.0) == 4.0
