@@ -24,8 +24,6 @@ from __future__ import annotations
 import signal
 from typing import Any
 
-from rio.loop.summary import DISABLED, ERROR, FAULT, LINK
-
 #: The run's arm did not follow its commands.
 EXIT_NOT_FOLLOWED = 3
 #: A node stopped with an error during the run.
@@ -35,14 +33,14 @@ EXIT_FAULT = 5
 #: A node was disabled by a safety stop during the run.
 EXIT_SAFETY_STOP = 6
 
-_BY_PROBLEM = {ERROR: EXIT_NODE_ERROR, FAULT: EXIT_FAULT, LINK: EXIT_FAULT, DISABLED: EXIT_SAFETY_STOP}
-
 
 def exit_code(summary: Any) -> int:
     """The exit status of a run that ended with `summary` (a `RunSummary`): the module's table."""
     problem = summary.problem
     if problem is not None:
-        return _BY_PROBLEM[problem]
+        from rio.loop.summary import DISABLED, ERROR, FAULT, LINK  # here: rio.loop imports numpy (plugins list)
+
+        return {ERROR: EXIT_NODE_ERROR, FAULT: EXIT_FAULT, LINK: EXIT_FAULT, DISABLED: EXIT_SAFETY_STOP}[problem]
     if not summary.followed:
         return EXIT_NOT_FOLLOWED
     if summary.signal:
