@@ -41,12 +41,12 @@ def test_work_is_taken_round_robin_across_peers():
 
 def test_a_peer_over_its_bound_is_refused_and_the_biggest_gives_way_to_a_newcomer():
     q = FairQueue(per_peer=3, total=6)
-    assert [q.put("x", i) for i in range(3)] == [None] * 3
-    assert q.put("x", 3) == ("x", 3)  # its own bound
-    assert [q.put("y", i) for i in range(3)] == [None] * 3  # total reached: 3 + 3
-    assert q.put("z", "z0") == ("x", 2)  # x holds 3 >= 0 + 2: its newest gives way
-    assert q.put("z", "z1") == ("y", 2)  # now y holds the most
-    assert q.put("z", "z2") == ("z", "z2")  # x, y and z hold 2 each: nobody gives way to z's third
+    assert [q.put("x", i) for i in range(3)] == [[]] * 3
+    assert q.put("x", 3) == [("x", 3)]  # its own bound
+    assert [q.put("y", i) for i in range(3)] == [[]] * 3  # total reached: 3 + 3
+    assert q.put("z", "z0") == [("x", 2)]  # x holds 3 >= 0 + 2: its newest gives way
+    assert q.put("z", "z1") == [("y", 2)]  # now y holds the most
+    assert q.put("z", "z2") == [("z", "z2")]  # x, y and z hold 2 each: nobody gives way to z's third
     assert len(q) == 6
 
 
@@ -54,10 +54,10 @@ def test_known_peers_outrank_a_swarm_of_strangers():
     known = {"real"}
     q = FairQueue(per_peer=8, total=4, known=lambda p: p in known)
     for i in range(4):
-        assert q.put(f"made-up-{i}", i) is None
-    assert q.put("made-up-9", 9) == ("made-up-9", 9)  # strangers holding one each: the swarm is full
-    refused = q.put("real", "call")
-    assert refused is not None and refused[0].startswith("made-up-")  # a stranger gives way to a known peer
+        assert q.put(f"made-up-{i}", i) == []
+    assert q.put("made-up-9", 9) == [("made-up-9", 9)]  # strangers holding one each: the swarm is full
+    (refused,) = q.put("real", "call")
+    assert refused[0].startswith("made-up-")  # a stranger gives way to a known peer
     got = [q.get(0) for _ in range(4)]
     assert ("real", "call") in got
 
@@ -74,7 +74,7 @@ def test_expire_drop_and_close():
     t.start()
     time.sleep(0.05)
     assert q.close() == [] and (t.join(2) or not t.is_alive()) and got == [None]
-    assert q.put("a", 5) == ("a", 5)  # closed: refuses
+    assert q.put("a", 5) == [("a", 5)]  # closed: refuses
 
 
 # -- request flow control ----------------------------------------------------------------------------------

@@ -148,6 +148,50 @@ def test_one_operator_at_a_time(run):
     assert m["type"] == "error" and "another operator" in m["message"] and closed.data == 4001
 
 
+def test_a_silent_client_frees_the_operator_slot_and_a_pinging_page_keeps_it(tmp_path):
+    """A client that connects and sends nothing held the one operator slot for as long as it stayed
+    connected; now it is closed after `silence_s` and the next page gets the slot. A page that only pings
+    (as the real page does every 0.5 s, outside an XR session too) keeps it past `silence_s`."""
+    import aiohttp
+
+    port = harness.free_port()
+    station = harness.write_station(tmp_path, port=port, cert_dir=tmp_path / "cert", teleop_extra="silence_s = 1.5")
+    r = harness.TeleopRun(station, port=port, duration=60).start()
+    try:
+        r.wait_still()
+
+        async def silent_then_next():
+            async with aiohttp.ClientSession() as s:
+                async with s.ws_connect(f"wss://localhost:{port}/ws", ssl=_ctx()) as ws:
+                    assert json.loads(await ws.receive_str())["type"] == "config"
+                    t0 = time.monotonic()
+                    while True:  # say nothing; statuses keep coming until the server closes
+                        m = await asyncio.wait_for(ws.receive(), 30.0)
+                        if m.type.name in ("CLOSE", "CLOSED", "CLOSING") or time.monotonic() - t0 > 15.0:
+                            break
+                    closed, waited = m, time.monotonic() - t0
+                async with s.ws_connect(f"wss://localhost:{port}/ws", ssl=_ctx()) as ws2:
+                    first = json.loads(await ws2.receive_str())
+                    t0, pongs = time.monotonic(), 0
+                    while time.monotonic() - t0 < 4.0:  # pings only, for well past silence_s
+                        await ws2.send_str(json.dumps({"type": "ping", "id": pongs, "t": 0}))
+                        await _until(ws2, "pong", timeout=10.0)
+                        pongs += 1
+                        await asyncio.sleep(0.25)
+                    status = await _latest_status(ws2, listen=0.1)
+                    return closed, waited, first, ws2.closed, status
+
+        closed, waited, first, ws2_closed, status = asyncio.run(silent_then_next())
+        assert closed.data == 4002, closed  # closed for silence, not by anything else
+        assert waited >= 1.5 - 0.1, waited  # not before silence_s (monotonic vs the server's clock: a hair)
+        assert first["type"] == "config"  # the slot was free: not "another operator is connected"
+        assert not ws2_closed and status["type"] == "status"  # the pinging page kept it
+    finally:
+        if r._thread.is_alive():
+            harness.finish(r.port)
+        r.join(20)
+
+
 def test_a_stream_that_goes_silent_makes_the_arm_hold(run):
     start = run.wait_still()
 

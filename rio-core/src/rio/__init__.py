@@ -16,7 +16,7 @@ TYPE_CHECKING = False
 _EXPORTS = {
     "NodeClient": ".runtime.client",
     "RioError": ".errors", "InvalidRequest": ".errors", "NodeDiedError": ".errors", "NodeError": ".errors",
-    "NodeTimeout": ".errors", "QueueFull": ".errors",
+    "NodeTimeout": ".errors", "QueueFull": ".errors", "TooManyConnections": ".errors",
     "ServerManager": ".runtime.manager", "ServedNode": ".runtime.manager", "connect": ".runtime.manager",
     "serve": ".runtime.manager",
     "Node": ".runtime.node", "client_side": ".runtime.node", "remote": ".runtime.node",
@@ -24,13 +24,21 @@ _EXPORTS = {
 
 __all__ = [
     "Node", "client_side", "remote", "serve", "connect", "ServerManager", "ServedNode", "NodeClient",
-    "RioError", "InvalidRequest", "NodeError", "NodeDiedError", "NodeTimeout", "QueueFull",
+    "RioError", "InvalidRequest", "NodeError", "NodeDiedError", "NodeTimeout", "QueueFull", "TooManyConnections",
 ]
 
 if TYPE_CHECKING:
     from typing import Any
 
-    from rio.errors import InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull, RioError
+    from rio.errors import (
+        InvalidRequest,
+        NodeDiedError,
+        NodeError,
+        NodeTimeout,
+        QueueFull,
+        RioError,
+        TooManyConnections,
+    )
     from rio.runtime.client import NodeClient
     from rio.runtime.manager import ServedNode, ServerManager, connect, serve
     from rio.runtime.node import Node, client_side, remote

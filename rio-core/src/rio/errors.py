@@ -41,6 +41,14 @@ class NodeDiedError(RioError):
         super().__init__(f"node '{node}' is not running" + (f": {detail}" if detail else ""))
 
 
+class TooManyConnections(RioError):
+    """A node's server refused this client's connection: it serves as many as it may (the node runs)."""
+
+    def __init__(self, node: str, where: str, why: str):
+        self.node, self.where, self.why = node, where, why
+        super().__init__(f"node '{node}': its server at {where} refused the connection: {why}")
+
+
 class NodeTimeout(RioError, TimeoutError):
     """A node did not answer within the allotted time while still apparently alive."""
 
@@ -93,8 +101,14 @@ def debug() -> bool:
     return os.environ.get("RIO_DEBUG", "").strip().lower() not in ("", "0", "false", "no", "off")
 
 
+def expected(e: BaseException) -> bool:
+    """Whether `e` is an error a user acts on rather than a bug: a RioError (its message says what to do: a
+    policy's NaN action, a missing calibration, a fault) or an OSError (a device or a link that went away: a
+    serial port unplugged, a connection reset, a read that timed out)."""
+    return isinstance(e, (RioError, OSError))
+
+
 def shows_traceback(e: BaseException) -> bool:
-    """Whether reporting `e` should include its traceback: a RioError is a problem the user can act on
-    and its message says what to do (one line; the traceback only with `debug()`); any other exception is
-    a bug, whose traceback is what to report."""
-    return debug() or not isinstance(e, RioError)
+    """Whether reporting `e` should include its traceback: an expected error (`expected`) is said in one line
+    (the traceback only with `debug()`); any other exception is a bug, whose traceback is what to report."""
+    return debug() or not expected(e)

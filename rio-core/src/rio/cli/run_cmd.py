@@ -1,22 +1,21 @@
 """`rio run STATION --controller module:Class`: a user's own controller on the one control loop, plus
 what every workflow command shares: `--json`, `--profile`, and how a run ends the process.
 
-Exit status of every workflow command (teleop, deploy, replay, run): 0 when the run ended normally;
-3 when an arm was commanded to move and did not follow (the summary says which); 128 + the signal's
-number when a signal ended it (130 SIGINT, 143 SIGTERM, 129 SIGHUP), after the summary was printed.
+Exit status of every workflow command (teleop, deploy, replay, run, serve): `rio.cli.exit_status`, one
+table (0 only when the run ended as asked with no node error, fault or safety stop and every arm followed),
+after the summary was printed.
 """
 
 from __future__ import annotations
 
-import signal
 from typing import Annotated, Any
 
 import typer
 
 from rio.cli.args import complete_station, key_values, known_station, not_empty, output_dir, positive, rate_hz
+from rio.cli.exit_status import EXIT_NOT_FOLLOWED, exit_code
 
-#: The run's arm did not follow its commands.
-EXIT_NOT_FOLLOWED = 3
+__all__ = ["EXIT_NOT_FOLLOWED", "exit_code", "finish", "load_controller", "run", "shows_status"]
 
 JsonOption = Annotated[bool, typer.Option("--json", help="Print the summary as JSON (stdout).")]
 ProfileOption = Annotated[str | None, typer.Option(
@@ -57,12 +56,6 @@ def shows_status(quiet: bool, json_out: bool) -> bool:
     import sys
 
     return not quiet and not json_out and sys.stdout.isatty() and sys.stderr.isatty()
-
-
-def exit_code(summary: Any) -> int:
-    if summary.signal:
-        return 128 + int(getattr(signal, summary.signal, signal.SIGINT))
-    return 0 if summary.followed else EXIT_NOT_FOLLOWED
 
 
 def finish(summary: Any, json_out: bool, printed: bool = False) -> None:

@@ -119,6 +119,10 @@ def decider(on_end: str, ask: bool, json_out: bool, read: Any = None) -> Any:
     from rio.cli.keypress import read_key
 
     def decide(summary: Any, rec: Any, stop: Any = None) -> tuple[str, bool]:
+        choice, go_on = choose(summary, rec, stop)
+        return choice, go_on and not summary.problem  # a node stopped, faulted or was stopped: the session ends
+
+    def choose(summary: Any, rec: Any, stop: Any = None) -> tuple[str, bool]:
         if not json_out:
             typer.echo(summary.format())
         said = summary.details.get("verdict") if not summary.signal else None  # the device's button

@@ -148,8 +148,12 @@ class _CommandableConformance(DriverConformance):
                        f"{self._label(j)}: measured {measured[-1]:.4f} {self.unit} at the end, not at the {side} limit "
                        f"{limit:.4f} (tracking_tol {self.tracking_tol})")
 
+    #: Fields the step case adds to the driver's: it measures the kind's step limit alone (an arm's tool speed
+    #: limit, `max_tool_speed_m_s`, would slow a far joint move below one step per cycle).
+    step_case_fields: ClassVar[dict[str, Any]] = {}
+
     def test_a_far_target_moves_at_most_max_step_per_cycle(self, driver_under_test, driver_fields):
-        node = self.make(driver_under_test, driver_fields)
+        node = self.make(driver_under_test, {**driver_fields, **self.step_case_fields})
         with lifecycle(node):
             loop, q0 = self._start(node)
             step = self.max_step(node)
@@ -398,6 +402,7 @@ class ArmConformance(_JointConformance):
     node_base: ClassVar[type[Node]] = ArmNode
     #: Largest plausible distance of the end effector from the base (m).
     max_reach_m: ClassVar[float] = 5.0
+    step_case_fields: ClassVar[dict[str, Any]] = {"max_tool_speed_m_s": 1e6}
 
     def kind_keys(self, node: Any) -> KeySpec:
         return {**super().kind_keys(node), "eef_pose": ((7,), FLOAT)}

@@ -5,9 +5,12 @@ A commander turns sparse timed targets (`t_cmd_target`) into one goal per driver
 - interpolation: a target to be reached at `t_cmd_target` is approached from where the move under way
   was when it arrived (a line in joint space; a line plus slerp for poses), so commands sent slower than
   the driver rate give smooth motion, and commands sent faster do not slow it down;
-- limits: every goal is clipped to the joint limits (or the workspace box for poses);
-- maximum step: a goal moves at most `max_step` per cycle (rad; m and rad for poses), so a wild target
-  (a policy glitch, a leader arm far from the follower) becomes a bounded-speed motion, never a jump;
+- limits: every goal is clipped to the joint limits; every tool target to the arm's workspace box
+  (`rio.control.workspace`: poses directly, joint targets through forward kinematics where the arm has a
+  model), so a wild or drifting target (a policy gone wrong) ends at the box's edge and holds there;
+- maximum step: a goal moves at most `max_step` per cycle (rad; m and rad for poses), and the tool at most
+  the workspace's tool step (the Cartesian speed limit), so a wild target (a policy glitch, a leader arm
+  far from the follower) becomes a bounded-speed motion, never a jump;
 - stale-command watchdog: a stream of commands (each within `watchdog_s` of the previous one: a teleop
   loop, a policy) must keep coming. When none has arrived for `watchdog_s` while a streamed move is still
   under way (a target far ahead, then silence: a crashed or stalled controller), the goal stops where it
@@ -27,7 +30,7 @@ A commander turns sparse timed targets (`t_cmd_target`) into one goal per driver
   logged by node name and counted (`force_holds`).
 
 Every standard driver kind (`rio.interfaces`) owns one and feeds the hardware only what it returns.
-Time is passed in explicitly, which keeps them testable.
+Time is passed in explicitly, which keeps them testable. `clipped` counts the targets the workspace box cut.
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ from rio.control.force_limit import ForceLimit
 from rio.control.interpolators import LinearInterpolator, PoseInterpolator
 from rio.control.rotations import quat_angle, quat_slerp
 from rio.control.se3 import as_pose
+from rio.control.workspace import ToolBound, Workspace
 
 log = logging.getLogger("rio.control")
 
@@ -51,6 +55,8 @@ class _Commander:
         self.watchdog_s = float(watchdog_s)
         #: Times a stream of commands went silent and the watchdog held (mid-move or at its end).
         self.watchdog_holds = 0
+        #: Targets the workspace box cut (`rio.control.workspace`).
+        self.clipped = 0
         #: Who this commander drives, for the log ("node 'arm'").
         self.owner = "a commander"
         #: Force/torque limits checked by `guard()` (None: no limit).
@@ -60,7 +66,7 @@ class _Commander:
         self._over_limit = False
         self._safe: np.ndarray | None = None  # where the device last was with its wrench within the limit
         self._interp_cls = interp_cls
-        self.goal = self._clip(value)
+        self.goal = self._held(value)
         self._interp = interp_cls(self.goal, 0.0)
         self._t_cmd = -np.inf
         self._streamed = False
@@ -69,7 +75,16 @@ class _Commander:
     def _clip(self, value) -> np.ndarray:
         raise NotImplementedError
 
+    def _held(self, value) -> np.ndarray:
+        """What `reset(value)` holds: `value` within the limits."""
+        return self._clip(value)
+
+    def _target(self, target, now: float) -> np.ndarray:
+        """Where a commanded move ends: `target` within the limits."""
+        return self._clip(target)
+
     def _toward(self, goal: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        """This cycle's goal on the way from `goal` to `desired`, within the step limits."""
         raise NotImplementedError
 
     def _arrived(self) -> bool:
@@ -78,7 +93,7 @@ class _Commander:
 
     def reset(self, value, t: float) -> np.ndarray:
         """Hold `value` (the measured state at start-up, after enabling, after switching modes)."""
-        self.goal = self._clip(value)
+        self.goal = self._held(value)
         self._interp = self._interp_cls(self.goal, t)
         self._t_cmd = -np.inf
         self._streamed = False
@@ -90,7 +105,7 @@ class _Commander:
         is now (not from the last cycle's goal: a stream of commands faster than the driver's cycle would
         otherwise restart each move from a goal that has barely moved, and crawl)."""
         self._interp = self._interp_cls(self._interp.sample(now), now)
-        self._interp.set_target(self._clip(target), t_target, now)
+        self._interp.set_target(self._target(target, now), t_target, now)
         self._streamed = now - self._t_cmd <= self.watchdog_s
         self._t_cmd = now
         self.holding = False
@@ -161,7 +176,7 @@ class _Commander:
                 log.warning("%s: its stream of commands stopped %.2f s ago mid-move: holding where it is (the "
                             "controller stalled or its link is down)", self.owner, self.watchdog_s)
                 self.hold(now)
-        goal = self._clip(self._toward(self.goal, self._interp.sample(now)))
+        goal = self._toward(self.goal, self._interp.sample(now))  # (_toward keeps each kind's limits)
         if self._over_limit and not self._backs_off(goal):
             goal = self.goal  # over the force limit: only a step back toward where it was within it
             self.holding = True
@@ -173,17 +188,21 @@ class _Commander:
 
 class JointCommander(_Commander):
     """Joint targets (rad) -> one safe goal per cycle: clipped to `[lower, upper]`, at most `max_step`
-    rad per joint per cycle, held by the watchdog."""
+    rad per joint per cycle, held by the watchdog. With `tool` (the arm's forward kinematics and workspace:
+    `rio.control.workspace.ToolBound`), the tool of every target and goal stays in the workspace box and
+    moves at most its tool step per cycle."""
 
-    def __init__(self, lower, upper, max_step: float, watchdog_s: float, start=None):
+    def __init__(self, lower, upper, max_step: float, watchdog_s: float, start=None, tool: ToolBound | None = None):
         self.lower = np.asarray(lower, dtype=np.float64).reshape(-1)
         self.upper = np.asarray(upper, dtype=np.float64).reshape(-1)
         if self.lower.shape != self.upper.shape or np.any(self.lower > self.upper):
             raise ValueError(f"joint limits must be two equal-length vectors with lower <= upper, got "
                              f"{self.lower.tolist()} / {self.upper.tolist()}")
         self.max_step = float(max_step)
+        self.tool = tool
         start = np.zeros(self.lower.size) if start is None else start
         super().__init__(start, watchdog_s, LinearInterpolator)
+        self._tool_at = tool.tool(self.goal) if tool is not None else None  # the goal's tool position
 
     def _clip(self, q) -> np.ndarray:
         q = np.asarray(q, dtype=np.float64).reshape(-1)
@@ -191,19 +210,39 @@ class JointCommander(_Commander):
             raise ValueError(f"joint target has {q.size} values, the commander drives {self.lower.size}")
         return np.clip(q, self.lower, self.upper)
 
+    def reset(self, value, t: float) -> np.ndarray:
+        held = super().reset(value, t)
+        if self.tool is not None:
+            self._tool_at = self.tool.tool(self.goal)
+        return held
+
+    def _target(self, target, now: float) -> np.ndarray:
+        q = self._clip(target)
+        if self.tool is None:
+            return q
+        q, cut = self.tool.cut(self._clip(self._interp.sample(now)), q)
+        self.clipped += int(cut)
+        return q
+
     def _toward(self, goal: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return goal + np.clip(desired - goal, -self.max_step, self.max_step)
+        q = self._clip(goal + np.clip(desired - goal, -self.max_step, self.max_step))
+        if self.tool is None or np.array_equal(q, goal):
+            return q
+        q, self._tool_at = self.tool.step(goal, self._tool_at, q)
+        return q
 
 
 class PoseCommander(_Commander):
     """End-effector pose targets `[x, y, z, qw, qx, qy, qz]` -> one safe goal per cycle: position in
     the workspace box, at most `max_step_m` of travel and `max_step_rad` of rotation per cycle (the
-    orientation moves along the slerp arc), held by the watchdog."""
+    orientation moves along the slerp arc), held by the watchdog. A pose held by `reset` stays where it is,
+    inside the box or not (it is where the arm was): only the targets it is sent are clipped, so the arm is
+    never yanked into the box, and moves into it as commanded."""
 
     def __init__(self, workspace_lower, workspace_upper, max_step_m: float, max_step_rad: float,
                  watchdog_s: float, start=None):
-        self.lower = np.asarray(workspace_lower, dtype=np.float64).reshape(3)
-        self.upper = np.asarray(workspace_upper, dtype=np.float64).reshape(3)
+        self.workspace = Workspace(workspace_lower, workspace_upper, max_step_m)
+        self.lower, self.upper = self.workspace.lower, self.workspace.upper
         self.max_step_m, self.max_step_rad = float(max_step_m), float(max_step_rad)
         start = np.array([*np.clip(np.zeros(3), self.lower, self.upper), 1.0, 0.0, 0.0, 0.0]) if start is None \
             else start
@@ -217,6 +256,14 @@ class PoseCommander(_Commander):
     def _distance(self, a: np.ndarray, b: np.ndarray) -> float:
         """Tool travel (m) plus rotation at 0.1 m per rad."""
         return float(np.linalg.norm(a[:3] - b[:3])) + 0.1 * quat_angle(a[3:], b[3:])
+    def _held(self, pose) -> np.ndarray:
+        return as_pose(pose)
+
+    def _target(self, target, now: float) -> np.ndarray:
+        p = self._clip(target)
+        if self.workspace.outside(as_pose(target)) > 1e-9:
+            self.clipped += 1
+        return p
 
     def _arrived(self) -> bool:
         target = self._interp.goal

@@ -33,6 +33,9 @@ class Embodiment(Configurable):
         self.timestamps: dict[str, float] = {}
         #: Commands not sent per role because its node was behind on a network link (`send`).
         self.behind: dict[str, int] = {}
+        #: The sample of each role read by the last `observe()` (the control loop watches their `enabled`,
+        #: `fault_code` and `connected` without reading them again: `rio.loop.health`).
+        self.samples: dict[str, dict[str, Any]] = {}
         for role, client in self.clients.items():  # `env.robot.arm.get_state()`, as in the paper
             setattr(self, role, client)
         super().__init__(config, **fields)
@@ -129,6 +132,7 @@ class Embodiment(Configurable):
     def _state(self, role: str) -> dict[str, Any]:
         state = self.clients[role].get_state()
         self.timestamps[role] = float(state.get("timestamp", np.nan))
+        self.samples[role] = state
         return state
 
 

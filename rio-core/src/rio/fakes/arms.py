@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 
 from rio import clock
 from rio import interfaces as ifc
+from rio.errors import RioError
 
 
 class FakeArm(ifc.ArmNode):
@@ -18,17 +19,32 @@ class FakeArm(ifc.ArmNode):
     directly and leaves the joints where they are."""
 
     class Config(ifc.ArmNode.Config):
-        defaults = {"max_step_rad": 0.5, "max_tool_step_m": 0.05, "max_tool_step_rad": 0.5}
+        defaults = {"max_step_rad": 0.5, "max_tool_step_m": 0.05, "max_tool_step_rad": 0.5,
+                    "workspace": Field(((-1.0, -1.0, -1.0), (1.0, 1.0, 1.0)), description=(
+                        "[[x, y, z] lower, [x, y, z] upper] (m): the box the tool stays in (a fake has no model "
+                        "to take its reach from: 1 m around where its tool starts at zero joints)"))}
         dof: int = Field(6, ge=1, le=64, description="number of joints (named joint1..N)")
         frozen: bool = Field(False, description="ignore every command, as a disabled or e-stopped arm does (to "
                                                 "check that a workflow notices)")
         start: list[float] | None = Field(None, description="joint positions it starts at (rad; default: home), "
                                                             "an arm left away from home (homing tests)")
+        fail: Literal["error", "fault", "stop"] | None = Field(
+            None, description="go wrong `fail_after_s` after the first command, to check that a workflow says so: "
+                              "'error' "
+                              "(the node stops with a RioError, as a lost device does), 'fault' (the arm reports a "
+                              "fault and holds, disabled), 'stop' (an emergency stop disables it, no fault)")
+        fail_after_s: float = Field(0.5, ge=0, description="when `fail` happens (s after the first command)")
 
     def default_joint_names(self) -> list[str]:
         return numbered_joints(self.config.dof)
 
+    def setup(self) -> None:
+        super().setup()
+        if self.config.fail == "fault":
+            self.faults = ifc.FaultHolder(self, "the fake arm")
+
     def open(self) -> None:
+        self._t_fail: float | None = None  # set by the first command (`fail`)
         home = self.config.start if self.config.start is not None else self.config.home
         self.q = np.zeros(self.dof) if home is None else np.asarray(home, dtype=np.float64)
         #: tool travel (m) per joint motion (rad): 3 x dof
@@ -39,6 +55,8 @@ class FakeArm(ifc.ArmNode):
 
     def read_joints(self) -> dict[str, Any]:
         t = clock.now()
+        if self._t_fail is not None and t >= self._t_fail:
+            self._go_wrong()
         vel = (self.q - self._q_prev) / max(t - self._t_prev, 1e-6)
         self._q_prev, self._t_prev = self.q.copy(), t
         return {"joint_pos": self.q.copy(), "joint_vel": vel, "eef_pose": self.pose.copy()}
@@ -53,6 +71,23 @@ class FakeArm(ifc.ArmNode):
     def write_pose(self, eef_pose: np.ndarray) -> None:
         if not self.config.frozen:
             self.pose = np.array(eef_pose, dtype=np.float64)
+
+    def handle_request(self, request: dict[str, Any]) -> None:
+        if self.config.fail and self._t_fail is None:
+            self._t_fail = clock.now() + self.config.fail_after_s  # a workflow drives the arm: the clock starts
+        super().handle_request(request)
+
+    def _go_wrong(self) -> None:
+        """`fail`, once, `fail_after_s` after the first command."""
+        self._t_fail = float("inf")  # once (not None: the next command would arm it anew)
+        if self.config.fail == "error":
+            raise RioError("the fake arm stopped answering (fail = 'error')")
+        if self.config.fail == "fault":
+            assert self.faults is not None  # made in setup() for fail = 'fault'
+            self.faults.report(ifc.Fault(9, "fake_fault", "the fake arm reported a fault (fail = 'fault')",
+                                         "clear_faults()"))
+        else:  # "stop": what a pressed emergency stop does to a driver without a fault table
+            self.enabled = False
 
 
 def numbered_joints(n: int) -> list[str]:

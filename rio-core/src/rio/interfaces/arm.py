@@ -17,6 +17,13 @@ sample carries `ext_wrench` (6: N, N m, zeroed at enable) and `force_holds` (how
 `eef_pose` is what the driver measured when it reports one; else forward kinematics of the measured
 joints on `robot_description()`; else NaN. So an arm that ships a model can be teleoperated, recorded
 and deployed in end-effector space without any Cartesian code of its own (docs/drivers.md).
+
+Every arm's tool is bounded in task space, whoever commands it (a policy, a replay, a teleop device): a
+workspace box (the station's `workspace`, else the model's reach, `rio.kinematics.reach`) and a Cartesian
+speed limit (`max_tool_speed_m_s`), in the commanders (`rio.control.workspace`): end-effector targets are
+clipped into the box; joint targets too, through forward kinematics, where the arm has a model. An arm
+without a model bounds its joint targets by its joint limits and `max_step_rad` only. Samples carry
+`clipped`, the number of targets the box has cut since the node started (the run's summary counts them).
 """
 
 from __future__ import annotations
@@ -29,6 +36,7 @@ from pydantic import Field
 
 from rio import clock
 from rio.control.commander import PoseCommander
+from rio.control.workspace import ToolBound, Workspace
 from rio.errors import InvalidRequest
 from rio.interfaces.force import ForceLimitConfig, WrenchSource
 from rio.interfaces.joints import JointConfig, JointNode, as_vector, t_target
@@ -50,8 +58,12 @@ class ArmNode(JointNode):
     class Config(JointConfig):
         renamed = {"max_step_m": "max_tool_step_m", "max_step_eef_rad": "max_tool_step_rad"}
         workspace: tuple[tuple[float, float, float], tuple[float, float, float]] | None = Field(
-            None, description="[[x, y, z] lower, [x, y, z] upper] (m, base frame) for end-effector targets; "
-                              "unbounded if omitted")
+            None, description="[[x, y, z] lower, [x, y, z] upper] (m, base frame): the box the tool stays in, "
+                              "for end-effector targets and, where the arm has a model, joint targets; default: "
+                              "the model's reach (every pose its joints reach, plus 5%), else unbounded")
+        max_tool_speed_m_s: float = Field(1.0, gt=0, description="largest tool speed (m/s) of every move the "
+                                                                 "commander makes: end-effector goals, and joint "
+                                                                 "goals where the arm has a model")
         max_tool_step_m: float = Field(0.005, gt=0, description="largest tool travel per cycle (m), for drivers "
                                                                 "streaming poses")
         max_tool_step_rad: float = Field(0.05, gt=0, description="largest tool rotation per cycle (rad), for "
@@ -107,9 +119,10 @@ class ArmNode(JointNode):
 
     def setup(self) -> None:
         super().setup()
-        self.example_data = {**self.example_data, "eef_pose": IDENTITY_POSE.copy()}
+        self.example_data = {**self.example_data, "eef_pose": IDENTITY_POSE.copy(), "clipped": np.int64(0)}
         self.example_request = {"mode": JOINT, **self.example_request, "eef_pose": IDENTITY_POSE.copy()}
         self.kinematics: Any = None
+        self.workspace_box: Workspace | None = None
         self.poses: PoseCommander | None = None
         self.mode = JOINT
         self._eef = _NAN_POSE
@@ -119,13 +132,16 @@ class ArmNode(JointNode):
                 raise ValueError(f"force_limit is set but {type(self).__name__} has no wrench source (read_wrench())")
             self.wrench = WrenchSource(self, self.config.force_limit)
             self.example_data.update(ext_wrench=np.zeros(6), force_holds=0)
+        self._eef_clipped = 0  # end-effector targets clipped before IK
 
     def opened(self) -> None:
         self.kinematics = self._load_kinematics()
+        self.workspace_box = self._workspace()
         super().opened()
         if self.streams_poses:
-            ws = self.config.workspace or ((-np.inf,) * 3, (np.inf,) * 3)
-            self.poses = PoseCommander(ws[0], ws[1], self.config.max_tool_step_m, self.config.max_tool_step_rad,
+            ws = self.workspace_box
+            step = min(self.config.max_tool_step_m, ws.max_step_m)
+            self.poses = PoseCommander(ws.lower, ws.upper, step, self.config.max_tool_step_rad,
                                        self.config.watchdog_s, start=self._eef_of(self.read_joints()))
             self.poses.owner = f"node '{self.name}' (end-effector poses)"
         if self.wrench is not None:
@@ -133,6 +149,35 @@ class ArmNode(JointNode):
             for commander in (self.commander, self.poses):
                 if commander is not None:
                     commander.force_limit = limit
+
+    def _workspace(self) -> Workspace:
+        """The tool's box (the station's, else the model's reach, else unbounded) and its step per cycle (the
+        Cartesian speed limit over one cycle)."""
+        step = self.config.max_tool_speed_m_s / self.rate_hz
+        if self.config.workspace is not None:
+            return Workspace(*self.config.workspace, step)
+        if self.kinematics is not None:
+            from rio.kinematics.reach import reach_box
+
+            desc_home = self.config.home if self.config.home is not None else self.default_home()
+            ws = Workspace(*reach_box(self.kinematics, desc_home), step)
+            log.info("node '%s': workspace from the model's reach: %s", self.name, ws.describe())
+            return ws
+        log.info("node '%s': no workspace box (no robot model, none in the station): end-effector targets are "
+                 "bounded by the tool speed only, joint targets by the joint limits", self.name)
+        return Workspace((-np.inf,) * 3, (np.inf,) * 3, step)
+
+    def tool_bound(self) -> ToolBound | None:
+        """Joint targets bounded in task space through the model's forward kinematics (None without one)."""
+        if self.kinematics is None or self.workspace_box is None:
+            return None
+        return ToolBound(self.kinematics.fk, self.workspace_box)
+
+    @property
+    def clipped(self) -> int:
+        """Targets the workspace box has cut since the node opened (joint, end-effector and before IK)."""
+        n = self._eef_clipped + (self._commander.clipped if self._commander is not None else 0)
+        return n + (self.poses.clipped if self.poses is not None else 0)
 
     def _load_kinematics(self) -> Any:
         desc = self.robot_description()
@@ -197,6 +242,7 @@ class ArmNode(JointNode):
         if self.wrench is not None:
             sample["ext_wrench"] = self.wrench.last
             sample["force_holds"] = self.commander.force_holds + (self.poses.force_holds if self.poses else 0)
+        sample["clipped"] = self.clipped
         if self.mode == EEF and self.enabled:
             assert self.poses is not None  # EEF mode is entered only where opened() made the pose commander
             sample["holding"] = self.poses.holding
@@ -233,8 +279,25 @@ class ArmNode(JointNode):
         if self.kinematics is None:
             raise InvalidRequest(self.name, "eef_pose", f"{type(self).__name__} has no Cartesian control and no "
                                                         "robot_description() for IK: send joint targets")
+        ws = self.workspace_box
+        if ws is not None and ws.outside(eef_pose) > 0:  # clipped before IK chases it
+            eef_pose = np.array(eef_pose, dtype=np.float64)
+            eef_pose[:3] = ws.clip(eef_pose)
+            self._eef_clipped += 1
         q = self.kinematics.solve(eef_pose, self.commander.target, max_iters=15).q
         self.command_joints(q, t_cmd_target)
+
+    @remote
+    def workspace(self) -> dict[str, Any]:
+        """The box the tool stays in and its step per cycle, as enforced: {"lower": [x, y, z], "upper": [x, y,
+        z] (m, base frame; inf where unbounded), "max_tool_step_m", "source": "station" | "model" | "none"}."""
+        ws = self.workspace_box
+        if ws is None:
+            raise InvalidRequest(self.name, None, "the arm is not open yet: it has no workspace")
+        source = "station" if self.config.workspace is not None else "model" if self.kinematics is not None \
+            else "none"
+        step = self.poses.max_step_m if self.poses is not None else ws.max_step_m
+        return {"lower": ws.lower.tolist(), "upper": ws.upper.tolist(), "max_tool_step_m": step, "source": source}
 
     @remote
     def enable(self) -> bool:

@@ -27,6 +27,7 @@ from pydantic import Field
 
 from rio import clock
 from rio.control.commander import JointCommander
+from rio.control.workspace import ToolBound
 from rio.interfaces.commanded import CommandedNode
 from rio.runtime.node import client_side, remote
 
@@ -115,9 +116,15 @@ class JointNode(CommandedNode):
                              f"(lower {lower.tolist()}, upper {upper.tolist()})")
         return lower, upper
 
+    def tool_bound(self) -> ToolBound | None:
+        """The task-space bound of joint targets (`rio.control.workspace.ToolBound`), where the kind has one (an
+        arm with a model); None: joint limits and `max_step_rad` bound them."""
+        return None
+
     def make_commander(self) -> JointCommander:
         lower, upper = self.limits()
-        return JointCommander(lower, upper, self.config.max_step_rad, self.config.watchdog_s, start=self.measured())
+        return JointCommander(lower, upper, self.config.max_step_rad, self.config.watchdog_s, start=self.measured(),
+                              tool=self.tool_bound())
 
     def measured(self) -> np.ndarray:
         return np.asarray(self.read_joints()["joint_pos"], dtype=np.float64)

@@ -38,8 +38,9 @@ import numpy as np
 from rio import clock
 from rio.control.reservoir import Reservoir
 from rio.errors import NodeDiedError
+from rio.loop.health import NodeHealth
 from rio.loop.signals import StopSignals
-from rio.loop.summary import RunSummary
+from rio.loop.summary import ERROR, RunSummary
 from rio.loop.tracking import ArmTracker, ObjectWatch
 
 #: At the end of a run, the longest wait for the arms' last motion to end before the summary measures them.
@@ -72,8 +73,8 @@ class Controller(Protocol):
       that observation for inference here);
     - `wait(deadline) -> bool`: sleep until `deadline`, or return True earlier to take an extra,
       non-periodic tick at once (deploy: a chunk just landed);
-    - `node_died(error) -> bool`: True when the run may end with the robot holding its last command
-      (deploy: the policy node stopped); otherwise the error propagates;
+    - `node_died(error)`: a node stopped during the run (`NodeDiedError`); the run ends there with the robot
+      holding its last command, the summary naming the node (an `error` event), whatever this returns;
     - `finish(summary)`: add the workflow's figures (`summary.details`) and lines (`summary.lines`).
     """
 
@@ -133,9 +134,15 @@ class ControlLoop:
 
     def _run(self, stop: StopSignals) -> RunSummary:
         env, ctl, s, dt = self.env, self.controller, self.summary, self.dt
-        self.obs = env.reset()
-        ctl.reset(self)
-        tracker, objects = ArmTracker(env.robot), ObjectWatch(env.sensors)
+        try:
+            self.obs = env.reset()
+            ctl.reset(self)  # (a replay's approach to its first action runs here)
+            tracker, objects = ArmTracker(env.robot), ObjectWatch(env.sensors)
+            self.health = NodeHealth(env.robot.clients, s, getattr(env.robot, "samples", None))
+        except NodeDiedError as e:  # before the first tick: nothing ran that could be measured
+            s.reason = f"node '{e.node}' stopped with an error before the first tick"
+            s.add_event(ERROR, e.node, e.detail or str(e))
+            return s
         published = self._publish_rates()
         if self.recorder is not None and "embodiment" not in self.recorder.info:
             self.recorder.describe_env(env)
@@ -150,7 +157,7 @@ class ControlLoop:
         s.seconds = clock.now() - t_start
         if self.settle:  # let the arms arrive at their last targets before measuring
             clock.precise_wait(clock.now() + self.lead_s + 2 * dt)
-            tracker.wait_still(SETTLE_MAX_S)
+            _unless_gone(lambda: tracker.wait_still(SETTLE_MAX_S))
         self._finish(tracker, objects, published, lateness)
         return s
 
@@ -192,13 +199,7 @@ class ControlLoop:
         except KeyboardInterrupt:
             s.reason, s.signal = "interrupted (Ctrl+C)", "SIGINT"
         except NodeDiedError as e:
-            handled = getattr(ctl, "node_died", None)
-            if handled is None or not handled(e):
-                raise
-            s.reason = f"node '{e.node}' stopped ({e}); the robot holds its last command"
-            if self.last_action is not None:
-                env.step(self.last_action, t_cmd_target=clock.now() + dt)
-                s.details["held"] = [float(x) for x in self.last_action]
+            self._node_died(e, t_start)
 
     def _tick(self, tick: Tick, tracker: ArmTracker, objects: ObjectWatch) -> None:
         env, ctl = self.env, self.controller
@@ -218,11 +219,28 @@ class ControlLoop:
             after(tick)
         tracker.measure(tick.t)
         objects.update()
+        self.health.check(tick.t - tick.t0)
         if self.recorder is not None and action is not None:
             with self.phase("record"):
                 self.recorder.add(step)
         if self.on_tick is not None:
             self.on_tick(tick)
+
+    def _node_died(self, e: NodeDiedError, t_start: float) -> None:
+        """A node stopped during the run: the run ends here, the robot holding its last command (where the
+        node that stopped is not the one to hold it), and the summary says which node and why."""
+        env, s = self.env, self.summary
+        s.reason = f"node '{e.node}' stopped with an error; the robot holds its last command"
+        s.add_event(ERROR, e.node, e.detail or str(e), clock.now() - t_start)
+        died = getattr(self.controller, "node_died", None)
+        if died is not None:
+            died(e)
+        if self.last_action is not None:
+            try:
+                env.step(self.last_action, t_cmd_target=clock.now() + self.dt)
+                s.details["held"] = [float(x) for x in self.last_action]
+            except NodeDiedError:  # the node that stopped is one the action goes to
+                pass
 
     def _publish_rates(self) -> dict[str, clock.CountRate]:
         """A publish-rate meter per node with state, started now (read once more at the end)."""
@@ -234,12 +252,13 @@ class ControlLoop:
     def _finish(self, tracker: ArmTracker, objects: ObjectWatch, published: dict[str, clock.CountRate],
                 lateness: Reservoir) -> None:
         s = self.summary
-        s.arms, s.objects = tracker.report(), objects.report()
+        s.arms, s.objects = tracker.report(), _unless_gone(objects.report, [])
+        self.health.finish()
         for role, meter in published.items():
-            rate = meter.rate()
+            rate = _unless_gone(meter.rate)
             if rate is not None:
                 s.node_rates_hz[role] = round(rate, 1)
-        task = getattr(self.env, "task_result", lambda: None)()
+        task = _unless_gone(getattr(self.env, "task_result", lambda: None))
         if task is not None:
             s.task, s.success = task, bool(task["success"])
             if self.recorder is not None and "annotate" in dir(self.recorder):
@@ -255,11 +274,23 @@ class ControlLoop:
             s.warnings.append(f"{role}: {skipped} command(s) not sent: its node was behind on the network link "
                               "(every request credit in flight); each was superseded by the next cycle's")
         for a in s.arms:
+            if a.clipped:
+                s.warnings.append(f"{a.role}: {a.clipped} of {a.commands} commands asked for the tool outside its "
+                                  "workspace box and were clipped to it (the tool held at the box's edge)")
             if not a.followed:
+                why = ("most of what it was commanded lay outside its workspace box" if a.clipped else
+                       "disabled, e-stopped, in another control mode, or commands not reaching it")
                 s.warnings.append(f"{a.role} was commanded over {a.commanded_path_m:.3f} m / "
                                   f"{a.commanded_joint_path_rad:.3f} rad but moved {a.path_m:.3f} m / "
-                                  f"{a.joint_path_rad:.3f} rad: it did not follow (disabled, e-stopped, "
-                                  "in another control mode, or commands not reaching it)")
+                                  f"{a.joint_path_rad:.3f} rad: it did not follow ({why})")
+
+
+def _unless_gone(measure: Callable[[], Any], default: Any = None) -> Any:
+    """`measure()`, or `default` when a node it reads has stopped (the summary names that node already)."""
+    try:
+        return measure()
+    except NodeDiedError:
+        return default
 
 
 @contextlib.contextmanager

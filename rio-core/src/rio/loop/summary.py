@@ -17,6 +17,11 @@ means the same thing everywhere:
 
 A run in which an arm was commanded to move but did not follow sets `followed = False`: the summary
 says so in a warning line and the command-line workflows exit with status 3 (docs/controllers.md).
+
+What went wrong with a node during the run is in `events` (`NodeEvent`: a node that stopped with an error,
+a fault it reported, a link it lost, a safety stop that disabled it), shown at the top of `format()`; a
+run with any of them did not end as asked, whatever its `reason` says, and the command exits non-zero
+(`rio.cli.exit_status`, one table for every workflow).
 """
 
 from __future__ import annotations
@@ -54,6 +59,10 @@ class ArmTracking:
     final_q: np.ndarray | None = None
     #: times the arm's force limit held it during the run (None: the arm has no force limit)
     force_holds: int | None = None
+    #: commands the run sent the arm, and how many of them its workspace box cut (`rio.control.workspace`;
+    #: None: the arm does not say)
+    commands: int = 0
+    clipped: int | None = None
 
     @property
     def followed(self) -> bool:
@@ -62,6 +71,29 @@ class ArmTracking:
         if self.commanded_joint_path_rad >= _MIN_COMMANDED_RAD:
             return self.joint_path_rad >= _FOLLOW_FRACTION * self.commanded_joint_path_rad
         return True  # not commanded to move: nothing to follow
+
+
+#: `NodeEvent.kind`s, the most serious first (the order `RunSummary.problem` and the exit status follow).
+ERROR, FAULT, LINK, DISABLED = "error", "fault", "link", "disabled"
+EVENT_KINDS = (ERROR, FAULT, LINK, DISABLED)
+_EVENT_LABELS = {ERROR: "ERROR", FAULT: "FAULT", LINK: "LINK LOST", DISABLED: "SAFETY STOP"}
+
+
+@dataclass
+class NodeEvent:
+    """Something that went wrong with a node during a run: it stopped with an error (`error`), its device
+    reported a fault (`fault`), its link dropped (`link`), or it was disabled without the workflow asking (a
+    safety stop: an emergency stop, a watchdog, another client: `disabled`). `t_s`: seconds into the run
+    (None: before it or after it); `message`: what happened, naming the cause where it is known."""
+
+    kind: str
+    node: str
+    message: str
+    t_s: float | None = None
+
+    def line(self) -> str:
+        at = f" at {self.t_s:.1f} s" if self.t_s is not None else ""
+        return f"{_EVENT_LABELS.get(self.kind, self.kind.upper())}: node '{self.node}'{at}: {self.message}"
 
 
 @dataclass
@@ -102,6 +134,23 @@ class RunSummary:
     #: the workflow's own lines for `format()`
     lines: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    #: what went wrong with a node during the run (`NodeEvent`), in the order it was seen
+    events: list[NodeEvent] = field(default_factory=list)
+
+    def add_event(self, kind: str, node: str, message: str, t_s: float | None = None) -> NodeEvent:
+        """Record what went wrong with `node` (one event per node and kind: the first is what matters)."""
+        for e in self.events:
+            if e.kind == kind and e.node == node:
+                return e
+        event = NodeEvent(kind, node, message, None if t_s is None else round(float(t_s), 3))
+        self.events.append(event)
+        return event
+
+    @property
+    def problem(self) -> str | None:
+        """The most serious kind of event of the run (`EVENT_KINDS` order), None when nothing went wrong."""
+        kinds = {e.kind for e in self.events}
+        return next((k for k in EVENT_KINDS if k in kinds), None)
 
     @property
     def achieved_hz(self) -> float:
@@ -114,11 +163,13 @@ class RunSummary:
     def format(self) -> str:
         lat = self.lateness_us
         device = f" with {self.details['device']}" if "device" in self.details else ""
-        out = [f"{self.workflow} on '{self.station}'{device}: {self.reason}",
-               f"  {self.seconds:.1f} s, {self.ticks} ticks at {self.achieved_hz:.1f} Hz (target {self.rate_hz:g} Hz), "
-               f"{self.late_ticks} late, {self.overruns} overruns"
-               + (f"; wake-up lateness p50 {lat['p50']:.0f} us, p99 {lat['p99']:.0f} us, max {lat['max']:.0f} us"
-                  if lat else "")]
+        out = [f"{self.workflow} on '{self.station}'{device}: {self.reason}"]
+        out += ["  " + e.line() for e in self.events]  # at the top: what went wrong comes first
+        if self.rate_hz > 0:  # a loop ran (`rio serve` runs none)
+            out.append(f"  {self.seconds:.1f} s, {self.ticks} ticks at {self.achieved_hz:.1f} Hz (target "
+                       f"{self.rate_hz:g} Hz), {self.late_ticks} late, {self.overruns} overruns"
+                       + (f"; wake-up lateness p50 {lat['p50']:.0f} us, p99 {lat['p99']:.0f} us, max "
+                          f"{lat['max']:.0f} us" if lat else ""))
         if self.instruction:
             out.append(f"  instruction: {self.instruction}")
         for a in self.arms:
@@ -139,7 +190,7 @@ class RunSummary:
     def to_json(self) -> dict[str, Any]:
         """Plain JSON types only (`--json`)."""
         d = {f.name: plain(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "lines"}
-        d.update(achieved_hz=round(self.achieved_hz, 3), followed=self.followed)
+        d.update(achieved_hz=round(self.achieved_hz, 3), followed=self.followed, problem=self.problem)
         for a, arm in zip(d["arms"], self.arms, strict=True):
             a["followed"] = arm.followed
         return d
@@ -162,6 +213,8 @@ def _arm_line(a: ArmTracking) -> str:
         parts.append(f"gripper {a.gripper * 1000:.0f} mm;")
     if a.force_holds:
         parts.append(f"force limit held it {a.force_holds} time{'s' if a.force_holds != 1 else ''};")
+    if a.clipped:
+        parts.append(f"{a.clipped} of {a.commands} commands clipped to its workspace;")
     if not a.followed:
         parts.append("DID NOT FOLLOW its commands;")
     return " ".join(parts).rstrip(";")

@@ -17,6 +17,7 @@ import numpy as np
 from rio import clock
 from rio.control.reservoir import Reservoir
 from rio.embodiments.arm_group import ACTION_SPACES
+from rio.errors import NodeDiedError
 from rio.loop.summary import ArmTracking, ObjectMotion
 
 ARM_ROLES = ("arm", "arm2")
@@ -54,6 +55,9 @@ class _Arm:
         holds = s.get("force_holds")  # an arm with a force limit: counted from here
         self.holds0 = None if holds is None else int(holds)
         self.path = self.cmd_path = self.joint_path = self.cmd_joint_path = 0.0
+        #: targets the arm's workspace box had cut before the run (its samples count since the node opened)
+        self.clipped_before = int(s["clipped"]) if "clipped" in s else None
+        self.commands = 0
 
     def command(self, part: np.ndarray, t_target: float) -> None:
         part = np.asarray(part, dtype=np.float64)
@@ -64,6 +68,7 @@ class _Arm:
         elif prev.shape == part.shape:
             self.cmd_joint_path += float(np.linalg.norm(part - prev))
         self.last_cmd = part.copy()
+        self.commands += 1
         self.pending.append((t_target, self.last_cmd))
 
     def _error(self, cmd: np.ndarray, tool: np.ndarray, q: np.ndarray) -> float:
@@ -91,12 +96,13 @@ class _Arm:
         stats = (errs.max, errs.mean, final) if errs.mean is not None else None
         g = None if self.gripper is None else float(self.gripper.get_state()["position"])
         holds = None if self.holds0 is None else int(s["force_holds"]) - self.holds0
+        clipped = int(s["clipped"]) - self.clipped_before if self.clipped_before is not None else None
         return ArmTracking(self.role, self.space, self.start, tool,
                            self.last_cmd.copy() if self.space == "eef_pose" and self.last_cmd is not None else None,
                            self.path, self.cmd_path, self.joint_path, self.cmd_joint_path,
                            joint_err_rad=stats if self.space == "joint_pos" else None,
                            eef_err_m=stats if self.space == "eef_pose" else None, gripper=g, final_q=q.copy(),
-                           force_holds=holds)
+                           force_holds=holds, commands=self.commands, clipped=clipped)
 
 
 class ArmTracker:
@@ -117,7 +123,14 @@ class ArmTracker:
             a.measure(t)
 
     def report(self) -> list[ArmTracking]:
-        return [a.report() for a in self.arms]
+        """Each arm's tracking; an arm whose node has stopped has none (the summary names that node)."""
+        out = []
+        for a in self.arms:
+            try:
+                out.append(a.report())
+            except NodeDiedError:
+                continue
+        return out
 
     def wait_still(self, timeout: float, period: float = 0.05, tol_rad: float = 1e-4) -> bool:
         """Wait, at most `timeout` s, until no arm's joints move more than `tol_rad` in `period`: the run

@@ -9,6 +9,17 @@ replies, acknowledgements of requests that waited) reach it through an inproc so
 the limit disconnects its sender before anything is allocated (MAXMSGSIZE); a flooding peer is throttled
 by TCP once `_ROUTER_HWM` of its messages wait. A peer is a zmq identity.
 
+What the node holds for its peers is bounded in total, not per peer only (50 peers sending messages under
+the size cap took a node from 67 MB to 443 MB, and 1.5 GB after they left): libzmq keeps, per connection, the
+message it is reading and `_ROUTER_HWM` read ones (each up to the message limit), so connections are admitted
+by the protocol (`NetworkServer.admit`, `Admission`: `max_connections`, `max_connections_per_address`, a
+stranger that never said HELLO gives way to a newcomer and is closed after `handshake_timeout_s`; an idle
+client costs nothing here and is never closed for it). The ROUTER's monitor says when a connection is
+accepted or ends (its file descriptor), each message which connection it came from (SRCFD); a connection is
+closed by shutting its socket down, which libzmq then tears down itself. Messages are taken without a copy;
+what waits for the node is bounded by the protocol's `max_pending_bytes`. Large buffers go back to the
+system when freed (`rio.middleware.protocol.memory`), so a flood's memory is returned once it is over.
+
 Authentication (`keys`, `rio.machine.keys`): both server sockets are CURVE servers with this machine's
 key pair, and a ZAP handler admits only the clients whose public key is in this machine's `peers/`. The
 address names the server machine's `identity`; a client takes that machine's public key from its *own*
@@ -23,6 +34,8 @@ waits behind a slow call.
 from __future__ import annotations
 
 import logging
+import math
+import os
 import socket
 import threading
 import time
@@ -35,6 +48,7 @@ from rio import clock
 from rio.errors import ConfigError, NodeDiedError, NodeTimeout
 from rio.middleware.protocol import NetworkClient, NetworkConfig, NetworkServer
 from rio.middleware.protocol.client import POLL_S
+from rio.middleware.protocol.memory import release_large_buffers
 from rio.middleware.protocol.messages import ACK, HELLO, REQUEST
 from rio.runtime.node import Node
 from rio.runtime.transport import Middleware, NodeLayouts
@@ -48,10 +62,15 @@ log = logging.getLogger("rio.middleware.zmq")
 #: reader then gets recent samples instead of a growing backlog (the PUB drops beyond it).
 _HWM_BYTES = 4 << 20
 _POLL_MS = int(POLL_S * 1000)
-#: Messages of one peer the ROUTER holds before TCP pushes back (bounds a flood to this x the max size).
-_ROUTER_HWM = 16
+#: Messages of one connection the ROUTER holds before TCP pushes back (with the one it is reading, at most
+#: this + 1 message limits per connection).
+_ROUTER_HWM = 2
 #: Messages the ROUTER thread takes in a row before it forwards other threads' answers.
 _BATCH = 64
+#: Refused connections kept open for the client's HELLO, to tell it why (beyond: closed without a word) ...
+_REFUSED_MAX = 16
+#: ... for at most this long (s), and this long after the answer, so that it leaves before the close.
+_REFUSAL_S = 1.0
 _WILDCARD = ("0.0.0.0", "*", "", "::")
 #: Handshake failures a client's monitor reports when the two sides' authentication disagree.
 _AUTH_EVENTS = (zmq.EVENT_HANDSHAKE_FAILED_AUTH | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
@@ -94,6 +113,11 @@ class ZmqServer(NetworkServer):
         self._answers_out.connect(endpoint)
         self._answers_lock = threading.Lock()  # the API and service threads share the PUSH
         self._rpc_thread: int | None = None
+        self._monitor: zmq.Socket | None = None
+        self._conns: dict[int, Any] = {}  # file descriptor -> the peer's (host, port), while connected
+        self.admission.idle_s = math.inf  # an idle zmq connection holds nothing: only strangers are timed out
+        self._fd_of: dict[Any, int] = {}  # identity -> the file descriptor of its connection
+        self._refused: dict[int, tuple[str, float]] = {}  # fd of a refused connection -> (why, when to close it)
 
     def _socket(self, kind: int, option: int | None = None, value: int = 0) -> zmq.Socket:
         s = self._ctx.socket(kind)
@@ -111,6 +135,8 @@ class ZmqServer(NetworkServer):
         return int(sock.getsockopt_string(zmq.LAST_ENDPOINT).rsplit(":", 1)[1])
 
     def _open(self) -> dict[str, Any]:
+        release_large_buffers()
+        self._monitor = self._router.get_monitor_socket(zmq.EVENT_ACCEPTED | zmq.EVENT_DISCONNECTED)
         if self._keys is not None:
             # Before binding: the first client already meets the handler (this machine's peers/ only).
             from zmq.auth.thread import ThreadAuthenticator
@@ -152,17 +178,22 @@ class ZmqServer(NetworkServer):
             log.debug("node '%s': dropped an answer to %r", self.name, peer)  # is dropped
 
     def _serve_rpc(self) -> None:
-        """Owns the ROUTER: hands every message to the protocol, forwards other threads' answers."""
+        """Owns the ROUTER: admits connections, hands every message to the protocol, forwards other threads'
+        answers."""
         self._rpc_thread = threading.get_ident()
-        router, answers = self._router, self._answers_in
+        router, answers, monitor = self._router, self._answers_in, self._monitor
         poller = zmq.Poller()
         poller.register(router, zmq.POLLIN)
         poller.register(answers, zmq.POLLIN)
+        if monitor is not None:
+            poller.register(monitor, zmq.POLLIN)
         while not self._stop.is_set():
             try:
                 ready = dict(poller.poll(_POLL_MS))
             except zmq.ZMQError:  # the context is going away
                 return
+            if monitor is not None and monitor in ready:  # first: a connection is admitted before it is heard
+                self._connections(monitor)
             while answers in ready:
                 try:
                     self._router.send_multipart(answers.recv_multipart(zmq.NOBLOCK), zmq.NOBLOCK)
@@ -172,27 +203,128 @@ class ZmqServer(NetworkServer):
                     pass
             for _ in range(_BATCH if router in ready else 0):
                 try:
-                    msg = router.recv_multipart(zmq.NOBLOCK)
+                    msg = router.recv_multipart(zmq.NOBLOCK, copy=False)  # no copy of a large message
                 except zmq.Again:
                     break
                 if len(msg) != 2:
                     self._warn("node '%s': ignored a zmq message of %d frames", self.name, len(msg))
                     continue
+                peer, body = msg[0].bytes, msg[1].buffer
                 try:
-                    self.on_message(msg[0], msg[1][:1], memoryview(msg[1])[1:])
+                    fd = msg[1].get(zmq.SRCFD)
+                except zmq.ZMQError:  # a libzmq without the property: connections are not told apart
+                    fd = None
+                if fd is not None and fd in self._refused:
+                    self._on_refused(fd, peer, bytes(body[:1]))
+                    continue
+                if fd is not None:
+                    self._fd_of[peer] = fd
+                self.heard(peer)
+                try:
+                    self.on_message(peer, bytes(body[:1]), body[1:])
                 except Exception:  # never let one bad message end the thread
                     log.exception("node '%s': while handling a zmq message", self.name)
+            if self._refused:
+                self._close_refused()
+
+    # -- connections (rio.middleware.protocol.admission) ---------------------------------------------
+    def _connections(self, monitor: zmq.Socket) -> None:
+        """The ROUTER's monitor: admit each accepted connection, forget each that ended."""
+        from zmq.utils.monitor import recv_monitor_message
+
+        while True:
+            try:
+                event = recv_monitor_message(monitor, zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            except zmq.ZMQError:  # the context is going away
+                return
+            fd = int(event["value"])
+            if event["event"] == zmq.EVENT_ACCEPTED:
+                where = _peer_of(fd)
+                if where is None:  # gone already: its DISCONNECTED follows
+                    continue
+                self._conns[fd] = where
+                why = self.admit(fd, where[0])
+                if why is None:
+                    continue
+                if len(self._refused) < _REFUSED_MAX:  # its client hears why in the answer to its HELLO
+                    self._refused[fd] = (why, clock.now() + self.admission.handshake_s)
+                else:
+                    self._disconnect(fd, "refused")
+            elif event["event"] == zmq.EVENT_DISCONNECTED:
+                self._conns.pop(fd, None)
+                self._refused.pop(fd, None)
+                self.admission.left(fd)
+                for peer in [p for p, f in self._fd_of.items() if f == fd]:  # bounded by the connections open
+                    del self._fd_of[peer]
+
+    def _on_refused(self, fd: int, peer: bytes, kind: bytes) -> None:
+        """A message on a refused connection: a HELLO is told why (TooManyConnections at its client), anything
+        else is dropped; the connection is closed `_REFUSAL_S` later."""
+        why, _ = self._refused[fd]
+        if kind == HELLO:
+            self._send(peer, HELLO, self.refusal(why))
+        else:
+            self._warn("node '%s': dropped a message on a refused connection from %s", self.name, self._conns.get(fd))
+        self._refused[fd] = (why, min(self._refused[fd][1], clock.now() + _REFUSAL_S))
+
+    def _close_refused(self) -> None:
+        now = clock.now()
+        for fd in [fd for fd, (_, t) in self._refused.items() if t <= now]:
+            del self._refused[fd]
+            self._disconnect(fd, "refused")
+
+    def heard(self, peer: Any) -> None:
+        fd = self._fd_of.get(peer)
+        if fd is not None:
+            self.admission.heard(fd)
+
+    def vouch(self, peer: Any, new: bool = True) -> None:
+        super().vouch(peer, new)
+        fd = self._fd_of.get(peer)
+        if fd is not None:
+            self.admission.established(fd)
+
+    def _disconnect(self, peer: Any, why: str) -> None:
+        """Shut the connection's socket down (`peer`: its file descriptor): libzmq sees it end and closes it.
+        Only if the descriptor still is that connection's (a closed one's number may have been reused)."""
+        where = self._conns.get(peer)
+        if where is not None:
+            _shut_down(peer, where)
 
     def _shut(self, busy: bool) -> None:
         if busy:  # a call still running may yet send through these sockets: the process ends them
             return
         self._pub.close(linger=200)  # let the "bye" leave
+        if self._monitor is not None:
+            self._router.disable_monitor()
+            self._monitor.close(linger=0)
         for s in (self._router, self._answers_in, self._answers_out):
             s.close(linger=0)
         if self._auth is not None:  # after the sockets: never a bound CURVE socket without its handler
             self._auth.stop()
             self._auth = None
         self._ctx.term()
+
+
+def _peer_of(fd: int) -> tuple[str, int] | None:
+    """(host, port) of the peer of socket `fd` (a duplicate of it is asked), None when it is gone."""
+    try:
+        with socket.socket(fileno=os.dup(fd)) as s:
+            return s.getpeername()[:2]
+    except OSError:
+        return None
+
+
+def _shut_down(fd: int, where: tuple[str, int]) -> None:
+    """Shut down socket `fd` if its peer is still `where` (libzmq owns the descriptor and closes it itself)."""
+    try:
+        with socket.socket(fileno=os.dup(fd)) as s:
+            if s.getpeername()[:2] == where:
+                s.shutdown(socket.SHUT_RDWR)
+    except OSError:
+        pass
 
 
 class ZmqClient(NetworkClient):

@@ -4,11 +4,11 @@ controller behind `rio deploy` (`deploy.PolicyController`; the workflow is `rio.
 See docs/policies.md."""
 
 from rio.policy.async_inference import AsyncConfig, AsyncInference
-from rio.policy.base import ActionChunk, Policy, PolicyConfig, PolicyMetadata
+from rio.policy.base import ActionChunk, Policy, PolicyConfig, PolicyError, PolicyMetadata
 from rio.policy.node import PolicyNode
 from rio.policy.obs_layout import ObsLayout
 from rio.policy.schedule import ChunkSchedule, ScheduleConfig
 
-__all__ = ["Policy", "PolicyConfig", "PolicyMetadata", "ActionChunk", "PolicyNode", "ObsLayout", "ChunkSchedule",
-           "ScheduleConfig", "AsyncConfig", "AsyncInference"]
+__all__ = ["Policy", "PolicyConfig", "PolicyError", "PolicyMetadata", "ActionChunk", "PolicyNode", "ObsLayout",
+           "ChunkSchedule", "ScheduleConfig", "AsyncConfig", "AsyncInference"]
 

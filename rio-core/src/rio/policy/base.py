@@ -26,7 +26,13 @@ from pydantic import Field
 
 from rio import clock
 from rio.config import Config, Configurable
+from rio.errors import RioError
 from rio.schema import Observation
+
+
+class PolicyError(RioError, ValueError):
+    """A policy's output the station cannot take (NaN or inf, the wrong width or shape): an error the user
+    acts on (the model, its `action_indices`), said in one line naming the policy, not a traceback."""
 
 
 @dataclass
@@ -132,16 +138,18 @@ class Policy(Configurable):
         if a.ndim == 1:
             a = a[None, :]
         if a.ndim != 2:
-            raise ValueError(f"policy '{self.name}' returned actions of shape {a.shape}; expected [H, D]")
+            raise PolicyError(f"policy '{self.name}' returned actions of shape {a.shape}; expected [H, D]")
         if self.config.action_indices is not None:
             a = a[:, self.config.action_indices]
         a = a[: min(self.config.horizon or a.shape[0], self.config.max_horizon)]
         want = self.layout.action_dim if self.layout is not None else a.shape[1]
         if a.shape[1] != want:
-            raise ValueError(f"policy '{self.name}' returned {a.shape[1]} action values per step, the station "
+            raise PolicyError(f"policy '{self.name}' returned {a.shape[1]} action values per step, the station "
                              f"takes {want} (set action_indices to pick them)")
         if not np.isfinite(a).all():
-            raise ValueError(f"policy '{self.name}' returned NaN or inf actions")
+            bad = np.argwhere(~np.isfinite(a))[0]
+            raise PolicyError(f"policy '{self.name}' returned a NaN or inf action (step {bad[0]}, value {bad[1]} "
+                              "of its chunk)")
         return a
 
     def __call__(self, obs: Observation, instruction: str | None, t_obs: float, seq: int = 0,

@@ -39,7 +39,6 @@ from typing import Any, TypeVar
 import numpy as np
 
 from rio import clock
-from rio.errors import NodeDiedError
 from rio.loop.control_loop import Tick
 from rio.loop.summary import RunSummary
 from rio.policy.async_inference import AsyncConfig, AsyncInference
@@ -152,9 +151,6 @@ class PolicyController:
 
     def done(self) -> str | None:
         return None
-
-    def node_died(self, error: NodeDiedError) -> bool:
-        return error.node == POLICY_ROLE  # the policy stopped: the robot holds; any other node: an error
 
     def finish(self, summary: RunSummary) -> None:
         s = self.inf.stats()

@@ -109,6 +109,49 @@ class CrashPolicy(SleepPolicy):
 CrashConfig = CrashPolicy.Config
 
 
+class NanPolicy(SleepPolicy):
+    """A model whose output turns to NaN mid-run (a diverged network, a bad input): the node must stop, the
+    robot hold, and the run say why in one line."""
+
+    name = "testing.nan"
+    class Config(StandInConfig):
+        nan_after: int = Field(2, ge=0, description="return NaN actions after this many chunks")
+
+    def setup(self) -> None:
+        self.calls = 0
+
+    def infer(self, obs: Observation) -> np.ndarray:
+        self.calls += 1
+        actions = super().infer(obs)
+        if self.calls > self.config.nan_after:
+            actions[:, 0] = np.nan
+        return actions
+
+
+class WildPolicy(SleepPolicy):
+    """A model gone wild, on one action value (`index`; 0, an end-effector station's tool x, by default): every
+    action sets it to `value`, or, with `value` None, to the observed one plus `drift` (each chunk asks for
+    `drift` beyond where the arm is: a drift that never ends). The commander's workspace box and speed limit
+    must keep the arm in."""
+
+    name = "testing.wild"
+    class Config(StandInConfig):
+        value: float | None = Field(None, description="the first action value of every action (None: the "
+                                                      "observed one plus `drift`)")
+        drift: float = Field(0.0, description="with `value` None: how far beyond the observed value each chunk "
+                                              "asks for")
+        index: int = Field(0, ge=0, description="which action value goes wild")
+
+    def infer(self, obs: Observation) -> np.ndarray:
+        actions = super().infer(obs)
+        i = self.config.index
+        if self.config.value is not None:
+            actions[:, i] = self.config.value
+        else:
+            actions[:, i] += self.config.drift
+        return actions
+
+
 def frame_signature(cam: Camera) -> np.ndarray:
     """A camera frame as 5 numbers: its timestamp and the 64-bit checksums of its rgb and depth arrays, each
     as two exact 32-bit halves (-1, -1 without depth). Equal signatures: the same frame, bit for bit."""
@@ -154,3 +197,11 @@ class CrashPolicyNode(PolicyNode):
 
 class FrameEchoPolicyNode(PolicyNode):
     policy_class = FrameEchoPolicy
+
+
+class NanPolicyNode(PolicyNode):
+    policy_class = NanPolicy
+
+
+class WildPolicyNode(PolicyNode):
+    policy_class = WildPolicy

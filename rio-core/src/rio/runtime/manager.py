@@ -220,12 +220,15 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
 
 def _log_node_error(name: str, e: BaseException, after_start: bool) -> None:
     """Say why a node stopped: a bug (or anything under `rio --debug`) with its traceback, always; an error
-    the user can act on (a RioError: no calibration, an unplugged port) in one line, and only once the
-    station has started: during start-up the manager reports it, as the command's one error line."""
+    the user can act on (`rio.errors.expected`: a RioError such as a policy's NaN action, no calibration, an
+    unplugged port; a device or link lost) in one line, and only once the station has started: during start-up
+    the manager reports it, as the command's one error line. The traceback of an expected error goes to the
+    log at DEBUG level (and to the console under `rio --debug`)."""
     if shows_traceback(e):
         log.exception("node '%s' stopped with an error", name)
     elif after_start:
         log.error("node '%s' stopped with an error: %s: %s", name, type(e).__name__, e)
+        log.debug("node '%s': where the error was raised", name, exc_info=e)
 
 
 # -- handles ----------------------------------------------------------------------------------------
@@ -272,6 +275,9 @@ class _ThreadHandle:
             raise RioError(f"node '{self.name}' failed to start: {self.error}")
         return self.ready.is_set()
 
+    def cause(self) -> str | None:
+        return self.error
+
     def stop(self, timeout: float) -> None:
         self.node.exit_event.set()
         self.thread.join(timeout)
@@ -299,11 +305,24 @@ class _ProcessHandle:
         self.proc.start()
         child_conn.close()
         self.address: dict[str, Any] | None = None
+        self.error: str | None = None
 
     def _prepare(self, described: dict[str, Any]) -> None:
         self.layouts = D.layouts_of(described, self.name)
         self.resources = self.mw.prepare(self.layouts, self.run_dir)
         self.conn.send_bytes(json.dumps(self.resources).encode())
+
+    def cause(self) -> str | None:
+        """Why the node's process stopped ("ValueError: ..."), as it reported it, if it did."""
+        if self.error is None:
+            try:
+                while self.conn.poll(0):
+                    msg = json.loads(self.conn.recv_bytes())
+                    if msg.get("kind") == "error":
+                        self.error = f"{msg['type']}: {msg['message']}"
+            except (EOFError, OSError, ValueError):
+                pass
+        return self.error
 
     def poll_ready(self) -> bool:
         if self.address is not None:
@@ -489,6 +508,13 @@ class ServerManager:
             elif isinstance(h, _ThreadHandle) and (h.error or not h.thread.is_alive()):
                 out.append(f"{h.name} ({h.error or 'stopped'})")
         return out
+
+    def cause(self, name: str) -> str | None:
+        """Why node `name` stopped, as it said ("PolicyError: ..."); None when it did not say (or runs on)."""
+        for h in self.handles:
+            if h.name == name:
+                return h.cause()
+        return None
 
     def pids(self) -> dict[str, int]:
         pids = {}

@@ -21,6 +21,7 @@ from rio.runtime.node import Node
 log = logging.getLogger("rio.runtime.runner")
 
 _IDLE_WAIT_S = 0.05  # how often a blocked request loop re-checks the exit event
+_REPEAT_S = 5.0  # a request refused for the same reason is logged again at most this often
 #: Node loops spin only this long before a deadline (node processes set a 1 ns timer slack, so the
 #: OS sleep is already close); a longer spin would contend for the GIL with the API thread.
 NODE_SPIN_S = 0.0002
@@ -50,6 +51,7 @@ class NodeRunner:
         self.lock = lock or threading.RLock()
         self.shape = node.loop_shape()
         self.rejected = 0
+        self._refusals: dict[str, list[Any]] = {}  # why -> [refused again since logged, when to log it again]
         self._worker_error: BaseException | None = None
         #: Spans of this node's work while profiling is on (`rio.profiling.enable`), else None.
         self._trace: Trace | None = None
@@ -76,9 +78,25 @@ class NodeRunner:
                     self.node.handle_request(req)
                 except InvalidRequest as e:  # the node refused it: report, keep serving
                     self.rejected += 1
-                    log.warning("%s", e)
+                    self._refused(str(e))
                 if tr is not None:
                     tr.span("request", "handle_request", t0, clock.now())
+
+    def _refused(self, why: str) -> None:
+        """Log a refused request: a new reason at once, the same one again at most every `_REPEAT_S` with how
+        many more there were. A faulted or disabled device refuses every command of a control loop (30 to 500
+        a second); the first line says why, the run's summary says the rest."""
+        now = clock.now()
+        seen = self._refusals.get(why)
+        if seen is None or now >= seen[1]:
+            more = f" ({seen[0]} more like it since)" if seen is not None and seen[0] else ""
+            log.warning("%s%s", why, more)
+            self._refusals[why] = [0, now + _REPEAT_S]
+            if len(self._refusals) > 64:  # reasons that name values: keep the newest
+                self._refusals.pop(next(iter(self._refusals)))
+        else:
+            seen[0] += 1
+            log.debug("%s", why)
 
     # -- loops --------------------------------------------------------------------------------------
     def _pub_loop(self, with_requests: bool) -> None:

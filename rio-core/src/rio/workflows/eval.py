@@ -145,11 +145,10 @@ class EvalController(PolicyController):
             return f"success held {self.hold_s:g} s"
         return super().done()
 
-    def node_died(self, error: NodeDiedError) -> bool:
-        if super().node_died(error):
+    def node_died(self, error: NodeDiedError) -> None:
+        """(The loop ends the trial there, the robot holding.) The policy stopping ends the evaluation."""
+        if error.node == POLICY_ROLE:
             self.stopped = error
-            return True
-        return False
 
 
 def return_home(env: Any, start: np.ndarray, rate_hz: float, seconds: float = HOME_S,
@@ -243,6 +242,11 @@ def run_eval(station: Any, policy: str | None = None, *, trials: int = 10, seed:
                 summary = loop.run()
             except NodeDiedError as e:  # a station node: the trial cannot be judged, nor the next ones run
                 result.failed = str(e)
+                break
+            session.explain(summary)
+            station_event = next((e for e in summary.events if e.node != POLICY_ROLE or ctl.stopped is None), None)
+            if station_event is not None:  # a station node stopped, faulted, lost its link or was safety-stopped
+                result.failed = station_event.line()
                 break
             if recorder is not None:
                 recorder.keep()  # with the task's verdict (the loop annotated it); an empty trial is dropped

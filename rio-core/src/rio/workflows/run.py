@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from rio.errors import RioError
 from rio.loop.control_loop import ControlLoop, Tick
 from rio.loop.signals import StopSignals
-from rio.loop.summary import RunSummary
+from rio.loop.summary import ERROR, RunSummary
 
 
 @dataclass
@@ -38,12 +38,27 @@ class Session:
     rate_hz: float = 0.0
     #: the `ServerManager` running the station's nodes (their `pids()`)
     manager: Any = None
+    #: The station's `ServerManager` and those a controller started (`started`): who can say why a node stopped.
+    managers: list[Any] = field(default_factory=list)
 
     def started(self, manager: Any) -> None:
         """Tell the run about nodes a controller started itself (`ServerManager`): with `--profile`, their
-        processes get a row in the stats table."""
+        processes get a row in the stats table; a node of theirs that stops is reported with its cause."""
+        self.managers.append(manager)
         if self.profile is not None:
             self.profile.watch_nodes(manager.pids())
+
+    def explain(self, summary: RunSummary) -> None:
+        """Each node that stopped with an error, named with the error it stopped with (its own words, from the
+        manager that ran it: a process middleware's client knows only that the process exited)."""
+        for event in summary.events:
+            if event.kind != ERROR:
+                continue
+            for manager in self.managers:
+                cause = manager.cause(event.node)
+                if cause:
+                    event.message = cause
+                    break
 
     @property
     def middleware(self) -> Any:
@@ -132,6 +147,7 @@ def run_workflow(station: Any, make_controller: Callable[[Session], Any], *, mid
         summary = loop.run()
         if homed is not None and not homed.arrived:
             summary.warnings += [line[len("WARNING: "):] for line in homed.lines() if line.startswith("WARNING: ")]
+        session.explain(summary)  # while the managers still know why their nodes stopped
     return finish_session(summary, session, record)
 
 

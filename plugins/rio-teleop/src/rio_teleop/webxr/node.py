@@ -77,6 +77,10 @@ class WebXRTeleop(TeleopNode):
                                                          "(1/s) and rad/s per rad")
         dead_band_m: float = Field(0.01, ge=0, description="twist mapping: displacement ignored (m)")
         stale_s: float = Field(0.25, gt=0, le=5, description="no message for this long: hold (watchdog)")
+        silence_s: float = Field(5.0, gt=0, le=300, description="a page that sends nothing for this long (not "
+                                 "even the ping it sends every 0.5 s) is disconnected, so a client that connects "
+                                 "and goes silent does not keep the one operator slot (the arm held long before, "
+                                 "after stale_s)")
 
         @model_validator(mode="after")
         def _remote_only_when_asked(self) -> WebXRTeleop.Config:
@@ -108,7 +112,7 @@ class WebXRTeleop(TeleopNode):
         ctx.load_cert_chain(str(cert.cert), str(cert.key))
         self.lock = threading.Lock()
         self.mapper = self.make_mapper()
-        self.server = WebXRServer(self, c.host, c.port, ctx)
+        self.server = WebXRServer(self, c.host, c.port, ctx, silence_s=c.silence_s)
         self.server.start()
         shown = hosts or [c.host]
         self.urls = [f"https://{'localhost' if is_loopback(h) else h}:{self.server.port}/" for h in shown]

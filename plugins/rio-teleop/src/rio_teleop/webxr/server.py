@@ -1,7 +1,10 @@
 """The HTTPS server of the WebXR page and its WebSocket (aiohttp, in a thread with its own event loop).
 
 `GET /` is the page, `GET /teleop.js` its script (package data, no build step), `GET /ws` the
-WebSocket. One operator at a time: a second page is told so and closed. A page whose `Origin` is not
+WebSocket. One operator at a time: a second page is told so and closed, and the operator's page is
+closed (4002) once it has sent nothing for `silence_s` (the page pings every 0.5 s), so a client that
+connects and goes silent frees the slot; the arm's stale watchdog (`stale_s`) is separate and holds the
+arm long before. A page whose `Origin` is not
 this server is refused (another site open in the headset's browser cannot drive the robot). Frames
 over `protocol.MAX_HANDS_BYTES` close the connection (aiohttp's `max_msg_size`; the check refuses
 every message but `hands` past `protocol.MAX_BYTES`), compression is not offered (no decompression
@@ -24,6 +27,8 @@ from rio import clock
 from . import protocol
 
 MAX_RATE_HZ = 400
+SILENCE_S = 5.0  # the default of the node's `silence_s`
+SILENT = 4002  # the close code of a page that went silent
 STATUS_HZ = 10
 _TYPES = {"index.html": "text/html", "teleop.js": "text/javascript"}
 _CSP = ("default-src 'none'; script-src 'self'; style-src 'self' 'unsafe-inline'; connect-src 'self'; "
@@ -44,8 +49,10 @@ def _asset(name: str) -> bytes:
 
 class WebXRServer:
     def __init__(self, handler: Handler, host: str, port: int, ssl_context: ssl.SSLContext | None,
-                 extra_routes: Callable[[Any], None] | None = None):
+                 extra_routes: Callable[[Any], None] | None = None, silence_s: float = SILENCE_S):
         self.handler, self.host, self.port, self.ssl = handler, host, int(port), ssl_context
+        self.silence_s = float(silence_s)
+        self.silenced = 0  # operators disconnected for silence
         self.extra_routes = extra_routes
         self.rejected = 0
         self.dropped = 0
@@ -159,9 +166,16 @@ class WebXRServer:
         try:
             await ws.send_str(json.dumps({"type": "config", **self.handler.page_config()}))
             pusher = asyncio.ensure_future(self._push_status(ws))
-            async for msg in ws:
+            heard = clock.now()
+            while True:
+                try:  # any text frame counts as heard (WebSocket control frames do not)
+                    msg = await ws.receive(timeout=max(0.0, heard + self.silence_s - clock.now()))
+                except asyncio.TimeoutError:
+                    self.silenced += 1
+                    await ws.close(code=SILENT, message=f"silent for {self.silence_s:g} s".encode())
+                    break
                 if msg.type == WSMsgType.TEXT:
-                    now = clock.now()
+                    now = heard = clock.now()
                     if now - window_t >= 1.0:
                         window_t, window_n = now, 0
                     window_n += 1

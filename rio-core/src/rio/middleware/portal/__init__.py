@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import Field
 
-from rio.errors import NodeDiedError, NodeError
+from rio.errors import NodeDiedError, NodeError, TooManyConnections
 from rio.middleware.portal import wire as pw
 from rio.middleware.portal.server import TAKEN, PortalServer
 from rio.middleware.protocol import NetworkClient, NetworkConfig
@@ -53,6 +53,7 @@ class PortalClient(NetworkClient):
         host, port = str(address["host"]), int(address["port"])
         super().__init__(node, layouts, address, config)
         self._closing = False
+        self._refused: str | None = None  # why the server refused this connection, if it did
         self._answers: dict[bytes, queue.SimpleQueue[Answer]] = {k: queue.SimpleQueue() for k in (ACK, REPLY)}
         self._pending: dict[int, OnAnswer] = {}  # reqnum -> who takes its answer
         self._reqnums = itertools.count(1)
@@ -78,6 +79,13 @@ class PortalClient(NetworkClient):
             if error is not None:
                 raise NodeDiedError(self.name, f"handshake with {host}:{port} failed: {error}")
             self._handshake(hello, f"{host}:{port}")
+        except NodeDiedError:
+            if self._link.closed:  # the reader ends once it has read all the server said (a refusal first)
+                self._threads[0].join(config.connect_timeout)
+            self.close()
+            if self._refused is not None:  # the node runs: it has no room for this client
+                raise TooManyConnections(self.name, f"{host}:{port}", self._refused) from None
+            raise
         except BaseException:
             self.close()
             raise
@@ -105,6 +113,9 @@ class PortalClient(NetworkClient):
         try:
             while True:
                 reqnum, error, data = pw.parse_reply(pw.read_frame(self._link.recv_into, 1 << 31))
+                if reqnum == 0 and error is not None:  # (no request has number 0) the server refused us
+                    self._refused = error
+                    continue
                 with self._lock:
                     on_answer = self._pending.pop(reqnum, None)
                 if on_answer is not None:  # else a message we gave up on

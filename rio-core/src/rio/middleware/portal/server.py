@@ -10,7 +10,10 @@ A peer is a connection (`wire.Link`): its own reader and writer threads, so a pe
 stops reading holds up only those. A message is at most the node's message limit, checked on the length
 prefix before anything is allocated; a broken frame (bad handshake or length) disconnects the peer, logged
 with its address; a well-framed message we do not accept (not one `bytes` argument, an unknown method) is
-answered with an error. At most `_MAX_CONNECTIONS`; when one ends, its waiting calls and requests go too.
+answered with an error. Connections are admitted by the protocol (`NetworkServer.admit`: per-address and
+total limits, handshake and idle timeouts, strangers giving way to newcomers); a refused one is told why in an
+error frame (request number 0: "too many connections ..."), which the client reports as such. When a
+connection ends, its waiting calls and requests go too.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import rio.middleware.portal.wire as pw
 from rio.middleware.protocol import NetworkServer
+from rio.middleware.protocol.memory import release_large_buffers
 from rio.middleware.protocol.messages import CALL, HELLO, OK, STREAM_HEAD
 from rio.runtime.node import Node
 from rio.runtime.transport import NodeLayouts
@@ -35,8 +39,11 @@ log = logging.getLogger("rio.middleware.portal")
 
 TAKEN = b"\x01"  # the answer to a request that entered the node's queue (what portal clients expect)
 _SEND_TIMEOUT_S = 30.0  # a peer that takes longer than this to take one answer is dropped
-_MAX_CONNECTIONS = 32
 _ACCEPT_WAKE_S = 0.2  # how often the accept thread looks at its stop flag
+#: A refused connection is told why, then given this long to read it before it is closed ...
+_REFUSAL_S = 1.0
+#: ... by one of at most this many threads (beyond, a refused connection is closed without a word).
+_REFUSERS = 8
 
 
 class PortalServer(NetworkServer):
@@ -52,8 +59,10 @@ class PortalServer(NetworkServer):
         self._parked: list[tuple[pw.Link, int, int]] = []  # long polls waiting: link, reqnum, seq
         self._links: set[pw.Link] = set()
         self._listener: socket.socket | None = None
+        self._refusers = threading.BoundedSemaphore(_REFUSERS)
 
     def _open(self) -> dict[str, Any]:
+        release_large_buffers()
         host = self.config.host
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
         self._listener = socket.create_server((host, self.config.port or 0), family=family, backlog=64)
@@ -64,6 +73,9 @@ class PortalServer(NetworkServer):
 
     def _send(self, peer: Any, kind: bytes, body: bytes, tag: Any = None) -> None:
         peer.send(pw.reply_frame(tag, body))
+
+    def _disconnect(self, peer: Any, why: str) -> None:
+        peer.close(why, logging.INFO)
 
     def _ack(self, peer: Any, rid: int, status: int, a: Any, b: Any, tag: Any) -> None:
         if status == OK:  # what a portal client expects: one byte
@@ -117,19 +129,40 @@ class PortalServer(NetworkServer):
                     log.warning("node '%s': accept failed: %s", self.name, e)
                 time.sleep(_ACCEPT_WAKE_S)
                 continue
-            with self._lock:
-                full = len(self._links) >= _MAX_CONNECTIONS or self._stop.is_set()
-                link = None if full else pw.Link(sock, f"{peer[0]}:{peer[1]}", self.name, _SEND_TIMEOUT_S)
-                if link is not None:
-                    self._links.add(link)
-            if link is None:
-                self._warn("node '%s': refused a connection from %s:%s (%d open)", self.name, *peer[:2],
-                           _MAX_CONNECTIONS)
+            if self._stop.is_set():
                 sock.close()
-            else:
-                link.reader = threading.Thread(target=self._serve, args=(link,), name=f"rio-{self.name}-portal-conn",
-                                               daemon=True)
-                link.reader.start()
+                continue
+            link = pw.Link(sock, f"{peer[0]}:{peer[1]}", self.name, _SEND_TIMEOUT_S)  # no thread runs yet
+            refused = self.admit(link, str(peer[0]))
+            if refused is not None:
+                self._refuse_connection(sock, refused)
+                continue
+            with self._lock:
+                self._links.add(link)
+            link.start(threading.Thread(target=self._serve, args=(link,), name=f"rio-{self.name}-portal-conn",
+                                        daemon=True))
+
+    def _refuse_connection(self, sock: socket.socket, why: str) -> None:
+        """Tell a refused connection why (an error frame, request number 0), let it read that, close it."""
+        if not self._refusers.acquire(blocking=False):  # a flood of connections: no word for each
+            sock.close()
+            return
+
+        def refuse() -> None:
+            try:
+                sock.settimeout(_REFUSAL_S)
+                sock.sendall(pw.error_frame(0, pw.STATUS_REFUSED, why))
+                sock.shutdown(socket.SHUT_WR)
+                deadline = time.monotonic() + _REFUSAL_S
+                while time.monotonic() < deadline and sock.recv(1 << 16):  # until it has read and closed
+                    pass
+            except OSError:
+                pass
+            finally:
+                sock.close()
+                self._refusers.release()
+
+        threading.Thread(target=refuse, name=f"rio-{self.name}-portal-refuse", daemon=True).start()
 
     def _serve(self, link: pw.Link) -> None:
         """The connection's reader: handshake, then frames until the peer leaves or breaks the framing."""
@@ -156,6 +189,7 @@ class PortalServer(NetworkServer):
                 self._links.discard(link)
 
     def _on_frame(self, link: pw.Link, body: bytearray) -> None:
+        self.heard(link)
         try:
             reqnum, method, arg = pw.parse_request(body)
         except pw.MessageError as e:

@@ -157,10 +157,17 @@ class Link:
         self._cv = threading.Condition()
         self._send_lock = threading.Lock()
         self.writer: threading.Thread | None = None
-        if writer:
+        if writer:  # started by `start()`: a server admits the connection first
             self.writer = threading.Thread(target=self._write_loop, name=f"rio-{node}-portal-send", daemon=True)
-            self.writer.start()
         self.reader: threading.Thread | None = None  # its owner's, that reads frames
+
+    def start(self, reader: threading.Thread | None = None) -> None:
+        """Start the writer thread (a server's link) and the owner's `reader`."""
+        if self.writer is not None:
+            self.writer.start()
+        self.reader = reader
+        if reader is not None:
+            reader.start()
 
     def __repr__(self) -> str:
         return self.peer

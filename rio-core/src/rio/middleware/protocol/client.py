@@ -24,7 +24,7 @@ from functools import partial
 from typing import Any, ClassVar
 
 from rio import clock
-from rio.errors import ConfigError, NodeDiedError, NodeError, NodeTimeout, RioError
+from rio.errors import ConfigError, NodeDiedError, NodeError, NodeTimeout, RioError, TooManyConnections
 from rio.middleware.protocol import messages as m
 from rio.middleware.protocol.codecs import RecordDecoder
 from rio.middleware.protocol.config import NetworkConfig
@@ -121,6 +121,8 @@ class NetworkClient(ClientTransport):
             version = hello.get("protocol")
         except (ValueError, AttributeError):
             hello, version = None, None
+        if hello is not None and hello.get("refused"):  # the server runs, with no room for this connection
+            raise TooManyConnections(self.name, where, str(hello["refused"]))
         if version != m.VERSION:
             raise ConfigError(f"node '{self.name}': its server at {where} speaks {self.mw} protocol {version}, "
                               f"this client {m.VERSION}: run the same rio version on both machines")

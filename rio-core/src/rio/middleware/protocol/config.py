@@ -51,6 +51,19 @@ class NetworkConfig(MiddlewareConfig):
                                       "queue, one peer may have waiting on a node; more are refused at once")
     max_pending: int = Field(64, ge=1, description="the same from all peers together; when it is reached, the "
                              "peer holding the most gives way to one holding fewer")
+    max_pending_bytes: int = Field(64 << 20, ge=1 << 20, description="bytes those calls and requests hold, from "
+                                   "all peers together (raised to one message where that is larger): what a node "
+                                   "keeps for its peers is bounded whatever their number; past it, the peer holding "
+                                   "the most gives way, as past max_pending")
+    max_connections: int = Field(128, ge=1, description="connections a node serves at once, where the transport has "
+                                 "connections (zmq, portal; a zmq client has two); a newcomer takes the slot of the "
+                                 "oldest that has not finished its handshake, else is refused with 'too many "
+                                 "connections'")
+    max_connections_per_address: int = Field(64, ge=1, description="the same from one address")
+    handshake_timeout_s: float = Field(5.0, gt=0, description="a connection that has not finished the handshake "
+                                       "after this long is dropped (zmq, portal)")
+    idle_timeout_s: float = Field(30.0, gt=0, description="a connection that has sent nothing for this long is "
+                                  "dropped (portal; a client's long poll goes out every heartbeat)")
 
     @model_validator(mode="before")
     @classmethod
@@ -69,6 +82,11 @@ class NetworkConfig(MiddlewareConfig):
         """`max_message_bytes`, raised to fit one request record and a call's envelope."""
         record = layouts.request.itemsize if layouts.request is not None else 0
         return max(self.max_message_bytes, record + _MESSAGE_HEADROOM)
+
+    def pending_bytes(self, layouts: NodeLayouts) -> int:
+        """What the waiting calls may hold, and what the waiting requests may: half of `max_pending_bytes` each,
+        raised to hold one message (`message_limit`)."""
+        return max(self.max_pending_bytes // 2, self.message_limit(layouts))
 
     def exposed(self) -> list[str]:
         """The non-loopback addresses this config binds or connects to: its `host` (a middleware that

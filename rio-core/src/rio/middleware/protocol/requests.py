@@ -44,6 +44,8 @@ class RequestIntake:
                  wake: Callable[[], None]):
         self.node, self.queue, self._ack, self._waiting, self._wake = node, queue, ack, waiting, wake
         self._lock = threading.Lock()  # one producer at a time: arrival order is queue order
+        #: Told of every request refused FULL (the server's flood indicator).
+        self.on_full: Callable[[], None] = lambda: None
         self._warn = Throttled(log)
 
     def take(self, peer: Hashable, rid: int, record: memoryview, tag: Any = None) -> None:
@@ -62,10 +64,9 @@ class RequestIntake:
                 q.put_record(rec)
                 return None
             refused = self._waiting.put(peer, (rid, rec, clock.now() + q.put_timeout, tag))
-        if refused is None:
-            self._wake()
-        else:
-            self._full(*refused)
+        for item in refused:
+            self._full(*item)
+        self._wake()
         return None
 
     def feed(self) -> float:
@@ -87,11 +88,16 @@ class RequestIntake:
     def drop(self, peer: Hashable) -> None:
         self._waiting.drop(peer)
 
+    @property
+    def waiting(self) -> int:
+        return len(self._waiting)
+
     def close(self) -> None:
         self._waiting.close()
 
     def _full(self, peer: Hashable, item: tuple) -> None:
         assert self.queue is not None
+        self.on_full()
         self._refuse(peer, item[0], FULL, self.queue.capacity, self.queue.put_timeout, item[3])
 
     def _refuse(self, peer: Hashable, rid: int, status: int, a: Any, b: Any, tag: Any) -> None:

@@ -3,9 +3,12 @@ supplies the transport (`_open`, `_send`, `_broadcast`, `_shut`), hands every me
 `on_message` with the peer it came from, and says `peer_gone` when a peer has left.
 
 This class answers handshakes, takes requests (`RequestIntake`) and queues API calls fairly (`FairQueue`:
-beyond `max_pending_per_peer` per peer or `max_pending` in all a call is answered TooManyCalls at once) for
+beyond `max_pending_per_peer` per peer, or `max_pending` calls or `max_pending_bytes` in all, a call is
+answered TooManyCalls at once; what a node holds for its peers is bounded whatever their number) for
 one API thread. That thread runs no call whose caller has given up (it waited past `call_timeout`: running
-it would only delay the calls behind it) nor those of a peer that has left. Samples are published with the
+it would only delay the calls behind it) nor those of a peer that has left. A transport whose peers are
+connections admits them through `admit` (`Admission`: per-address and total limits, handshake and idle
+timeouts; it closes what `_disconnect` is told to). Samples are published with the
 server's epoch and their sequence number, image fields compressed once when the node serves other machines
 (`codecs`); heartbeats go out every `heartbeat_s` from a thread of their own,
 so a client hears from a live server while the node publishes nothing or runs a slow call; a clean close
@@ -22,7 +25,9 @@ from collections.abc import Callable, Hashable
 from typing import Any, ClassVar
 
 from rio import clock
+from rio.middleware.protocol import memory
 from rio.middleware.protocol import messages as m
+from rio.middleware.protocol.admission import Admission
 from rio.middleware.protocol.codecs import encoder_for
 from rio.middleware.protocol.config import NetworkConfig, warn_if_exposed
 from rio.middleware.protocol.fair import FairQueue
@@ -35,6 +40,7 @@ from rio.runtime.transport import NodeLayouts, ServerTransport
 log = logging.getLogger("rio.middleware.protocol")
 
 _KNOWN_MAX = 1024  # peers remembered as known (the most recently seen)
+_CALM_S = 2.0  # a flood is over when nothing was refused for this long
 
 
 class NetworkServer(ServerTransport):
@@ -54,9 +60,14 @@ class NetworkServer(ServerTransport):
         self._known: OrderedDict[Hashable, None] = OrderedDict()  # peers that finished a handshake
         self._known_lock = threading.Lock()
         per, total = config.max_pending_per_peer, config.max_pending
-        self._calls = FairQueue(per, total, self._knows)
-        self._intake = RequestIntake(self.name, self.request_queue, self._ack, FairQueue(per, total, self._knows),
-                                     self._wake.set)
+        budget = config.pending_bytes(layouts)  # each, for the calls and the requests waiting
+        self._calls = FairQueue(per, total, self._knows, max_bytes=budget, size=lambda item: len(item[0]))
+        self._intake = RequestIntake(self.name, self.request_queue, self._ack,
+                                     FairQueue(per, total, self._knows, max_bytes=budget,
+                                               size=lambda item: item[1].nbytes), self._wake.set)
+        self._intake.on_full = self._flooded
+        self.admission = Admission(self.name, config)
+        self._t_flood = 0.0  # when something was last refused for want of room (0: not since the last trim)
         self._warn = m.Throttled(log)
         #: Compresses image fields once per sample when the node serves other machines (`codecs`).
         self.encoder = encoder_for(node, layouts.data, linked=bool(config.exposed()))
@@ -79,6 +90,10 @@ class NetworkServer(ServerTransport):
 
     def _shut(self, busy: bool) -> None:
         """Release the transport (`busy`: an API call still runs in its thread)."""
+
+    def _disconnect(self, peer: Hashable, why: str) -> None:
+        """Close the connection `peer` (admission: no handshake in time, silence, a newcomer's room). Only
+        transports whose peers are connections (`admit`) are asked."""
 
     def _spawn(self, target: Callable[[], None], what: str) -> None:
         t = threading.Thread(target=target, name=f"rio-{self.name}-{self.mw}-{what}", daemon=True)
@@ -111,12 +126,29 @@ class NetworkServer(ServerTransport):
             log.warning("node '%s': an API call was still running at shutdown", self.name)
         self._shut(busy)
 
+    # -- connections (transports whose peers are connections) ----------------------------------------
+    def admit(self, peer: Hashable, address: str) -> str | None:
+        """A new connection `peer` from `address`: None when it is served (older ones that had to give way are
+        closed now), else why it is refused ("too many connections ..."), for the transport to tell it."""
+        drop, refused = self.admission.admit(peer, address)
+        if drop or refused is not None:
+            self._flooded()
+        for other, why in drop:
+            self._warn("node '%s': dropped the connection of %r: %s", self.name, other, why)
+            self._disconnect(other, why)
+        if refused is not None:
+            self._warn("node '%s': refused a connection from %s: %s", self.name, address, refused)
+        return refused
+
+    def heard(self, peer: Hashable) -> None:
+        """Any message from `peer` (the idle timeout's clock)."""
+        self.admission.heard(peer)
+
     # -- receiving -----------------------------------------------------------------------------------
     def on_message(self, peer: Hashable, kind: bytes, body: bytes | memoryview, tag: Any = None) -> None:
         """A message from `peer` (a transport thread): never blocks on the node."""
         if kind == m.CALL:
-            refused = self._calls.put(peer, (body, clock.now(), tag))
-            if refused is not None:
+            for refused in self._calls.put(peer, (body, clock.now(), tag)):
                 self._too_many(*refused)
         elif kind == m.REQUEST and len(body) >= m.REQUEST_ID.size:
             self.take_request(peer, m.REQUEST_ID.unpack_from(body)[0], memoryview(body)[m.REQUEST_ID.size:], tag)
@@ -133,9 +165,12 @@ class NetworkServer(ServerTransport):
         """Its waiting calls and requests are not run nor queued for nobody."""
         self._calls.drop(peer)
         self._intake.drop(peer)
+        self.admission.left(peer)
 
     def vouch(self, peer: Hashable, new: bool = True) -> None:
-        """`peer` finished a handshake (`new`), or, known already, was served again: it outranks strangers."""
+        """`peer` finished a handshake (`new`), or, known already, was served again: it outranks strangers (and
+        its connection, where peers are connections, is established)."""
+        self.admission.established(peer)
         with self._known_lock:
             if peer in self._known:
                 self._known.move_to_end(peer)
@@ -154,12 +189,22 @@ class NetworkServer(ServerTransport):
                           "heartbeat_s": self.config.heartbeat_s, "credits": self.config.max_pending_per_peer,
                           "coded": self.encoder is not None})
 
+    def refusal(self, why: str) -> bytes:
+        """The answer to a HELLO on a connection `admit` refused (where the transport can only answer one):
+        its client raises `TooManyConnections` with `why`."""
+        return wire.pack({"protocol": m.VERSION, "node": self.name, "refused": why})
+
     def _ack(self, peer: Hashable, rid: int, status: int, a: Any, b: Any, tag: Any) -> None:
         if status == m.OK:
             self.vouch(peer, new=False)
         self._send(peer, m.ACK, m.pack_ack(rid, status, a, b), tag)
 
+    def _flooded(self) -> None:
+        """Something was refused for want of room: once the flood is over, memory is given back (`_service`)."""
+        self._t_flood = clock.now()
+
     def _too_many(self, peer: Hashable, item: tuple) -> None:
+        self._flooded()
         per, total = self.config.max_pending_per_peer, self.config.max_pending
         self._warn("node '%s': refused an API call of %r: too many calls queued", self.name, peer)
         self._send(peer, m.REPLY, wire.pack_reply(m.call_id(item[0]), False, [
@@ -199,7 +244,8 @@ class NetworkServer(ServerTransport):
             return wire.pack_reply(cid, False, wire.remote_error_payload(e))
 
     def _service(self) -> None:
-        """Heartbeats every `heartbeat_s`, and waiting requests moved into the node's queue as it makes room."""
+        """Heartbeats every `heartbeat_s`, waiting requests moved into the node's queue as it makes room, and
+        connections that did not finish their handshake or went silent closed."""
         period = self.config.heartbeat_s
         t_beat = clock.now() + period
         while not self._stop.is_set():
@@ -212,6 +258,12 @@ class NetworkServer(ServerTransport):
                     self._send_control(m.BEAT)
                 except Exception:  # keep beating: one failed send is no reason to look dead
                     log.exception("node '%s': heartbeat failed", self.name)
+                for peer, why in self.admission.expired():
+                    self._warn("node '%s': dropped the connection of %r: %s", self.name, peer, why)
+                    self._disconnect(peer, why)
+                if self._t_flood and t - self._t_flood > _CALM_S and not len(self._calls) and not self._intake.waiting:
+                    self._t_flood = 0.0  # a flood is over and nothing waits: what it took goes back
+                    memory.trim()
             self._wake.wait(min(wait, t_beat - t))
 
     # -- the state stream ----------------------------------------------------------------------------
