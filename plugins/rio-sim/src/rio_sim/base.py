@@ -22,8 +22,7 @@ from pydantic import Field
 
 from rio import clock
 from rio.control.odometry import PlanarOdometry
-from rio.control.omni import OmniKinematics
-from rio.interfaces import BaseNode
+from rio.interfaces.base import OmniBaseNode
 from rio.runtime.node import remote
 
 from .attached import WorldAttachment
@@ -32,25 +31,14 @@ from .indices import joint_indices
 PLANAR = ("x", "y", "yaw")
 
 
-class SimBase(BaseNode):
-    class Config(BaseNode.Config):
+class SimBase(OmniBaseNode):
+    class Config(OmniBaseNode.Config):
         base: str = Field("base", description="the scene's base (its name prefix)")
         world: str = Field("sim", description="the sim.world this base lives in")
-        wheel_angles_deg: list[float] = Field([150.0, -90.0, 30.0], min_length=3,
-                                              description="direction each wheel pushes the body (deg from x)")
-        wheel_radius: float = Field(0.05, gt=0, description="wheel radius (m)")
-        base_radius: float = Field(0.125, gt=0, description="wheel contact to base center (m)")
-
-    def default_wheel_names(self) -> list[str]:
-        return [f"wheel{i + 1}" for i in range(len(self.config.wheel_angles_deg))]
 
     def setup(self) -> None:
         super().setup()
         c = self.config
-        self.kinematics = OmniKinematics.from_degrees(c.wheel_angles_deg, c.wheel_radius, c.base_radius)
-        if self.kinematics.n_wheels != self.n_wheels:
-            raise ValueError(f"node '{self.name}': {self.n_wheels} wheel_names for {self.kinematics.n_wheels} "
-                             "wheel_angles_deg")
         self.example_data = {**self.example_data, "true_pose": np.zeros(3)}
         self.sim = WorldAttachment(c.world)
 

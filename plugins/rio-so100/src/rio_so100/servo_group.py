@@ -18,6 +18,24 @@ from .feetech.bus import FeetechBus
 _BLOCK_ADDR, _BLOCK_LEN = T.STATE_BLOCK
 
 
+def read_state_block(bus: FeetechBus, ids: list[int]) -> dict[str, np.ndarray]:
+    """One SYNC READ of the state block of servos `ids`, decoded per servo: position (steps), speed (steps/s,
+    signed), load (fraction of max torque, signed), voltage (V), temperature (deg C), error bits (the
+    status packet's and the servo's own). Arm joints and LeKiwi's wheels read the same block."""
+    data, errors = bus.sync_read(ids, _BLOCK_ADDR, _BLOCK_LEN)
+    n = len(ids)
+    steps, vel, load = np.empty(n), np.empty(n), np.empty(n)
+    volt, temp, err = np.empty(n), np.empty(n), np.zeros(n, np.int64)
+    for k, sid in enumerate(ids):
+        d = data[sid]
+        steps[k] = T.from_bytes(d, 0, 2)
+        vel[k] = T.decode_sign(T.from_bytes(d, 2, 2), 15)
+        load[k] = T.decode_sign(T.from_bytes(d, 4, 2), 10) / 1000.0
+        volt[k], temp[k] = d[6] / 10.0, d[7]
+        err[k] = int(errors.get(sid, 0)) | int(d[9])
+    return {"steps": steps, "vel_steps": vel, "load": load, "voltage": volt, "temperature": temp, "error": err}
+
+
 class ServoGroup:
     def __init__(self, bus: FeetechBus, joints: dict[str, JointCalibration]):
         self.bus, self.joints = bus, dict(joints)
@@ -42,19 +60,10 @@ class ServoGroup:
     def read(self) -> dict[str, np.ndarray]:
         """One SYNC READ -> steps, rad, rad/s, load (fraction of max torque, signed), voltage (V),
         temperature (deg C), error bits per servo."""
-        data, errors = self.bus.sync_read(self.ids, _BLOCK_ADDR, _BLOCK_LEN)
-        n = len(self.ids)
-        steps, vel, load = np.empty(n), np.empty(n), np.empty(n)
-        volt, temp, err = np.empty(n), np.empty(n), np.zeros(n, np.int64)
-        for k, sid in enumerate(self.ids):
-            d = data[sid]
-            steps[k] = T.from_bytes(d, 0, 2)
-            vel[k] = T.decode_sign(T.from_bytes(d, 2, 2), 15)
-            load[k] = T.decode_sign(T.from_bytes(d, 4, 2), 10) / 1000.0
-            volt[k], temp[k] = d[6] / 10.0, d[7]
-            err[k] = int(errors.get(sid, 0)) | int(d[9])
-        return {"steps": steps, "joint_pos": self.to_rad(steps), "joint_vel": self._sign * vel * RAD_PER_STEP,
-                "load": load, "voltage": volt, "temperature": temp, "error": err}
+        s = read_state_block(self.bus, self.ids)
+        return {"steps": s["steps"], "joint_pos": self.to_rad(s["steps"]),
+                "joint_vel": self._sign * s["vel_steps"] * RAD_PER_STEP, "load": s["load"], "voltage": s["voltage"],
+                "temperature": s["temperature"], "error": s["error"]}
 
     def faults(self, sample: dict[str, np.ndarray]) -> dict[int, int]:
         return {sid: int(e) for sid, e in zip(self.ids, sample["error"], strict=True) if e}

@@ -14,28 +14,12 @@ import numpy as np
 from pydantic import Field
 
 from rio import clock
-from rio.control.omni import OmniKinematics
-from rio.interfaces.base import BaseNode
+from rio.interfaces.base import OmniBaseNode
 
 
-class FakeBase(BaseNode):
-    class Config(BaseNode.Config):
-        wheel_angles_deg: list[float] = Field([150.0, -90.0, 30.0], min_length=3,
-                                              description="direction each wheel pushes the body (deg from x)")
-        wheel_radius: float = Field(0.05, gt=0, description="wheel radius (m)")
-        base_radius: float = Field(0.125, gt=0, description="wheel distance from the center (m)")
+class FakeBase(OmniBaseNode):
+    class Config(OmniBaseNode.Config):
         frozen: bool = Field(False, description="ignore every command (motors off)")
-
-    def default_wheel_names(self) -> list[str]:
-        return [f"wheel{i + 1}" for i in range(len(self.config.wheel_angles_deg))]
-
-    def setup(self) -> None:
-        super().setup()
-        c = self.config
-        self.kinematics = OmniKinematics.from_degrees(c.wheel_angles_deg, c.wheel_radius, c.base_radius)
-        if self.kinematics.n_wheels != self.n_wheels:
-            raise ValueError(f"node '{self.name}': {self.n_wheels} wheel_names for {self.kinematics.n_wheels} "
-                             "wheel_angles_deg")
 
     def open(self) -> None:
         self.pos, self.vel = np.zeros(self.n_wheels), np.zeros(self.n_wheels)
@@ -60,5 +44,3 @@ class FakeBase(BaseNode):
             self.read_wheels()
             self.vel = np.zeros(self.n_wheels)  # torque off: a fake base on carpet rolls to a stop at once
 
-    def body_twist_of(self, wheel_vel: np.ndarray) -> np.ndarray:
-        return self.kinematics.to_body(wheel_vel)

@@ -31,6 +31,7 @@ from pydantic import Field
 
 from rio import clock
 from rio.control.odometry import PlanarOdometry
+from rio.control.omni import OmniKinematics
 from rio.control.twist_commander import TwistCommander
 from rio.interfaces.commanded import CommandedNode
 from rio.interfaces.joints import as_vector, t_target
@@ -163,3 +164,29 @@ class BaseNode(CommandedNode):
 
 
 BaseConfig = BaseNode.Config
+
+
+class OmniBaseNode(BaseNode):
+    """A base on omni wheels of a configurable geometry: its wheel speeds are the inverse kinematics
+    (`rio.control.omni`) of the body twist, and its body twist their forward kinematics. The fake and the
+    sim base stand on it; a real driver with a fixed geometry (LeKiwi) builds its own `OmniKinematics`."""
+
+    class Config(BaseNode.Config):
+        wheel_angles_deg: list[float] = Field([150.0, -90.0, 30.0], min_length=3,
+                                              description="direction each wheel pushes the body (deg from x)")
+        wheel_radius: float = Field(0.05, gt=0, description="wheel radius (m)")
+        base_radius: float = Field(0.125, gt=0, description="wheel contact to base center (m)")
+
+    def default_wheel_names(self) -> list[str]:
+        return [f"wheel{i + 1}" for i in range(len(self.config.wheel_angles_deg))]
+
+    def setup(self) -> None:
+        super().setup()
+        c = self.config
+        self.kinematics = OmniKinematics.from_degrees(c.wheel_angles_deg, c.wheel_radius, c.base_radius)
+        if self.kinematics.n_wheels != self.n_wheels:
+            raise ValueError(f"node '{self.name}': {self.n_wheels} wheel_names for {self.kinematics.n_wheels} "
+                             "wheel_angles_deg")
+
+    def body_twist_of(self, wheel_vel: np.ndarray) -> np.ndarray:
+        return self.kinematics.to_body(wheel_vel)

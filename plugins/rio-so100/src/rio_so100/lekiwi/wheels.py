@@ -26,9 +26,9 @@ from rio.interfaces import BaseNode, ServoBus
 
 from ..errors import ServoFault
 from ..feetech import control_table as T
+from ..servo_group import read_state_block
 from . import geometry as G
 
-_BLOCK_ADDR, _BLOCK_LEN = T.STATE_BLOCK
 _VEL_SIGN = T.SIGN_BITS[T.GOAL_VELOCITY]
 
 
@@ -98,17 +98,9 @@ class LeKiwiBase(BaseNode):
 
     # -- the hot path -------------------------------------------------------------------------------
     def read_wheels(self) -> dict[str, Any]:
-        data, errors = self.bus.sync_read(self.ids, _BLOCK_ADDR, _BLOCK_LEN)
-        n = self.n_wheels
-        steps, vel, load = np.empty(n), np.empty(n), np.empty(n)
-        volt, temp, err = np.empty(n), np.empty(n), np.zeros(n, np.int64)
-        for k, sid in enumerate(self.ids):
-            d = data[sid]
-            steps[k] = T.from_bytes(d, 0, 2)
-            vel[k] = T.decode_sign(T.from_bytes(d, 2, 2), 15)
-            load[k] = T.decode_sign(T.from_bytes(d, 4, 2), 10) / 1000.0
-            volt[k], temp[k] = d[6] / 10.0, d[7]
-            err[k] = int(errors.get(sid, 0)) | int(d[9])
+        s = read_state_block(self.bus, self.ids)
+        n, steps, vel, err = self.n_wheels, s["steps"], s["vel_steps"], s["error"]
+        load, temp, volt = s["load"], s["temperature"], s["voltage"]
         if err.any():
             if self.enabled:
                 try:
