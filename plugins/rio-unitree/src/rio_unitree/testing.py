@@ -15,10 +15,13 @@ _handed_out: set[int] = set()
 
 def free_domain_id(interface: str = "lo", lo: int = 100, hi: int = 200, listen_s: float = 0.15) -> int:
     """A DDS domain in [lo, hi] with no participant but ours after `listen_s` of discovery, not handed
-    out before in this process."""
+    out before in this process; a pytest-xdist worker draws from its own share of the range
+    (`rio.machine.parallel`: two workers probing at once would both find the same domain free)."""
     from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
 
-    candidates = [d for d in range(lo, hi + 1) if d not in _handed_out]
+    from rio.machine.parallel import worker_share
+
+    candidates = [d for d in worker_share(lo, hi) if d not in _handed_out]
     random.shuffle(candidates)
     for domain in candidates[:20]:
         with Participant(domain, interface) as p:
