@@ -122,7 +122,7 @@ def test_shared_memory_suites_pass_on_the_portable_paths():
               "rio-core/tests/test_shm_calls.py", "rio-core/tests/test_recording_crash.py",
               "plugins/rio-sim/tests/test_bus.py"]
     env = {**os.environ, "RIO_HOST_FALLBACK": "1"}
-    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *suites],
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", *suites],
                          cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
     assert " passed" in run.stdout and "failed" not in run.stdout

@@ -1,0 +1,61 @@
+"""The suite's own rules, for every `uv run pytest` from the repository's root.
+
+Hardware tests (marker `hardware`) are deselected unless `-m` names them (`-m hardware`): a `-m` given on the
+command line replaces pyproject's, so a `-m 'not hardware'` there would be lost from `-m "not slow"`.
+
+How the suite is split over pytest-xdist workers (`-n auto` in pyproject's addopts; `-n 0` runs it in one
+process): which tests must run on one worker, one after another.
+
+The unit of work is a test file: its module- and class-scoped fixtures (an emulator, a recorded episode)
+are made once, on one worker. Files that use one fixed machine resource are one unit together
+(`SHARED_RESOURCE`). Everything else a test starts is private to its worker already: shared memory and run
+directories carry a run id, rio-sim worlds a session id per process tree, emulators draw loopback addresses
+and the G1 tests DDS domains from their worker's own share (`rio.machine.parallel`), ports are chosen by the
+system (port 0), and `rio new plugin`'s tests install what they generate into an environment of their own.
+
+xdist's own grouping (`--dist loadgroup` with `xdist_group` marks) would say this on the tests, but under
+pytest 9.2 it silently does nothing: xdist names a group by rewriting each test's node id (`item._nodeid`),
+which pytest 9.2 no longer reads (pytest-dev/pytest-xdist#1386). The scheduler below sees only node ids,
+so the shared resources are named here, by file.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+#: Files whose tests use one fixed machine resource, by resource: each group runs on one worker.
+SHARED_RESOURCE = {
+    # the packaged UR and xArm stations serve their emulators on 127.0.0.2 (both on ports 30001-30003)
+    "plugins/rio-ur/tests/test_station.py": "127.0.0.2",
+    "plugins/rio-ufactory/tests/test_station.py": "127.0.0.2",
+}
+
+
+def pytest_collection_modifyitems(config: Any, items: list[Any]) -> None:
+    if "hardware" in (config.option.markexpr or ""):
+        return  # -m decides
+    hardware = [item for item in items if item.get_closest_marker("hardware") is not None]
+    if hardware:
+        config.hook.pytest_deselected(items=hardware)
+        items[:] = [item for item in items if item.get_closest_marker("hardware") is None]
+
+
+def unit_of(nodeid: str) -> str:
+    """The unit of work a test belongs to: its file, or the resource its file shares with others."""
+    path = nodeid.split("::", 1)[0]
+    return SHARED_RESOURCE.get(path, path)
+
+
+def pytest_xdist_make_scheduler(config: Any, log: Any) -> Any:
+    import pytest
+    from xdist.scheduler import LoadScopeScheduling
+
+    missing = [path for path in SHARED_RESOURCE if not (config.rootpath / path).is_file()]
+    if missing:
+        raise pytest.UsageError(f"conftest.py's SHARED_RESOURCE names files that do not exist: {missing}")
+
+    class ByUnit(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return unit_of(nodeid)
+
+    return ByUnit(config, log)
