@@ -114,6 +114,7 @@ def test_file_lock_is_exclusive_across_descriptors(tmp_path):
     os.close(b)
 
 
+@pytest.mark.slow
 def test_shared_memory_suites_pass_on_the_portable_paths():
     """The whole middleware conformance kit (every middleware watches its node processes through
     rio.machine.host), the shm middleware and call-channel tests, crash-safe recording and the sim world bus,

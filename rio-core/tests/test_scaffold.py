@@ -169,6 +169,7 @@ def plugins(tmp_path_factory: pytest.TempPathFactory) -> Generated:
     assert not [p for p in gone["plugins"] if p["distribution"] in DISTS]
 
 
+@pytest.mark.slow
 def test_generated_plugins_are_listed(plugins):
     for kind in PLUGIN_KINDS:
         d = plugins.dirs[kind]
@@ -186,6 +187,7 @@ def test_generated_plugins_are_listed(plugins):
     assert not [p for p in listed["problems"] if p["plugin"].startswith("zz") or "zz" in p["message"]]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", [*PLUGIN_KINDS, MULTI])
 def test_generated_plugin_own_tests_pass(plugins, kind):
     d = plugins.dirs[kind]
@@ -196,6 +198,7 @@ def test_generated_plugin_own_tests_pass(plugins, kind):
     assert "failed" not in tail and "error" not in tail and "skipped" not in tail, r.stdout
 
 
+@pytest.mark.slow
 def test_generated_code_is_lint_clean(plugins):
     ruff = shutil.which("ruff") or (shutil.which("ruff", path=str(Path(sys.executable).parent)))
     if ruff is None:
@@ -204,6 +207,7 @@ def test_generated_code_is_lint_clean(plugins):
         run([ruff, "check", "--no-cache", "."], d)
 
 
+@pytest.mark.slow
 def test_arm_model_is_package_data(plugins, tmp_path):
     uv = shutil.which("uv")
     if uv is None:
@@ -219,6 +223,7 @@ def test_arm_model_is_package_data(plugins, tmp_path):
 # -- each kind's workflow through the command line ------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_arm_teleop_record_replay_deploy(plugins, tmp_path):
     out = plugins.rio("teleop", "zzarm-demo", "--teleop", "scripted", "--duration", "4", cwd=tmp_path)
     m = re.search(r"arm: tool \(([-+.\d, ]+)\) -> \(([-+.\d, ]+)\) m, path ([.\d]+) m", out)
@@ -240,11 +245,13 @@ def test_arm_teleop_record_replay_deploy(plugins, tmp_path):
     assert summary["details"]["metadata"]["action_dim"] == 6  # joint positions of the plugin's arm
 
 
+@pytest.mark.slow
 def test_gripper_teleop(plugins, tmp_path):
     out = plugins.rio("teleop", "zzgripper-demo", "--teleop", "scripted", "--duration", "4", cwd=tmp_path)
     assert "duration reached" in out and re.search(r"gripper \d+ mm", out), out
 
 
+@pytest.mark.slow
 def test_camera_stream_is_recorded(plugins, tmp_path):
     from rio.recording import Dataset
 
@@ -258,6 +265,7 @@ def test_camera_stream_is_recorded(plugins, tmp_path):
     assert frame.shape == (120, 160, 3)
 
 
+@pytest.mark.slow
 def test_teleop_device_drives_its_station(plugins, tmp_path):
     # no --teleop: the station's own teleop role, the generated device; its emulator presses "done" after 5 s
     out = plugins.rio("teleop", "zzteleop-demo", "--duration", "12", cwd=tmp_path)
@@ -266,6 +274,7 @@ def test_teleop_device_drives_its_station(plugins, tmp_path):
     assert m and float(m.group(1)) > 0.1, out  # one lap of a ~3 cm circle
 
 
+@pytest.mark.slow
 def test_policy_deploys(plugins, tmp_path):
     summary = plugins.rio_json("deploy", "zzpolicy-demo", "--policy", "zzpolicy.policy", "--duration", "3",
                                cwd=tmp_path)
@@ -276,6 +285,7 @@ def test_policy_deploys(plugins, tmp_path):
     assert "deploy on 'zzpolicy-demo': duration reached" in out and "policy 'zzpolicy.policy'" in out, out
 
 
+@pytest.mark.slow
 def test_sensor_station_records(plugins, tmp_path):
     from rio.recording import Dataset
 
@@ -294,6 +304,7 @@ def test_sensor_station_records(plugins, tmp_path):
 # -- rio new driver, names -------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_new_driver_registers_in_plugin_py(plugins):
     multi = plugins.dirs[MULTI]
     pkg = multi / "src" / f"rio_{MULTI}"
@@ -307,6 +318,7 @@ def test_new_driver_registers_in_plugin_py(plugins):
     assert (multi / "tests" / f"test_rio_{MULTI}_wrist.py").is_file()
 
 
+@pytest.mark.slow
 def test_new_driver_refusals_and_no_register(plugins, tmp_path, capsys):
     multi = plugins.dirs[MULTI]
     assert main(["new", "driver", "wrist", "--kind", "camera", "--plugin", str(multi)]) == 1
@@ -356,6 +368,7 @@ def test_add_spec_refuses_what_it_cannot_edit_safely():
             add_spec(text, "rio_drivers", _ENTRY)
 
 
+@pytest.mark.slow
 def test_clashing_names_are_refused(plugins, tmp_path, capsys):
     for name, expected in [("sim", "rio-sim is a plugin of the RIO repository"),
                            ("ufactory", "rio-ufactory is a plugin of the RIO repository"),  # planned
@@ -369,6 +382,7 @@ def test_clashing_names_are_refused(plugins, tmp_path, capsys):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_nothing_in_rio_core_changed(plugins):
     assert digest() == plugins.before
 
