@@ -17,10 +17,14 @@ xdist's own grouping (`--dist loadgroup` with `xdist_group` marks) would say thi
 pytest 9.2 it silently does nothing: xdist names a group by rewriting each test's node id (`item._nodeid`),
 which pytest 9.2 no longer reads (pytest-dev/pytest-xdist#1386). The scheduler below sees only node ids,
 so the shared resources are named here, by file.
+
+Units are handed out in the order the workers collected them, and a worker collects the units holding the
+most `slow` tests first: a unit of several minutes started last would leave the other workers idle.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from typing import Any
 
 #: Files whose tests use one fixed machine resource, by resource: each group runs on one worker.
@@ -32,12 +36,14 @@ SHARED_RESOURCE = {
 
 
 def pytest_collection_modifyitems(config: Any, items: list[Any]) -> None:
-    if "hardware" in (config.option.markexpr or ""):
-        return  # -m decides
-    hardware = [item for item in items if item.get_closest_marker("hardware") is not None]
-    if hardware:
-        config.hook.pytest_deselected(items=hardware)
-        items[:] = [item for item in items if item.get_closest_marker("hardware") is None]
+    if "hardware" not in (config.option.markexpr or ""):  # else -m decides
+        hardware = [item for item in items if item.get_closest_marker("hardware") is not None]
+        if hardware:
+            config.hook.pytest_deselected(items=hardware)
+            items[:] = [item for item in items if item.get_closest_marker("hardware") is None]
+    if hasattr(config, "workerinput"):  # an xdist worker: the units with the most slow tests first
+        slow = Counter(unit_of(item.nodeid) for item in items if item.get_closest_marker("slow") is not None)
+        items.sort(key=lambda item: -slow[unit_of(item.nodeid)])  # stable: a unit's tests keep their order
 
 
 def unit_of(nodeid: str) -> str:
@@ -53,6 +59,7 @@ def pytest_xdist_make_scheduler(config: Any, log: Any) -> Any:
     missing = [path for path in SHARED_RESOURCE if not (config.rootpath / path).is_file()]
     if missing:
         raise pytest.UsageError(f"conftest.py's SHARED_RESOURCE names files that do not exist: {missing}")
+    config.option.loadscopereorder = False  # keep the workers' order (slow units first), not the largest first
 
     class ByUnit(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
