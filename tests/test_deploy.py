@@ -136,3 +136,11 @@ def test_station_policy_component_is_inert_until_deployed(tmp_path):
     summary = run_deploy(parse_station(data), duration=0.5, on_tick=ticks.append, log=None)
     assert summary.details["policy"] == "replay.episode" and summary.details["stats"]["chunks"] >= 1
     assert summary.details["metadata"]["dt"] == pytest.approx(0.02)
+
+
+def test_a_policy_gets_the_rate_it_is_given():
+    """`rate_hz` is a field of the policy node (its loop's, unused: it runs on requests) and of most policies
+    (their actions' rate): the policy gets it. The node's field used to swallow it (`onnx.local,rate_hz=30`
+    ran its chunks at the default 50 Hz)."""
+    summary = run_deploy(station(), "rio.policy.testing:SleepPolicyNode,chunk=5,rate_hz=25", duration=0.3, log=None)
+    assert summary.details["metadata"]["dt"] == pytest.approx(1 / 25)

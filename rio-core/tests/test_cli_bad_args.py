@@ -48,6 +48,8 @@ BAD_NUMBERS = ("abc", "nan", "inf", "-5", "0")
 BAD_NUMBERS_OF = {"--rate": ("1e-9", "100000"), "--days": ("99999999",)}
 ACCEPTS = {
     ("deploy", "--threshold"): {"0"}, ("deploy", "--crossfade"): {"0"}, ("replay", "--approach"): {"0"},
+    ("eval", "--seed"): {"0"}, ("eval", "--threshold"): {"0"}, ("eval", "--crossfade"): {"0"},
+    ("eval", "--hold"): {"0"},
     ("replay", "--episode"): {"0"}, ("ur", "emulator", "--exit-with"): {"0", "-5"},
     ("ros2", "bridge", "--domain"): {"0"},
     ("datasets", "view", "--episode"): {"0"}, ("deploy", "--seed"): {"0"}, ("teleop", "--seed"): {"0"},

@@ -37,6 +37,23 @@ def test_a_jump_becomes_bounded_steps():
     assert np.allclose(goals, [0.1, 0.2, 0.3, 0.35, 0.35])
 
 
+def test_a_goal_held_back_by_the_step_takes_up_where_a_coasting_arm_already_is():
+    """A velocity-commanded base went on through a late cycle: the goal starts from the arm where the arm is
+    between the goal and where the move is now, never backwards, never past the move, and is still at most
+    max_step from it after the step."""
+    c = _cmd(max_step=0.1)
+    c.command([0.8, -0.8], t_target=0.8, now=0.0)
+    c.step(0.1)  # on time: [0.1, -0.1]
+    c.follow_measured([0.35, -0.05], now=0.5)  # 0.4 s late; joint 1 went on, joint 2 lagged behind the goal
+    assert np.allclose(c.goal, [0.35, -0.1])
+    assert np.allclose(c.step(0.5), [0.45, -0.2])
+    c.follow_measured([0.9, 0.3], now=0.6)  # past the move (now at 0.6) and the wrong way: neither counts
+    assert np.allclose(c.goal, [0.6, -0.2])
+    c.hold(0.6)
+    c.follow_measured([0.7, -0.7], now=0.7)  # holding: the goal stays
+    assert np.allclose(c.goal, [0.6, -0.2])
+
+
 def test_watchdog_holds_a_move_whose_commands_stopped():
     c = _cmd(max_step=10.0, watchdog=0.2)
     c.command([0.0, 0.0], t_target=0.0, now=-0.1)  # a controller streaming commands ...

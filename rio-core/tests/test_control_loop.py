@@ -232,3 +232,33 @@ def test_the_loop_sets_the_gil_switch_interval_only_while_it_runs():
                         on_tick=lambda _t: seen.append(sys.getswitchinterval())).run()
     assert s.ticks > 5 and seen and all(abs(x - 1e-4) < 1e-9 for x in seen)
     assert sys.getswitchinterval() == before
+
+
+def test_the_loop_freezes_the_collector_without_a_full_pass(monkeypatch):
+    """A full collection walks every object of the process holding the GIL: at the loop's start it stalled
+    every thread of the process (a scripted device's script went by unseen, an emulated T1 published no
+    state until its driver faulted). The loop collects the young generations only, then freezes."""
+    import gc
+
+    from rio.benchmarks.loop_jitter import Hold, _station
+    from rio.loop.control_loop import ControlLoop
+    from rio.runtime.manager import ServerManager
+    from rio.station import make_station
+
+    collected: list[int] = []
+    collect = gc.collect
+
+    def spy(generation: int = 2) -> int:
+        collected.append(generation)
+        return collect(generation)
+
+    servers, _clients, env = make_station(_station("thread", 100.0, 0))
+    with ServerManager(servers, station="gc-freeze"), env:
+        monkeypatch.setattr(gc, "collect", spy)
+        frozen: list[int] = []
+        s = ControlLoop(env, Hold(), rate_hz=100.0, duration=0.2, settle=False, log=None,
+                        on_tick=lambda _t: frozen.append(gc.get_freeze_count())).run()
+        monkeypatch.setattr(gc, "collect", collect)
+    assert s.ticks > 0 and frozen and min(frozen) > 0  # the collector was paused for every tick it ran (ticks a loaded machine skips do not count)
+    assert collected and max(collected) < 2, collected  # and no full pass started it
+    assert gc.get_freeze_count() == 0

@@ -8,6 +8,7 @@ silences its state, tilts its IMU, and counts the damping commands it would send
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -153,6 +154,23 @@ def test_a_silent_device_is_the_drivers_named_fault_until_it_speaks_again():
         loop.run(cycles=2)
         node.clear_faults()
         assert loop.run(cycles=2)["enabled"]
+
+
+def test_the_drivers_own_stall_is_not_the_devices_silence():
+    """The driver's process stalled 0.3 s (a loaded host; an in-process emulator's stream stalled with it):
+    its first cycle after, before the device's next state is in, counts only a bounded share of the stall,
+    not a state_timeout_s of 0.1 s. Silence while the driver runs still faults (the test above)."""
+    node = soft(state_timeout_s=0.1)
+    with lifecycle(node):
+        loop = Loop(node)
+        loop.run(cycles=3)
+        node.silent = True  # no state gets in while the process is stalled ...
+        time.sleep(0.3)
+        s = loop.tick()  # ... nor in the cycle it resumes with
+        assert s["fault_code"] == 0 and s["enabled"], node.faults.fault
+        assert node.safety.state_age(clock.now()) < 0.1
+        node.silent = False
+        assert loop.run(cycles=2)["fault_code"] == 0
 
 
 def test_a_fall_faults_beyond_the_limit_only_and_holds_over_a_later_stale_stream():

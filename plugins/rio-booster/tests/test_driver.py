@@ -149,6 +149,59 @@ def test_a_robot_that_goes_quiet_is_a_named_fault(make_robot, domain_id):
             node.enable()
 
 
+def test_the_state_keeps_coming_while_a_physics_tick_is_slow(make_robot):
+    """A physics tick that takes 0.3 s (a loaded host; MuJoCo's steps): the robot's state stream goes on at
+    its rate meanwhile, as a real robot's does (with one thread for both, it stopped for the whole tick
+    and the driver took the robot for lost)."""
+    robot = make_robot(rate_hz=200.0)
+    seen: list[float] = []
+    step, slow = robot.step, []
+
+    def slow_step(*args) -> None:
+        if not slow:
+            slow.append(time.monotonic())
+            time.sleep(0.3)
+        step(*args)
+
+    robot.subscribe(lambda _msg: seen.append(time.monotonic()))
+    robot.step = slow_step
+    t_end = time.monotonic() + 1.0
+    while not slow or time.monotonic() < slow[0] + 0.35:
+        assert time.monotonic() < t_end, "the physics never ran"
+        time.sleep(0.01)
+    during = [t for t in seen if slow[0] + 0.05 < t < slow[0] + 0.25]
+    assert len(during) >= 5, (len(during), robot.counts)  # 200 Hz: 40 in 0.2 s on a quiet machine
+
+
+def test_a_late_physics_tick_obeys_each_command_from_when_it_arrived(monkeypatch):
+    """The physics thread 20 ms late, a command to bend the elbow arriving 1 ms before it runs: the joints
+    obey the command before it until then and the new one for that 1 ms, as a robot's motors would, not
+    for the whole 20 ms. Simulated time and the ideal joints (no thread started), so it is exact."""
+    from rio_booster import emulator as em
+    from rio_booster.commands import Frame, to_low_cmd
+
+    now = [100.0]
+    monkeypatch.setattr(em, "time", type("Clock", (), {"monotonic": staticmethod(lambda: now[0])}))
+
+    def frame(q):
+        n = len(q)
+        return to_low_cmd(em, Frame(q=q, dq=np.zeros(n), tau=np.zeros(n), kp=np.full(n, 40.0), kd=np.full(n, 2.0)))
+
+    late, reference = em.EmulatedT1(mode=CUSTOM), em.EmulatedT1(mode=CUSTOM)
+    q0 = late.q.copy()
+    bent = q0.copy()
+    bent[ELBOW] += 0.5
+    late.receive(frame(q0))  # hold where it is ...
+    late.step(0.001, now=100.0)
+    now[0] = 100.019
+    late.receive(frame(bent))  # ... then bend, 1 ms before the late tick
+    late.step(0.02, now=100.02)
+    reference.receive(frame(bent))
+    reference.step(0.001, now=100.02)
+    np.testing.assert_allclose(late.q, reference.q, atol=1e-12)
+    assert late.q[ELBOW] > q0[ELBOW]
+
+
 def test_no_low_state_at_open_is_a_named_error_within_the_timeout(make_robot, domain_id):
     robot = make_robot()
     robot.publishing = False

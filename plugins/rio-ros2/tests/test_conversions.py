@@ -4,6 +4,7 @@ checked targets, and drops logged once per cause."""
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from types import SimpleNamespace as NS
 
@@ -106,3 +107,25 @@ def test_drops_are_counted_and_logged_once_per_topic_and_cause(caplog):
     assert drops.total("/arm/joint_trajectory") == 4 and drops.total() == 5
     assert len(caplog.records) == 3
     assert all("not sent to the robot" in r.getMessage() for r in caplog.records)
+
+
+def test_each_cmd_vel_twist_moves_the_tool_only_from_when_it_arrived():
+    """The bridge's thread late by 60 ms, a new twist arriving 10 ms before it runs: the tool target moves by
+    the old twist until the new one came and by the new one after, not by the new one over the whole gap
+    (which moved it for time before it came). Explicit times, so the figures are exact."""
+    from rio_ros2.bridge import BridgeOptions, _Joints
+
+    sent = []
+    joints = _Joints.__new__(_Joints)  # the command path only: no ROS node behind it
+    joints.bridge, joints.role = NS(options=BridgeOptions(rate_hz=10.0), drops=None), "arm"
+    joints.client = NS(move_eef=lambda pose, t: sent.append(np.array(pose)))
+    joints._lock, joints._trajectory = threading.Lock(), None
+    joints.target, joints.t_twist, joints.v_twist = None, 0.0, None
+    sample = {"enabled": True, "eef_pose": np.array([0.4, 0.0, 0.3, 1.0, 0.0, 0.0, 0.0])}
+    forward, sideways = np.array([0.1, 0, 0, 0, 0, 0]), np.array([0, 0.1, 0, 0, 0, 0])
+    joints._twist = (forward, 10.0)
+    joints.command(sample, 10.0)  # the stream starts: the target is where the tool is
+    joints.command(sample, 10.1)  # 0.1 s of forward
+    joints._twist = (sideways, 10.15)
+    joints.command(sample, 10.16)  # 50 ms more of forward, then 10 ms of sideways
+    np.testing.assert_allclose(sent[-1][:3], [0.4 + 0.1 * 0.15, 0.1 * 0.01, 0.3], atol=1e-12)

@@ -123,6 +123,29 @@ def test_servo_target_is_approached_at_the_speed_limit(emulator, connect):
     assert wait_until(lambda: abs(emulator.joint_pos[0] - far[0]) < 2e-3, 10.0)
 
 
+def test_a_stalled_tick_walks_toward_a_new_servo_target_only_from_when_it_arrived():
+    """The emulator's control thread descheduled for 100 ms, a far target arriving 10 ms before it runs
+    again: the setpoint walks toward the old target until the new one came, then 10 ms toward the new
+    one, never the whole stall at full speed (which the speed-limit test above caught on a loaded
+    machine). Simulated time, so the figure is exact."""
+    from rio_ufactory.emulator.motion import ModelJoints, MotionModel
+
+    vmax = get_arm("xarm7").max_joint_speed
+    m = MotionModel(ModelJoints(np.zeros(7)), vmax)
+    m.step(10.0, 0.004, run=True, servo_mode=True)
+    near = np.zeros(7)
+    near[0] = 0.02
+    m.servo(near, 10.0)  # walked to in 20 ms at full speed ...
+    far = np.zeros(7)
+    far[0] = -3.0
+    m.servo(far, 10.09)  # ... then a far target the other way, 90 ms into the stall
+    m.step(10.1, 0.1, run=True, servo_mode=True)
+    assert m.q_cmd[0] == pytest.approx(0.02 - vmax * 0.01)
+    m.step(10.2, 0.1, run=False, servo_mode=True)  # held: the time passes without a walk
+    m.step(10.21, 0.01, run=True, servo_mode=True)
+    assert m.q_cmd[0] == pytest.approx(0.02 - vmax * 0.02)
+
+
 def test_servo_in_the_wrong_state_or_mode_is_refused(emulator, connect):
     arm = connect(emulator)
     target = list(_target("xarm7"))

@@ -44,3 +44,24 @@ def test_dashboard_round_trips(emulator):
         assert d.programState().startswith("STOPPED")
     finally:
         d.disconnect()
+
+
+def test_a_stalled_tick_follows_a_new_servo_target_only_from_when_it_arrived():
+    """The emulator's tick thread descheduled for 50 ms, a far target arriving 10 ms before it runs again:
+    the setpoint moves toward it for those 10 ms at most at the rated speed, never the whole stall
+    (simulated time, so the figure is exact)."""
+    from rio_ur.emulator.robot import URRobot
+    from rio_ur.models import get_arm
+
+    arm = get_arm("ur5e")
+    robot = URRobot(arm)
+    robot.control_clients = 1  # a control script holds the servo port: the arm can move
+    robot.tick(0.002, 10.0)
+    q0 = robot.q_cmd.copy()
+    far = q0.copy()
+    far[0] += 3.0
+    assert robot.servo_j(far, 0.03, t=10.04)
+    robot.tick(0.05, 10.05)
+    moved = robot.q_cmd - q0
+    assert 0 < moved[0] <= arm.max_speed[0] * 0.01 + 1e-12
+    assert np.allclose(moved[1:], 0.0)

@@ -12,12 +12,16 @@ there instead of receiving a copy in each request (`rio.policy.frames`).
 
 Sensors (`<name>_sensor` roles: a force-torque sensor, the sim world's ground truth) belong to no
 morphology, so they are not in the `Observation`: each step carries their latest numeric values in
-`meta["sensors"][name]`, which the recorder stores as `meta.sensors.<name>.<key>` columns.
+`meta["sensors"][name]`, which the recorder stores as `meta.sensors.<name>.<key>` columns. The object poses
+of the sensors that name their objects (a sim world) are the station's *environment state*
+(`environment_names`, `environment_state`): what exports write as `observation.environment_state`, and what
+`rio deploy` / `rio eval` hand a policy as `Observation.environment_state`.
 
 A sensor may run a task (a sim world with a `[task]`): it offers `start_episode(seed, episode)`, which
 `reset()` calls to put the world at that episode's start (a seeded draw) and which returns what to record
 of it, and its samples carry `success`, `task_time` and `time_up`. The env keeps what it saw of them over
-the episode (`task_over()` for the control loop, `task_result()` for the summary and the episode's metadata).
+the episode (`task_over()` for the control loop, `task_result()` for the summary and the episode's metadata,
+`task_success_held()` for `rio eval`, which ends a trial once success has held).
 """
 
 from __future__ import annotations
@@ -32,6 +36,17 @@ from rio import clock
 from rio.embodiments.base import Embodiment, EmbodimentConfig
 from rio.errors import RioError
 from rio.schema import Camera, Step
+
+#: The elements of an object pose (position in m, then the unit quaternion w, x, y, z).
+POSE_NAMES = ("x", "y", "z", "qw", "qx", "qy", "qz")
+
+
+def environment_names(sensors: Mapping[str, Any]) -> dict[str, list[str]]:
+    """{sensor name: element names} of the environment state: every sensor client that names its objects
+    (`object_names()`, the rows of its `object_poses`), in the sensors' order, each object's pose as
+    `<object>.x`, ..., `<object>.qz`."""
+    return {name: [f"{o}.{c}" for o in client.object_names() for c in POSE_NAMES]
+            for name, client in sensors.items() if "object_names" in dir(client)}
 
 
 class Env:
@@ -52,6 +67,7 @@ class Env:
         self.episode: int = 0
         self.seed: int | None = None
         self._task: dict[str, dict[str, Any]] = {}
+        self._env_names: dict[str, list[str]] | None = None
         self.t_start: float | None = None
         self._stack: contextlib.ExitStack | None = None
 
@@ -73,6 +89,7 @@ class Env:
         if self._stack is not None:
             self._stack.close()
         self._stack, self.robot, self.cameras, self.sensors = None, None, {}, {}
+        self._env_names = None
 
     def _robot(self) -> Embodiment:
         if self.robot is None:
@@ -100,11 +117,31 @@ class Env:
                 continue
             info = client.start_episode(seed, episode)
             if info is not None:
-                self._task[name] = {"info": dict(info), "first_success_s": None, "last": {}}
+                self._task[name] = {"info": dict(info), "first_success_s": None, "since": None, "last": {}}
                 _wait_newer(client, clock.now())
         robot.reset()
         self.timestep = 0
         return self.get_state()
+
+    # -- the environment state ----------------------------------------------------------------------
+    def environment_state(self, step: Step) -> np.ndarray | None:
+        """`step`'s environment state: its sensors' object poses (`environment_names`, read with the step),
+        flattened into one float64 vector in that order, the vector exports write as
+        `observation.environment_state`; None on a station without one."""
+        names = self._environment_names()
+        if not names:
+            return None
+        sensors = (step.meta or {}).get("sensors") or {}
+        missing = [n for n in names if n not in sensors or "object_poses" not in sensors[n]]
+        if missing:
+            raise RioError(f"station '{self.station}': step {step.timestep} has no object poses of sensor(s) "
+                           f"{missing}")
+        return np.concatenate([np.asarray(sensors[n]["object_poses"], dtype=np.float64).reshape(-1) for n in names])
+
+    def _environment_names(self) -> dict[str, list[str]]:
+        if self._env_names is None:  # asked once per connection: a remote call per sensor
+            self._env_names = environment_names(self.sensors)
+        return self._env_names
 
     # -- the task's episode -------------------------------------------------------------------------
     def task_over(self) -> str | None:
@@ -136,11 +173,25 @@ class Env:
                    first_success_s=None if None in firsts else round(max(firsts), 3))
         return out
 
+    def task_success_held(self) -> tuple[float, float] | None:
+        """(task time success began, seconds it has held since) when every task succeeds at the latest step
+        read, without a break since it began; None otherwise or without a task."""
+        if not self._task or any(t["since"] is None for t in self._task.values()):
+            return None
+        since = max(t["since"] for t in self._task.values())
+        now = max(float(t["last"].get("task_time", 0.0)) for t in self._task.values())
+        return since, now - since
+
     def _note_task(self, name: str, sample: dict[str, Any]) -> None:
         t = self._task[name]
         t["last"] = {k: sample[k] for k in ("success", "task_time", "time_up") if k in sample}
-        if t["first_success_s"] is None and bool(sample.get("success", False)):
+        succeeded = bool(sample.get("success", False))
+        if t["first_success_s"] is None and succeeded:
             t["first_success_s"] = float(sample.get("task_time", 0.0))
+        if not succeeded:
+            t["since"] = None
+        elif t["since"] is None:
+            t["since"] = float(sample.get("task_time", 0.0))
 
     def step(self, action: Any, t_cmd_target: float | None = None) -> Step:
         """Send `action` (flat vector, see `robot.describe_action()`) to be reached at `t_cmd_target`

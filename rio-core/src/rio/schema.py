@@ -170,6 +170,11 @@ class Observation:
     proprio: np.ndarray
     #: Cameras by name: the station role without its "_camera" suffix ("front", "wrist").
     cameras: dict[str, Camera] = field(default_factory=dict)
+    #: The environment's state where the station measures it (a sim world's object poses: privileged), the
+    #: vector exports write as `observation.environment_state`. Filled only in the observation a policy
+    #: receives (`rio deploy`, `rio eval`; `Env.environment_state`); the steps an `Env` returns, and so the
+    #: recorder, keep it as the sensors' own values (`meta["sensors"]`).
+    environment_state: np.ndarray | None = None
 
 
 @dataclass

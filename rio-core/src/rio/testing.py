@@ -115,16 +115,32 @@ def run_rio(*args: str, timeout: float = 300, env: dict[str, str] | None = None)
 
 def run_scripted_square(station: str, side: float = 0.05, speed: float = 0.15) -> Any:
     """Run `station` through the real teleop loop (thread middleware) with the scripted square and check
-    that its arm traced the four `side` edges and came back where it started. Returns the run's summary.
-    Every arm plugin's virtual station test is this one call."""
+    that its arm traced the four `side` edges and came back where it started, stage by stage: the device's
+    motion as the loop took it, the arm's target (low-pass, speed limit), the commands sent, the measured
+    tool; a failure names every stage's path and end, so it says which stage added or lost travel.
+    Returns the run's summary. Every arm plugin's virtual station test is this one call."""
     from rio.workflows.teleop import run_teleop
 
     summary = run_teleop(station, "scripted", device_config={"script": "square", "side": side, "speed": speed},
                          middleware="thread", log=None)
     assert summary.reason == "the device finished", summary.format()
     arm = next(a for a in summary.arms if a.role == "arm")
-    assert 3.6 * side < arm.path_m < 4.6 * side, summary.format()  # four edges, a little rounding either way
-    assert np.linalg.norm(arm.end[:3] - arm.start[:3]) < 0.003, summary.format()
+    device, target = summary.details["travel"]["device 'teleop'"], summary.details["travel"]["arm target"]
+    device_end, target_end = np.asarray(device["net_m"]), np.asarray(target["net_m"])
+    measured_end = arm.end[:3] - arm.start[:3]
+    stages = (f"square of {4 * side:.3f} m: device path {device['path_m']:.4f} m, ends "
+              f"{np.linalg.norm(device_end) * 1000:.2f} mm from its start; target path {target['path_m']:.4f} m, "
+              f"ends {np.linalg.norm(target_end) * 1000:.2f} mm; commanded path {arm.commanded_path_m:.4f} m; "
+              f"measured path {arm.path_m:.4f} m, ends {np.linalg.norm(measured_end) * 1000:.2f} mm\n"
+              + summary.format())
+    # the device: its running total adds up to the square, closed (chords at the corners: a hair shorter; a
+    # late device's twist held on for 1.5 of its sample intervals and taken back: a hair longer)
+    assert np.linalg.norm(device_end) < 1e-4 and 3.6 * side < device["path_m"] < 4 * side + 0.002, stages
+    # the target: the low-pass and the speed limit add and lose nothing (the device stays under the limit)
+    assert np.linalg.norm(target_end - device_end) < 1e-4 and target["path_m"] <= device["path_m"] + 1e-6, stages
+    # the arm, measured: four edges, a little rounding either way, and back where it started
+    assert 3.6 * side < arm.path_m < 4.6 * side, stages
+    assert np.linalg.norm(measured_end) < 0.003, stages
     return summary
 
 

@@ -18,8 +18,14 @@ modes: damping (kd only: the robot's own damping), prepare and walking (Booster'
 preparation pose: here the model's stand), custom (the last SERIAL `rt/joint_ctrl`; PARALLEL commands
 are counted and ignored). As on the robot, custom is entered only from prepare or walking, and commands
 are obeyed only in custom. The IMU reports a trunk orientation the test sets (`tilt()`), a fall as the
-IMU sees one. Low state is published at `rate_hz` from the emulator's thread, to each subscriber's
-handler, as the SDK's DDS thread does.
+IMU sees one. Low state is published at `rate_hz` to each subscriber's handler, as the SDK's DDS thread
+does, from a thread of its own on its own schedule: the physics runs in another, and the state
+published is the physics' latest. A robot's state stream does not stop while a host's CPU is
+contended; this emulator's did when both were one thread: the physics (MuJoCo steps, the world bus)
+went with the state, and a loaded machine saw no state for up to 0.46 s, which the driver rightly
+took for a lost robot (lowstate_timeout). Now the physics holds no lock while it steps, a late
+physics tick simulates at most `MAX_STEP_S` (it drops time rather than catching up), and a late
+publisher skips to its next slot rather than bursting.
 
 Backends (`backend`): "ideal" (the above); "sim" (or "sim:floating", "sim@WORLD"): rio-sim's T1 in
 MuJoCo, mounted on its stand at rio-sim's T1 table (`emulator_sim`): the same motor law on MuJoCo's
@@ -96,6 +102,9 @@ else:  # pragma: no cover
 
 DAMPING, PREPARE, WALKING, CUSTOM = 0, 1, 2, 3
 IDEAL = "ideal"
+#: The most physics time one late tick simulates (s): beyond it the emulated time falls behind instead.
+MAX_STEP_S = 0.02
+_NEWEST = object()  # motor_law's default: the newest command
 _robots: dict[int, EmulatedT1] = {}
 _registry_lock = threading.Lock()
 
@@ -179,10 +188,14 @@ class EmulatedT1:
         self.publishing = True
         self.owned_by_channels = False
         self._last: Frame | None = None
+        self._arrivals: list[tuple[float, Frame]] = []  # commands since the last physics tick, with their time
+        self._in_force: Frame | None = None  # the command the physics obeyed at the end of its last tick
         self._handlers: list[Any] = []
-        self._lock = threading.Lock()
+        self._lock = threading.Lock()  # the published state, the commands, the mode: held briefly
+        self._physics_lock = threading.Lock()  # the physics' own data, held while stepping
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._publisher: threading.Thread | None = None
         self.physics: Any = None  # the sim backend's (rio_booster.emulator_sim.SimT1Physics)
         if self.backend != IDEAL:
             if not self.backend.startswith("sim"):
@@ -190,16 +203,18 @@ class EmulatedT1:
             from . import emulator_sim
 
             self.physics = emulator_sim.make(self.backend, self.q)
-            self._read_physics()
+            self.q, self.dq, self.tau, self.rpy, self.gyro = self._physics_state()
 
     # -- test controls ---------------------------------------------------------------------------------
     def tilt(self, degrees: float) -> None:
         """Turn the trunk forward (pitch) by `degrees`: what a fall looks like to the IMU."""
         self.rpy = np.array([0.0, math.radians(degrees), 0.0])
         if self.physics is not None:
-            with self._lock:
+            with self._physics_lock:
                 self.physics.tilt(self.rpy)
-                self._read_physics()
+                state = self._physics_state()
+            with self._lock:
+                self.q, self.dq, self.tau, self.rpy, self.gyro = state
 
     def joint_pos(self) -> np.ndarray:
         with self._lock:
@@ -230,6 +245,7 @@ class EmulatedT1:
             if frame.q.shape != (NUM_JOINTS,):
                 return
             self._last = frame
+            self._arrivals.append((time.monotonic(), frame))
             self.frames.append(frame)
             if self.mode == CUSTOM:
                 self.counts.obeyed += 1
@@ -258,14 +274,18 @@ class EmulatedT1:
                 raise
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name=f"emulated-t1-{self.domain_id}", daemon=True)
+        self._publisher = threading.Thread(target=self._publish_loop, name=f"emulated-t1-{self.domain_id}-state",
+                                           daemon=True)
         self._thread.start()
+        self._publisher.start()
         return self
 
     def stop(self) -> None:
         self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=5.0)
-            self._thread = None
+        for thread in (self._thread, self._publisher):
+            if thread is not None:
+                thread.join(timeout=5.0)
+        self._thread = self._publisher = None
         if self.physics is not None:
             self.physics.close_bus()
         with _registry_lock:
@@ -279,58 +299,99 @@ class EmulatedT1:
         self.stop()
 
     def _run(self) -> None:
-        period = 1.0 / self.rate_hz
+        """The physics, at `rate_hz`: each tick simulates the time since the last (at most `MAX_STEP_S`)."""
         t_last = time.monotonic()
-        next_t = t_last
-        while not self._stop.is_set():
-            now = time.monotonic()
-            self.step(min(now - t_last, 0.02))
+        for now in self._schedule():
+            self.step(min(now - t_last, MAX_STEP_S), now)
             t_last = now
+
+    def _publish_loop(self) -> None:
+        """The low state, at `rate_hz`, whatever the physics is doing (see the module docstring)."""
+        for _ in self._schedule():
             if self.publishing:
                 self._publish()
-            next_t += period
-            delay = next_t - time.monotonic()
-            if delay < -0.05:
-                next_t = time.monotonic()
-            self._stop.wait(max(delay, 0.0))
 
-    def motor_law(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
-        """What the motors do in the present mode: tau = kp (q* - q) + kd (dq* - dq) + tau_ff, as
-        (kp, kd, q*, dq*, tau_ff, plus the joints' gravity torque). Call under the lock."""
+    def _schedule(self) -> Any:
+        """Yields the time of each tick at `rate_hz` until stopped; a late tick is not made up for (the
+        next one is the next slot after now), so a stall never turns into a burst of ticks."""
+        period = 1.0 / self.rate_hz
+        next_t = time.monotonic()
+        while not self._stop.is_set():
+            now = time.monotonic()
+            yield now
+            next_t += period
+            now = time.monotonic()
+            if next_t < now:
+                next_t += math.ceil((now - next_t) / period) * period
+            self._stop.wait(next_t - now)
+
+    def motor_law(self, frame: Any = _NEWEST) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                                         bool]:
+        """What the motors do in the present mode under the command `frame` (default: the newest; None: none
+        yet): tau = kp (q* - q) + kd (dq* - dq) + tau_ff, as (kp, kd, q*, dq*, tau_ff, plus the joints'
+        gravity torque). Call under the lock."""
         zeros = np.zeros(NUM_JOINTS)
-        f = self._last
+        f = self._last if frame is _NEWEST else frame
         if self.mode == CUSTOM and f is not None:
             return f.kp, f.kd, f.q, f.dq, f.tau, False
         if self.mode in (PREPARE, WALKING):  # Booster's controller stands it in the preparation pose
             return np.full(NUM_JOINTS, 100.0), np.full(NUM_JOINTS, 5.0), self.prepare_q, zeros, zeros, True
         return zeros, self.damping_kd, zeros, zeros, zeros, False  # damping (and custom with no command yet)
 
-    def step(self, seconds: float) -> None:
-        """Advance the joints `seconds` under the present mode's motor law (ideal: substeps of at most 0.5 ms;
-        sim: the physics' own steps)."""
+    def step(self, seconds: float, now: float | None = None) -> None:
+        """Advance the joints over the `seconds` up to `now` (monotonic s; None: now) under the present mode's
+        motor law, each command from when it arrived, the one before it until then (ideal: substeps of at
+        most 0.5 ms; sim: the physics' own steps): a tick after this thread was late obeyed the newest
+        command over time before it came. The state lock is held only to read the laws and to store the
+        result, never while stepping: the publisher reads the state meanwhile."""
+        now = time.monotonic() if now is None else now
         with self._lock:
-            kp, kd, q_goal, dq_goal, tau_ff, hold = self.motor_law()
+            laws = self._laws(now - seconds, now)
+            q, dq, tau = self.q.copy(), self.dq.copy(), self.tau.copy()
+        with self._physics_lock:
             if self.physics is not None:
-                self.physics.step(seconds, kp, kd, q_goal, dq_goal, tau_ff, hold_gravity=hold)
-                self._read_physics()
+                for span, (kp, kd, q_goal, dq_goal, tau_ff, hold) in laws:
+                    self.physics.step(span, kp, kd, q_goal, dq_goal, tau_ff, hold_gravity=hold)
                 self.physics.publish_bus()
+                state = self._physics_state()
+                with self._lock:
+                    self.q, self.dq, self.tau, self.rpy, self.gyro = state
                 return
-            n = max(1, math.ceil(seconds / 0.0005))
-            dt = seconds / n
-            for _ in range(n):
-                tau = kp * (q_goal - self.q) + kd * (dq_goal - self.dq) + tau_ff  # no gravity here to hold
-                tau = np.clip(tau, -self.effort, self.effort)
-                ddq = (tau - self.friction * self.dq) / self.inertia
-                self.dq = self.dq + dt * ddq
-                self.q = self.q + dt * self.dq
-                hit = (self.q < self.lower) | (self.q > self.upper)  # hard stops
-                self.q = np.clip(self.q, self.lower, self.upper)
-                self.dq[hit] = 0.0
-                self.tau = tau
+            for span, (kp, kd, q_goal, dq_goal, tau_ff, _) in laws:
+                n = max(1, math.ceil(span / 0.0005))
+                dt = span / n
+                for _ in range(n):
+                    tau = kp * (q_goal - q) + kd * (dq_goal - dq) + tau_ff  # no gravity here to hold
+                    tau = np.clip(tau, -self.effort, self.effort)
+                    ddq = (tau - self.friction * dq) / self.inertia
+                    dq = dq + dt * ddq
+                    q = q + dt * dq
+                    hit = (q < self.lower) | (q > self.upper)  # hard stops
+                    q = np.clip(q, self.lower, self.upper)
+                    dq[hit] = 0.0
+        with self._lock:
+            self.q, self.dq, self.tau = q, dq, tau
 
-    def _read_physics(self) -> None:
-        self.q, self.dq, self.tau = self.physics.joints()
-        self.rpy, self.gyro = self.physics.imu()
+    def _laws(self, start: float, end: float) -> list[tuple[float, tuple]]:
+        """(seconds, motor law) pieces covering [start, end]: the command in force at `start`, then each that
+        arrived within, from its arrival. Call under the lock."""
+        arrivals, self._arrivals = self._arrivals, []
+        pieces, t, frame = [], start, self._in_force
+        for t_arrived, f in arrivals:
+            t_arrived = min(t_arrived, end)
+            if t_arrived > t:
+                pieces.append((t_arrived - t, self.motor_law(frame)))
+                t = t_arrived
+            frame = f
+        pieces.append((max(end - t, 0.0), self.motor_law(frame)))
+        self._in_force = frame
+        return pieces
+
+    def _physics_state(self) -> tuple[np.ndarray, ...]:
+        """q, dq, tau, rpy, gyro of the physics (under `_physics_lock`)."""
+        q, dq, tau = self.physics.joints()
+        rpy, gyro = self.physics.imu()
+        return q, dq, tau, rpy, gyro
 
     def _publish(self) -> None:
         with self._lock:

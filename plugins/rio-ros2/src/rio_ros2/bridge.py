@@ -82,7 +82,8 @@ class _Joints:
         self._trajectory: tuple[np.ndarray, float] | None = None  # newest unsent (target, seconds)
         self._twist: tuple[np.ndarray, float] | None = None       # newest (twist, arrival time)
         self.target: np.ndarray | None = None                     # integrated tool target while following cmd_vel
-        self.t_twist = 0.0
+        self.t_twist = 0.0                                        # ... integrated up to this time
+        self.v_twist: np.ndarray | None = None                    # ... with this twist, in force until a newer came
         self.last_ts: float | None = None
 
     # -- zenoh threads: check and keep the newest ------------------------------------------------------
@@ -137,10 +138,18 @@ class _Joints:
                                                              "end-effector pose to move from"))
                 return
             self.target, self.t_twist = np.asarray(sample["eef_pose"], dtype=np.float64).copy(), now
-        dt, self.t_twist = min(max(now - self.t_twist, 0.0), 2 * period), now
-        o = self.bridge.options
-        self.target = make_teleop_eef_cmd(self.target, twist[0], dt, TeleopMode.TRANSLATION_ROTATION,
+            self.v_twist = None
+        # each twist from when it arrived: the one before it until then (a tick after this thread was late
+        # moved the newest twist over time before it came); at most two periods after a stall
+        o, start = self.bridge.options, max(self.t_twist, now - 2 * period)
+        v, t_arrived = twist
+        if self.v_twist is not None and t_arrived > start:
+            self.target = make_teleop_eef_cmd(self.target, self.v_twist, min(t_arrived, now) - start,
+                                              TeleopMode.TRANSLATION_ROTATION, o.max_pos_speed, o.max_rot_speed)
+            start = min(t_arrived, now)
+        self.target = make_teleop_eef_cmd(self.target, v, max(now - start, 0.0), TeleopMode.TRANSLATION_ROTATION,
                                           o.max_pos_speed, o.max_rot_speed)
+        self.t_twist, self.v_twist = now, v
         self.client.move_eef(self.target, now + period)
 
     def publish(self, sample: Mapping[str, Any], tf: list[Any]) -> None:

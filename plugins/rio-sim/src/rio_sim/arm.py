@@ -19,7 +19,7 @@ from rio.interfaces import ArmNode
 
 from .attached import WorldAttachment
 from .indices import arm_indices
-from .robots import ROBOTS, get_robot
+from .robots import ROBOTS, RobotModel, get_robot
 
 
 class SimArm(ArmNode):
@@ -61,5 +61,10 @@ class SimArm(ArmNode):
 
     def robot_description(self) -> dict[str, Any]:
         """The robot's MJCF, its tool site and arm joints (shared IK and forward kinematics)."""
-        return {"format": "mjcf", "xml": self.robot.xml(), "frame": self.robot.tool_site, "frame_type": "site",
-                "joints": list(self.robot.arm_joints), "home": list(self.robot.home)}
+        return robot_description(self.robot)
+
+
+def robot_description(robot: RobotModel) -> dict[str, Any]:
+    """What `sim.arm` hands out as its `robot_description()`, for the arm kind's kinematics."""
+    return {"format": "mjcf", "xml": robot.xml(), "frame": robot.tool_site, "frame_type": "site",
+            "joints": list(robot.arm_joints), "home": list(robot.home)}

@@ -11,10 +11,14 @@ noise: a loaded machine's late ticks, which the loop and the integrating plans a
 
     result = expert_rollout("so100", task, seed=0, episode=3)
     result.success, result.time_s
+
+`on_tick` sees every tick's state and the commands decided on it: `rio_sim.expert_demos` records the episodes
+as a dataset from there.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -33,11 +37,20 @@ class Rollout:
     time_s: float           # simulated time the episode took (to the expert's verdict, or the time limit)
     phases: list[str] = field(default_factory=list)
     attempts: list[int] = field(default_factory=list)
+    #: (ticks, action) the command decided at each tick, on that tick's state (`rio_sim.expert_demos` fills it in)
+    commands: np.ndarray | None = None
 
 
-def expert_rollout(scene_name: str, task: Any, seed: int, episode: int, rate_hz: float = 30.0) -> Rollout:
+#: `on_tick(data, placed, goals)`: the world (`mujoco.MjData`, read only) at a tick, whether the task's predicate
+#: holds, and each arm's (joint goal, finger opening) decided on that state.
+OnTick = Callable[[Any, bool, list[tuple[np.ndarray, float]]], None]
+
+
+def expert_rollout(scene_name: str, task: Any, seed: int, episode: int, rate_hz: float = 30.0,
+                   on_tick: OnTick | None = None) -> Rollout:
     """Run episode `episode` of a run seeded `seed` of `task` (a `rio_sim.task.TaskConfig`) on scene
-    `scene_name` with the expert, until it says keep (success held `HOLD_S`) or the time limit passes."""
+    `scene_name` with the expert, until it says keep (success held `HOLD_S`) or the time limit passes.
+    `on_tick` is called at every tick but the last (see `OnTick`)."""
     import mujoco
 
     from rio.control.filters import LowPassFilter
@@ -70,8 +83,8 @@ def expert_rollout(scene_name: str, task: Any, seed: int, episode: int, rate_hz:
         data.qpos[j.qposadr[0]:j.qposadr[0] + 7] = pose
     mujoco.mj_forward(model, data)
     plans = [ArmPlan() for _ in arms]
-    steps = max(1, round(1.0 / rate_hz / model.opt.timestep))
-    dt = steps * model.opt.timestep
+    dt, ts = 1.0 / rate_hz, model.opt.timestep
+    tick = 0  # tick k ends at the physics step nearest k * dt: ticks on the loop's grid, not a rounded period's
     t_success = None
     while data.time < task.time_limit_s:
         views = reader.views(data.time, data.qpos, data.qvel)
@@ -90,8 +103,12 @@ def expert_rollout(scene_name: str, task: Any, seed: int, episode: int, rate_hz:
             if res.pos_err > MAX_TARGET_LEAD_M:
                 a["target"] = np.concatenate([a["ik"].fk(res.q)[:3], a["target"][3:]])
             goals.append((res.q.copy(), grip * a["robot"].max_width))
+        if on_tick is not None:
+            on_tick(data, placed, goals)
         # last tick's goals reach the actuators now, each interpolated over this tick (the loop's lead)
         starts = [(data.ctrl[a["idx"].act].copy(), data.ctrl[a["idx"].finger_act].copy()) for a in arms]
+        tick += 1
+        steps = max(1, round(tick * dt / ts) - round((tick - 1) * dt / ts))
         for k in range(1, steps + 1):
             f = k / steps
             for a, (q0, w0) in zip(arms, starts, strict=True):

@@ -206,10 +206,11 @@ class SimWorld(Node):
     @remote
     def start_episode(self, seed: int | None = None, episode: int = 0) -> dict[str, Any] | None:
         """Start episode `episode` of a run seeded `seed` (None: the task's own `seed`): the task's objects
-        jump to that episode's drawn start, at rest, and its clock restarts. Returns what to record of it
-        (`rio_sim.task.EpisodeStart.to_json`, with the task's kind and time limit); None without a task
-        (nothing moves). The arms stay where they are: a workflow starts each episode on a station just
-        started, its arms at home."""
+        jump to that episode's drawn start and every other free object to where the scene puts it (an episode's
+        start never depends on the episodes before it on the same world), at rest, and its clock restarts.
+        Returns what to record of it (`rio_sim.task.EpisodeStart.to_json`, with the task's kind and time limit);
+        None without a task (nothing moves). The arms stay where they are: a workflow starts each episode on a
+        station just started, its arms at home, or sends them home first (`rio eval`)."""
         if self.task is None:
             return None
         start = self._start(self.task.seed if seed is None else int(seed), int(episode))
@@ -218,6 +219,9 @@ class SimWorld(Node):
 
     def _start(self, seed: int, episode: int) -> Any:
         start = sample_start(self.task, self.scene, seed, episode)
+        for name, adr in zip(self.objects, self._obj_qadr, strict=True):  # the others back where the scene has them
+            if name not in start.poses:
+                self._place(name, self.model.qpos0[adr:adr + 7])
         for name, pose in start.poses.items():
             self._place(name, pose)
         self._mj.mj_forward(self.model, self.data)

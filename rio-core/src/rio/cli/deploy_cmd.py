@@ -23,32 +23,37 @@ from rio.cli.run_cmd import (
     TeleopSetOption,
 )
 
+PolicyOption = Annotated[str | None, typer.Option(
+    "--policy", "-p", callback=not_empty, help="NAME[,key=value...] of a registered policy (`rio plugins list`), "
+                           "module:PolicyNodeClass[,key=value...], or a .toml file with a \\[policy] table. "
+                           "Default: the station's \\[components.policy].")]
+InstructionOption = Annotated[str | None, typer.Option("--instruction", "-i", help="Task text given to the policy.")]
+ThresholdOption = Annotated[float, typer.Option(
+    "--threshold", callback=fraction,
+    help="Ask for the next chunk when this fraction of the current one is left (1: ask continuously).")]
+BlendOption = Annotated[str, typer.Option(
+    "--blend", callback=one_of("latest", "crossfade", "ensemble"), help="Overlapping chunks: latest, crossfade or "
+                                                                        "ensemble.")]
+CrossfadeOption = Annotated[float, typer.Option("--crossfade", callback=non_negative, help="Cross-fade length (s).")]
+OnLateOption = Annotated[str, typer.Option(
+    "--on-late", callback=one_of("hold", "continue"), help="Policy late: hold, or continue along the last chunk.")]
+LowpassOption = Annotated[float | None, typer.Option(
+    "--lowpass", callback=positive, help="Low-pass cutoff on commands (Hz).")]
+
 
 def deploy(
     station: StationArgument,
-    policy: Annotated[str | None, typer.Option(
-        "--policy", "-p", callback=not_empty, help="NAME[,key=value...] of a registered policy (`rio plugins list`), "
-                               "module:PolicyNodeClass[,key=value...], or a .toml file with a \\[policy] table. "
-                               "Default: the station's \\[components.policy].")] = None,
-    instruction: Annotated[str | None, typer.Option(
-        "--instruction", "-i", help="Task text given to the policy.")] = None,
+    policy: PolicyOption = None,
+    instruction: InstructionOption = None,
     record: RecordOption = None,
     seed: SeedOption = None,
     duration: DurationOption = None,
     rate: RateOption = None,
-    threshold: Annotated[float, typer.Option(
-        "--threshold", callback=fraction,
-        help="Ask for the next chunk when this fraction of the current one is left (1: ask continuously).")] = 0.5,
-    blend: Annotated[str, typer.Option(
-        "--blend", callback=one_of("latest", "crossfade", "ensemble"),
-        help="Overlapping chunks: latest, crossfade or ensemble.")] = "crossfade",
-    crossfade: Annotated[float, typer.Option(
-        "--crossfade", callback=non_negative, help="Cross-fade length (s).")] = 0.1,
-    on_late: Annotated[str, typer.Option(
-        "--on-late", callback=one_of("hold", "continue"),
-        help="Policy late: hold, or continue along the last chunk.")] = "hold",
-    lowpass: Annotated[float | None, typer.Option(
-        "--lowpass", callback=positive, help="Low-pass cutoff on commands (Hz).")] = None,
+    threshold: ThresholdOption = 0.5,
+    blend: BlendOption = "crossfade",
+    crossfade: CrossfadeOption = 0.1,
+    on_late: OnLateOption = "hold",
+    lowpass: LowpassOption = None,
     middleware: MiddlewareOption = None,
     ready_timeout: ReadyTimeoutOption = None,
     quiet: QuietOption = False,

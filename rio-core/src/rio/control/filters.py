@@ -59,10 +59,17 @@ class LowPassFilter:
         input rests the filtered rate has integrated to the same displacement as the input, however
         irregular the spans. Filtered on the loop's tick times instead, a late cycle's long span is
         multiplied by a lagging value and the difference stays: CI's scripted squares ended up to 9 mm
-        open on a loaded machine. A span of 0 changes nothing."""
-        if self.value is not None and h <= 0:
+        open on a loaded machine. A span of 0 changes nothing.
+
+        A filter that has seen nothing starts from rest (zero), for the same identity to hold from the
+        first span: started at its first input instead, it integrates `tau * x_0` more than the input
+        when a run begins mid-motion (a device's first samples arriving after a stall: 0.5 mm)."""
+        x = np.asarray(x, dtype=np.float64)
+        if self.value is None or self.t is None:
+            self.value, self.t = np.zeros_like(x), 0.0
+        if h <= 0:
             return self.value.copy()
-        return self(x, (self.t or 0.0) + max(float(h), 0.0))
+        return self(x, self.t + float(h))
 
 
 class OneEuroFilter:

@@ -6,7 +6,7 @@ act on, so the driver stops it itself, each time with a named fault (`rio.interf
 
 | code | name (the driver's)  | when                                                                |
 |------|----------------------|---------------------------------------------------------------------|
-| 1    | e.g. lowstate_timeout | no state from the device for `state_timeout_s` (a cable, a reboot) |
+| 1    | e.g. lowstate_timeout | no state for `state_timeout_s` while the driver runs (a cable, a reboot) |
 | 2    | fall                 | the base tilted beyond `fall_tilt_deg` from upright (humanoids)      |
 | 3    | stale_commands       | a stream of commands stopped (the kind's watchdog) with `on_stale = "damp"` |
 
@@ -148,6 +148,8 @@ class DampingGuard:
         self.body, self.device_noun = body, device_noun
         #: `rio.clock.now()` of the last state the device sent (the driver sets it).
         self.t_state = -math.inf
+        #: When `watch` last looked, and how long the state had been missing then (see `state_age`).
+        self._t_watched, self._missing_s = -math.inf, 0.0
         self._holds_seen = 0
 
     @property
@@ -155,11 +157,26 @@ class DampingGuard:
         """Whether a stream of commands that stops is damped (a fault) rather than held stiff."""
         return bool(self.node.config.on_stale == "damp")
 
+    def state_age(self, now: float) -> float:
+        """How long the device's state has been missing at `now`, counted while this driver ran to look:
+        of the time between two of its looks, at most a tenth of `state_timeout_s` (or three cycles, if
+        longer). A process that was stalled itself (descheduled on a loaded host, its GIL held by another
+        thread) could not have taken a state in meanwhile, however well the device published: on a loaded
+        2-core machine the emulated T1's stream and its driver, one process, stopped together for up to
+        0.35 s, and the driver damped the robot for its own stall (lowstate_timeout). A device that went
+        quiet is still faulted after `state_timeout_s` while the driver runs at its rate (later, when the
+        driver itself only runs now and then)."""
+        if self.t_state > self._t_watched or self._t_watched == -math.inf:  # a state since the last look
+            return max(now - self.t_state, 0.0)
+        c = self.node.config
+        gap = max(c.state_timeout_s / 10, 3.0 / float(getattr(self.node, "rate_hz", 0.0) or math.inf))
+        return self._missing_s + min(max(now - self._t_watched, 0.0), gap)
+
     def device_fault(self) -> Fault | None:
         """The conditions that hold now (a stale stream is not one: it ends when commands come again); the
         fault holder's `ask`."""
         c = self.node.config
-        age = clock.now() - self.t_state
+        age = self.state_age(clock.now())
         if age > c.state_timeout_s:
             return self.state_lost(age)
         tilt = self.tilt()
@@ -171,6 +188,8 @@ class DampingGuard:
         """The driver's own stops, once per cycle after reading the state: the device's silence, a fall, a
         stream of commands that stopped (the kind's watchdog held it) while `on_stale = "damp"`. A watchdog
         hold counts once, in the cycle after it: one from before a fault is not a reason to stop again."""
+        now = clock.now()
+        self._missing_s, self._t_watched = self.state_age(now), now
         node, faults = self.node, self.node.faults
         commander = node._commander
         holds = commander.watchdog_holds if commander is not None else self._holds_seen

@@ -1,7 +1,11 @@
 """The teleop contract: a device giving a spatial velocity, a gripper command and buttons.
 
 A driver's `read_state()` returns `twist` (6: m/s, rad/s, in the robot's base frame), `gripper`
-(0 closed .. 1 open) and `buttons` (n bools). A leader arm is a teleop device that also publishes
+(0 closed .. 1 open) and `buttons` (n bools). A device that knows its own motion exactly (a script)
+also publishes `displacement` (6: the integral of its twist since it started, m and rad): the loop
+then moves by its differences rather than integrating the twist samples, so a stretch without samples
+(its thread descheduled, the loop late) costs nothing; without it, the loop integrates the twist
+over the samples' timestamps (rio.teleop.twist.DevicePoll). A leader arm is a teleop device that also publishes
 `joint_pos` / `joint_vel` and sets `leader_arm = True`: `rio teleop` then mirrors it joint by joint
 (rio.teleop.leader_follower) instead of integrating its twist in end-effector space.
 

@@ -135,7 +135,7 @@ class RunSummary:
 
     def to_json(self) -> dict[str, Any]:
         """Plain JSON types only (`--json`)."""
-        d = {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "lines"}
+        d = {f.name: plain(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "lines"}
         d.update(achieved_hz=round(self.achieved_hz, 3), followed=self.followed)
         for a, arm in zip(d["arms"], self.arms, strict=True):
             a["followed"] = arm.followed
@@ -181,15 +181,16 @@ def _v(x: Any) -> str:
     return "(" + ", ".join(f"{c:+.3f}" for c in x) + ")"
 
 
-def _plain(x: Any) -> Any:
+def plain(x: Any) -> Any:
+    """`x` in plain JSON types: dataclasses and dicts as dicts, arrays and tuples as lists, NaN/inf as None."""
     if dataclasses.is_dataclass(x) and not isinstance(x, type):
-        return {f.name: _plain(getattr(x, f.name)) for f in dataclasses.fields(x)}
+        return {f.name: plain(getattr(x, f.name)) for f in dataclasses.fields(x)}
     if isinstance(x, dict):
-        return {str(k): _plain(v) for k, v in x.items()}
+        return {str(k): plain(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
+        return [plain(v) for v in x]
     if isinstance(x, np.ndarray):
-        return [_plain(v) for v in x.tolist()]
+        return [plain(v) for v in x.tolist()]
     if isinstance(x, (np.floating, float)):
         return float(x) if math.isfinite(float(x)) else None
     if isinstance(x, np.integer):

@@ -47,16 +47,20 @@ class _Arm:
         self.pending: collections.deque[tuple[float, np.ndarray]] = collections.deque()
         self.due: np.ndarray | None = None
         self.last_cmd: np.ndarray | None = None
+        #: where the commanded path starts: the arm as it stood (so the first command's jump counts, as the
+        #: measured path counts the arm's move to it)
+        self.from_cmd = self.start.copy() if space == "eef_pose" else self.last_q.copy()
         self.errors = Reservoir()  # only max and mean are reported; both exact
         self.path = self.cmd_path = self.joint_path = self.cmd_joint_path = 0.0
 
     def command(self, part: np.ndarray, t_target: float) -> None:
         part = np.asarray(part, dtype=np.float64)
-        if self.last_cmd is not None:
-            if self.space == "eef_pose":
-                self.cmd_path += float(np.linalg.norm(part[:3] - self.last_cmd[:3]))
-            else:
-                self.cmd_joint_path += float(np.linalg.norm(part - self.last_cmd))
+        prev = self.from_cmd if self.last_cmd is None else self.last_cmd
+        if self.space == "eef_pose":
+            if np.isfinite(prev[:3]).all():
+                self.cmd_path += float(np.linalg.norm(part[:3] - prev[:3]))
+        elif prev.shape == part.shape:
+            self.cmd_joint_path += float(np.linalg.norm(part - prev))
         self.last_cmd = part.copy()
         self.pending.append((t_target, self.last_cmd))
 

@@ -30,6 +30,8 @@ def rio_workflows() -> list[Spec]:
         Spec("teleop", "workflow", "rio.cli.teleop_cmd:teleop",
              "teleoperate a station's arms, hands or humanoid (twist devices, leader arms, hand trackers)"),
         Spec("deploy", "workflow", "rio.cli.deploy_cmd:deploy", "run a policy on a station"),
+        Spec("eval", "workflow", "rio.cli.eval_cmd:eval_",
+             "a policy's success rate on a station's task: N seeded trials, completion times"),
         Spec("replay", "workflow", "rio.cli.replay_cmd:replay", "play a recorded episode back on a station"),
         Spec("run", "workflow", "rio.cli.run_cmd:run", "your own controller (module:Class) on a station"),
     ]

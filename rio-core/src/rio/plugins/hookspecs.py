@@ -59,8 +59,9 @@ def rio_stations() -> list[Spec]:
 def rio_workflows() -> list[Spec]:
     """Workflows (kind 'workflow'): each becomes the command `rio <name>`. Target is the command's function
     ('package.module:function', its parameters annotated for typer, its docstring the command's help), which
-    runs a controller on the one control loop through `rio.workflows.run_workflow`. RIO's own teleop,
-    deploy, replay and run are registered this way by the core's plugin."""
+    runs a controller on the one control loop through `rio.workflows.run_workflow` (or several loops in one
+    station session through `rio.workflows.open_session`, as `rio eval` does). RIO's own teleop, deploy,
+    eval, replay and run are registered this way by the core's plugin."""
 
 
 @hookspec

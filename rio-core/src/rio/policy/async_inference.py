@@ -86,6 +86,18 @@ class AsyncInference:
         #: request -> chunk seen, of the last few chunks: when the next one is due (`expected_arrival`)
         self._round_trips: collections.deque[float] = collections.deque(maxlen=8)
 
+    def restart(self) -> None:
+        """A new episode on the same policy node (`rio eval`'s next trial): forget the chunks of the last one
+        and what was in flight (its answer, if it still comes, is stale by its `seq`, which keeps counting),
+        and reset the policy with the next request. The statistics go on over the episodes."""
+        self.schedule = ChunkSchedule(self.config.schedule())
+        self.filter = LowPassFilter(self.config.lowpass_hz) if self.config.lowpass_hz else None
+        self.in_flight = None
+        self._seen = self.policy.chunk_count()
+        self._first_pending.clear()
+        self._late = False
+        self._reset_next = True
+
     # -- chunks in ----------------------------------------------------------------------------------
     def arrived(self) -> bool:
         """A chunk is waiting to be taken in (one local counter read)."""

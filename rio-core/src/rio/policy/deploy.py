@@ -17,6 +17,13 @@ at once when its chunk lands, instead of at the next tick: the new chunk's first
 robot within a fraction of a millisecond of arriving, and the next observation goes out right away,
 at any control rate. Periodic ticks keep their schedule either way.
 
+On a station with an environment state (a sim world's object poses, `Env.environment_state`), the
+observation the policy receives carries it in `Observation.environment_state`, the vector exports write
+as `observation.environment_state`, so a policy trained on it reads the same values at deployment (the
+recorded steps are left as they are). Each run of the loop (`reset`: one deploy, or one `rio eval` trial
+on the same policy node) starts a new episode of the policy: chunks of the last one are dropped and the
+policy resets with the first request.
+
 Nothing blocks on the policy. Before the first chunk the robot holds its starting state; when the
 policy is late the schedule holds or continues (`AsyncConfig.on_late`) and the event is counted. If
 the policy node dies, the run stops with the robot holding its last command and the summary names the
@@ -25,8 +32,9 @@ node. `--record DIR` records every step as an episode with the station's recorde
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -39,6 +47,7 @@ from rio.policy.base import PolicyMetadata
 from rio.policy.obs_layout import ObsLayout
 
 POLICY_ROLE = "policy"
+_Controller = TypeVar("_Controller", bound="PolicyController")
 #: Waiting for a chunk between ticks: sleep slices of `_POLL_S` (the bound on how late an arrival is seen)
 #: from `_NEAR_S` before it is expected (`AsyncInference.expected_arrival`), `_FAR_S` before that, when
 #: no chunk can be there yet (fine slices all through an 86 ms forward pass would wake the loop ~900 times).
@@ -61,25 +70,35 @@ def _device_rings(session: Any) -> dict[str, dict[str, Any]]:
     return out
 
 
+def with_environment(env: Any, step: Any) -> Any:
+    """`step`'s observation with the env's environment state of that step in `environment_state` (a copy; the
+    step, which the recorder keeps, is not changed), or the observation itself on a station without one."""
+    state = env.environment_state(step)
+    return step.observation if state is None else dataclasses.replace(step.observation, environment_state=state)
+
+
 class PolicyController:
     """Controller (rio.loop.control_loop) over a running policy node: see the module docstring."""
 
     name = "deploy"
 
-    def __init__(self, policy: str, client: Any, meta: PolicyMetadata, config: AsyncConfig, instruction: str | None):
+    def __init__(self, policy: str, client: Any, meta: PolicyMetadata, config: AsyncConfig, instruction: str | None,
+                 env: Any = None):
         self.policy, self.client, self.meta, self.instruction = policy, client, meta, instruction
         self.inf = AsyncInference(client, meta, config)
         self.hold: np.ndarray | None = None
         self.sample: Any = None
+        #: the env whose environment state goes into each observation (None: observations as they are)
+        self.env = env
 
     @classmethod
-    def start(cls, session: Any, policy: str, node_cls: type, policy_kwargs: dict[str, Any], config: AsyncConfig,
-              *, ready_timeout: float = 600.0) -> PolicyController:
+    def start(cls: type[_Controller], session: Any, policy: str, node_cls: type, policy_kwargs: dict[str, Any],
+              config: AsyncConfig, *, ready_timeout: float = 600.0) -> _Controller:
         """Serve the policy node over the station's middleware, shaped by the station's first observation."""
         from rio.runtime.manager import ServerManager, connect, serve
 
         env, mw, st = session.env, session.middleware, session.station
-        obs_layout = ObsLayout.of(env.reset().observation)
+        obs_layout = ObsLayout.of(with_environment(env, env.reset()))
         obs_layout.inputs = _device_rings(session)
         layout = obs_layout.to_dict()
         session.log(f"loading policy '{policy}' ...")
@@ -89,9 +108,10 @@ class PolicyController:
                                                                   ready_timeout=ready_timeout)))
         client = session.stack.enter_context(connect(node_cls, mw, name=POLICY_ROLE, **kwargs))
         meta = PolicyMetadata.from_dict(client.metadata())
-        return cls(policy, client, meta, config, env.instruction)
+        return cls(policy, client, meta, config, env.instruction, env)
 
     def reset(self, loop: Any) -> None:
+        self.inf.restart()
         self.hold = np.asarray(loop.obs.observation.proprio, dtype=np.float64).copy()
         self.phase = loop.phase
         m = self.meta
@@ -127,7 +147,8 @@ class PolicyController:
             inf.applied(self.sample, tick.t_sent)
         if inf.wants_request(tick.t):
             with self.phase("policy request"):
-                inf.request(tick.step.observation, self.instruction, float(tick.step.meta["t_obs"]), clock.now())
+                obs = with_environment(self.env, tick.step) if self.env is not None else tick.step.observation
+                inf.request(obs, self.instruction, float(tick.step.meta["t_obs"]), clock.now())
 
     def done(self) -> str | None:
         return None

@@ -85,7 +85,10 @@ class PolicyNode(Node):
     _request_rec: np.ndarray | None = None
 
     def setup(self) -> None:
-        fields = self.config.model_dump(exclude=set(PolicyNodeConfig.model_fields))
+        # the node's own fields, except those the policy declares too (`rate_hz`: the node loop's rate, which a
+        # request-driven node does not use, and a policy's action rate, which it does)
+        own = set(PolicyNodeConfig.model_fields) - set(self.policy_class.Config.model_fields)
+        fields = self.config.model_dump(exclude=own)
         self.policy = self.policy_class(fields)
         self.layout = observation_layout(self.config)
         cfg = self.policy.config

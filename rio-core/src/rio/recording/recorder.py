@@ -26,6 +26,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from rio.env import environment_names
 from rio.errors import RioError
 from rio.machine import host
 from rio.recording import index as I
@@ -37,8 +38,6 @@ from rio.recording.video import VideoOptions, video_problem
 
 #: free space below which no episode starts and one in progress is ended (kept while it still can be)
 MIN_FREE_BYTES = 64 << 20
-#: The elements of a recorded pose (position in m, then the unit quaternion w, x, y, z).
-POSE_NAMES = ("x", "y", "z", "qw", "qx", "qy", "qz")
 
 
 class RecordingError(RioError):
@@ -150,8 +149,8 @@ class Recorder:
         world: `object_names()`, rows of its `object_poses`), as `environment_state`, {column: element
         names} (`cube.x`, ..., `cube.qz`), which exporters turn into `observation.environment_state`."""
         self.info["station"] = self.info.get("station") or getattr(env, "station", None)
-        state = {f"meta.sensors.{name}.object_poses": [f"{o}.{c}" for o in client.object_names() for c in POSE_NAMES]
-                 for name, client in (getattr(env, "sensors", None) or {}).items() if "object_names" in dir(client)}
+        state = {f"meta.sensors.{name}.object_poses": names
+                 for name, names in environment_names(getattr(env, "sensors", None) or {}).items()}
         if state:
             self.info["environment_state"] = state
         robot = getattr(env, "robot", None)

@@ -8,9 +8,12 @@ integral of a smooth bump is captured almost exactly even by a coarse sum, and a
 limit never clips a corner. When the last move ends the device presses `BUTTON_DONE`.
 
 The script starts when a control loop calls the `reset()` API (`rio teleop` does at episode
-start), so node start-up time never eats into it; until then the device holds still. Published
-besides the standard keys: `phase` (current move, -1 before the start, n at the end) and `offset`
-(the tool displacement planned so far, base frame) so tests can compare the arm with the plan.
+start), so node start-up time never eats into it; until then the device holds still. Besides the
+standard keys it publishes `displacement` (rio.interfaces.teleop: its exact motion so far, so a loop
+that missed samples, or a device thread stalled between two, loses nothing of the plan; each sample
+is stamped with the time the script was read at), `phase` (current move, -1 before the start, n at
+the end) and `offset` (the tool displacement of the moves before this one, base frame) so tests can
+compare the arm with the plan.
 
 Presets: "pick_place" (above the object, down, grasp, lift, over the place, down, release, back:
 the packaged sim scenes put a cube and a pad where its defaults go) and "square" (a horizontal
@@ -88,6 +91,12 @@ def bump(tau: float, seconds: float) -> float:
     return (1.0 - math.cos(2.0 * math.pi * tau / seconds)) / seconds
 
 
+def bump_integral(tau: float, seconds: float) -> float:
+    """The integral of `bump` from 0 to `tau`: the fraction of a move done (0 .. 1)."""
+    x = min(max(tau / seconds, 0.0), 1.0)
+    return x - math.sin(2.0 * math.pi * x) / (2.0 * math.pi)
+
+
 class ScriptedTeleop(TeleopNode):
     class Config(TeleopConfig):
         script: Literal["pick_place", "square", "moves"] = Field("pick_place", description="preset, or 'moves'")
@@ -108,34 +117,54 @@ class ScriptedTeleop(TeleopNode):
         self.moves = build_script(self.config)
         self.ends = np.cumsum([m.seconds for m in self.moves])
         self.offsets = np.cumsum([m.delta for m in self.moves], axis=0)
-        self.example_data = {**self.example_data, "phase": 0, "offset": np.zeros(3)}
+        self.example_data = {**self.example_data, "phase": 0, "offset": np.zeros(3), "displacement": np.zeros(6),
+                             "timestamp": 0.0}  # stamped by the device: the time the script was read at
         self.t_start: float | None = None
+        self.carried = np.zeros(3)  # what the runs before this one moved: the total never jumps
 
     @remote
     def reset(self) -> float:
         """(Re)start the script now; returns its length in seconds."""
-        self.t_start = clock.now()
+        now = clock.now()
+        if self.t_start is not None:
+            self.carried = self._moved(now - self.t_start)
+        self.t_start = now
         return float(self.ends[-1])
 
     @remote
     def script_length(self) -> float:
         return float(self.ends[-1])
 
+    def _moved(self, t: float) -> np.ndarray:
+        """The displacement (m) `t` s into this run, on top of what the runs before moved."""
+        i = int(np.searchsorted(self.ends, t, side="right"))
+        if i >= len(self.moves):
+            return self.carried + self.offsets[-1]
+        move = self.moves[i]
+        done = self.offsets[i - 1] if i > 0 else np.zeros(3)
+        start = self.ends[i] - move.seconds
+        return self.carried + done + np.asarray(move.delta) * bump_integral(t - start, move.seconds)
+
     def read_state(self) -> dict[str, Any]:
-        twist, buttons = np.zeros(6), np.zeros(self.config.buttons, bool)
+        now = clock.now()  # the one time the sample is of: its twist, its displacement and its stamp
+        twist, buttons, moved = np.zeros(6), np.zeros(self.config.buttons, bool), np.zeros(6)
         if self.t_start is None:
-            return {"twist": twist, "gripper": 1.0, "buttons": buttons, "phase": -1, "offset": np.zeros(3)}
-        t = clock.now() - self.t_start
+            moved[:3] = self.carried
+            return {"twist": twist, "gripper": 1.0, "buttons": buttons, "phase": -1, "offset": np.zeros(3),
+                    "displacement": moved, "timestamp": now}
+        t = now - self.t_start
+        moved[:3] = self._moved(t)
         i = int(np.searchsorted(self.ends, t, side="right"))
         if i >= len(self.moves):
             buttons[BUTTON_DONE:BUTTON_DONE + 1] = True  # where the configured buttons include it
             return {"twist": twist, "gripper": self.moves[-1].gripper, "buttons": buttons, "phase": len(self.moves),
-                    "offset": self.offsets[-1]}
+                    "offset": self.offsets[-1], "displacement": moved, "timestamp": now}
         move = self.moves[i]
         t0 = self.ends[i] - move.seconds
         twist[:3] = np.asarray(move.delta) * bump(t - t0, move.seconds)
         done = self.offsets[i - 1] if i > 0 else np.zeros(3)
-        return {"twist": twist, "gripper": move.gripper, "buttons": buttons, "phase": i, "offset": done}
+        return {"twist": twist, "gripper": move.gripper, "buttons": buttons, "phase": i, "offset": done,
+                "displacement": moved, "timestamp": now}
 
 
 ScriptedTeleopConfig = ScriptedTeleop.Config

@@ -22,22 +22,37 @@ from rio.control.filters import LowPassFilter
 from rio.control.teleop import BUTTON_MODE, ButtonEdges, EpisodeEnd, ModeSwitch, TeleopMode, make_teleop_eef_cmd
 from rio.teleop.bindings import ArmBinding, bind_arms, build_action
 from rio.teleop.feedback import DeviceFeedback
+from rio.teleop.travel import Travel, travel_line
 
 DEVICE_ROLES = ("teleop", "teleop2")
 #: The rates a device publishes that the loop integrates: one twist, or one per arm.
 _RATES = ("twist", "twists")
 
 
+#: The optional running total of a device's own motion (rio.interfaces.teleop): where a device publishes
+#: it, a cycle's displacement is its difference, exact however sparse or late its samples.
+DISPLACEMENT = "displacement"
+
+
 class DevicePoll:
-    """Reads a teleop device once per control cycle and integrates its twist over the device's own
-    samples since the previous cycle (trapezoid rule on their timestamps), so the displacement does
-    not depend on when, or how regularly, the loop happens to sample: a late cycle loses nothing.
-    It returns the device's mean velocity over those samples and the time `h` to integrate it over
-    (their span), so a speed limit applied to the velocity never clips the catch-up of a late cycle
-    (CI saw a scripted square end 5 mm open after four late ticks when the span was squeezed into
-    the cycle). A device slower than the loop has its last twist held meanwhile; that time is not
-    integrated twice when its next sample arrives. Buttons are OR-ed over the samples, so a short
-    press is never missed."""
+    """Reads a teleop device once per control cycle and hands out exactly the device's motion since the
+    previous cycle, whenever and however irregularly the loop or the device runs.
+
+    The device's motion since the last sample taken is the difference of its `displacement` where it
+    publishes one (a script knows its own motion: exact even across a gap in its samples, such as its
+    thread stalled by another holding the GIL), else the trapezoid rule over its samples' timestamps;
+    for each rate it publishes (`twist`, and `twists`: one row per arm, the bimanual expert's).
+    It returns velocities and one time `h` to integrate them over: normally the device's mean velocity
+    over its samples' span, so a speed limit applied to the velocity never clips the catch-up of a late
+    cycle (CI saw a scripted square end 5 mm open after four late ticks when the span was squeezed into
+    the cycle). A device slower than the loop has its last twist held meanwhile, for at most 1.5 of its
+    usual sample intervals (past that it is late, not slow: the target waits for it rather than guess
+    on and come back); that held motion is counted, and the next samples hand out only what remains
+    (`owed`), so guessing ahead never adds or loses travel (before, a 100 Hz device silent for 0.5 s
+    mid-move moved the target 68 mm of its 100 mm: tests/test_teleop_poll.py; the scripted square ended
+    21 mm open after such a stall). Where what remains does not fit in the time left at the device's
+    own speed, `h` is stretched rather than the velocity raised past it. Buttons are OR-ed over the
+    samples, so a short press is never missed."""
 
     def __init__(self, client: Any, history: int = 32):
         self.client, self.k = client, int(min(history, getattr(client, "buffer_capacity", 64) or 64))
@@ -45,7 +60,10 @@ class DevicePoll:
         self.t_last = float(s["timestamp"])
         self.rates = [key for key in _RATES if key in s]
         self.last = {key: np.asarray(s[key], dtype=np.float64).copy() for key in self.rates}
+        self.total = np.asarray(s[DISPLACEMENT], dtype=np.float64).copy() if DISPLACEMENT in s else None
         self.held_s = 0.0  # time the held twist was already integrated over, past t_last
+        self.held = {key: np.zeros_like(v) for key, v in self.last.items()}  # ... and the motion that handed out
+        self.interval = 0.0  # the device's usual time between samples (median of the recent ones)
 
     def __call__(self, h: float) -> dict:
         s = self.client.get_state(k=self.k)
@@ -53,27 +71,54 @@ class DevicePoll:
         new = ts > self.t_last
         latest = {key: np.asarray(v)[-1] for key, v in s.items()}
         out: dict[str, Any] = {}
-        if new.any():
+        if not new.any():  # no new sample (a device slower than the loop, or late): hold its last twist
+            limit = 1.5 * self.interval if self.interval > 0 else float("inf")
+            hold = min(h, max(limit - self.held_s, 0.0))
+            for key in self.rates:
+                out[key] = self.last[key] * (hold / h) if h > 0 else self.last[key].copy()
+                self.held[key] += self.last[key] * hold
+            self.held_s += h
+            buttons = np.asarray(latest["buttons"], dtype=bool)
+        else:
             span = float(ts[new][-1] - self.t_last)
+            if ts.size > 2:
+                self.interval = float(np.median(np.diff(ts)))
+            owed, h_out = {}, max(span - self.held_s, 0.0)
             for key in self.rates:
                 rate = np.asarray(s[key], dtype=np.float64)[new]
-                t_prev, prev, delta = self.t_last, self.last[key], np.zeros_like(self.last[key])
-                for t_i, r_i in zip(ts[new], rate, strict=True):
-                    delta += 0.5 * (prev + r_i) * (t_i - t_prev)
-                    t_prev, prev = t_i, r_i
-                self.last[key] = prev
-                out[key] = delta / span if span > 0 else prev.copy()
-            self.t_last = float(ts[new][-1])
+                if key == "twist" and self.total is not None:
+                    total = np.asarray(s[DISPLACEMENT], dtype=np.float64)[new][-1]
+                    delta, self.total = total - self.total, total.copy()
+                else:
+                    t_prev, prev, delta = self.t_last, self.last[key], np.zeros_like(self.last[key])
+                    for t_i, r_i in zip(ts[new], rate, strict=True):
+                        delta += 0.5 * (prev + r_i) * (t_i - t_prev)
+                        t_prev, prev = t_i, r_i
+                owed[key] = delta - self.held[key]  # the device's motion not handed out yet
+                speeds = np.maximum(_speeds(delta / span) if span > 0 else 0.0, _speeds(self.last[key]))
+                h_out = max(h_out, _needed(owed[key], speeds))
+                self.last[key], self.held[key] = rate[-1].copy(), np.zeros_like(self.held[key])
+            for key in self.rates:
+                out[key] = owed[key] / h_out if h_out > 0 else np.zeros_like(owed[key])
+            h, self.t_last, self.held_s = h_out, float(ts[new][-1]), 0.0
             buttons = np.any(np.asarray(s["buttons"], dtype=bool)[new], axis=0)
-            h, self.held_s = max(span - self.held_s, 0.0), 0.0
-        else:  # no new sample (a device slower than the loop): hold its last twist
-            out.update({key: self.last[key].copy() for key in self.rates})
-            buttons = np.asarray(latest["buttons"], dtype=bool)
-            self.held_s += h
         out.update(h=h, gripper=float(latest["gripper"]), buttons=buttons, raw=latest)
         if "grippers" in latest:
             out["grippers"] = np.asarray(latest["grippers"], dtype=np.float64)
         return out
+
+
+def _speeds(twist: np.ndarray) -> np.ndarray:
+    """(linear, angular) speed of a twist, or of each row of several."""
+    return np.stack([np.linalg.norm(twist[..., :3], axis=-1), np.linalg.norm(twist[..., 3:], axis=-1)], axis=-1)
+
+
+def _needed(owed: np.ndarray, speeds: np.ndarray) -> float:
+    """The time moving `owed` takes at `speeds`, the device's own (linear, angular; per row): no part is
+    handed out faster than the device moved it."""
+    dist = _speeds(owed)
+    ok = (dist > 1e-12) & (np.asarray(speeds) > 0)
+    return float(np.max(dist[ok] / np.broadcast_to(speeds, dist.shape)[ok], initial=0.0))
 
 
 class TwistTeleop:
@@ -110,6 +155,11 @@ class TwistTeleop:
         self.row = {b.role: [b2.role for b2 in self.arms if self.drive[b2.role] == self.drive[b.role]].index(b.role)
                     for b in self.arms}  # which of its device's `twists` rows drives the arm
         self.polls = {r: DevicePoll(dev) for r, dev in self.devices.items()}
+        self.travel = {f"device '{r}'": Travel() for r in self.devices}  # what each stage moved (travel.py)
+        self.travel.update({f"{b.role} target": Travel() for b in self.arms})
+        for lowpass in self.filters.values():  # every run starts from rest
+            if lowpass is not None:
+                lowpass.reset()
         self.feedback = DeviceFeedback(self.devices, log=loop.say)
         for dev in self.devices.values():  # optional device API, looked up by name
             if "reset" in dir(dev):
@@ -127,6 +177,7 @@ class TwistTeleop:
         self.t_prev = tick.t
         polled = {r: poll(h) for r, poll in self.polls.items()}
         for r, p in polled.items():
+            self.travel[f"device '{r}'"].add(p["twist"][:3] * p["h"])
             pressed = self.edges[r](p["buttons"])
             self.end.update(p["buttons"])
             if r == "teleop":
@@ -135,6 +186,7 @@ class TwistTeleop:
                 lowpass = self.filters.get((r, key))
                 if lowpass is not None and key in p:  # on the span it is integrated over (see LowPassFilter.over)
                     p[key] = lowpass.over(p[key], p["h"])
+        before = {b.role: np.array(b.target[:3], dtype=np.float64) for b in self.arms}
         for b in self.arms:
             p, i = polled[self.drive[b.role]], self.row[b.role]
             twists, grippers = p.get("twists"), p.get("grippers")
@@ -145,9 +197,11 @@ class TwistTeleop:
                 grip = grippers[i] if grippers is not None and i < len(grippers) else p["gripper"]
                 b.gripper_cmd = float(grip) * b.max_width
         tick.info.update(devices={r: p["raw"] for r, p in polled.items()}, arms=self.arms, mode=self.switch.mode)
-        if self.body is not None:
-            return self.body.action(tick.env.robot)
-        return build_action(tick.env.robot, self.arms)
+        action = self.body.action(tick.env.robot) if self.body is not None else build_action(tick.env.robot,
+                                                                                             self.arms)
+        for b in self.arms:  # after the action: IK may have pulled an unreachable target back
+            self.travel[f"{b.role} target"].add(np.asarray(b.target[:3]) - before[b.role])
+        return action
 
     def after(self, tick: Any) -> None:
         measured = [b for b in self.arms if isinstance(b, ArmBinding)]  # a humanoid's wrists: targets only
@@ -161,6 +215,8 @@ class TwistTeleop:
     def finish(self, summary: Any) -> None:
         summary.details["device"] = self.device
         summary.details["mode"] = self.switch.mode.name.lower()
+        summary.details["travel"] = {name: t.report() for name, t in self.travel.items()}
+        summary.lines.append(travel_line(self.travel))
         self.end.report(summary)
         if self.visual is not None:
             summary.details["viz"] = self.visual.where

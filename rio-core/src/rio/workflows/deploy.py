@@ -16,7 +16,7 @@ from rio.policy.async_inference import AsyncConfig
 from rio.policy.deploy import POLICY_ROLE, PolicyController
 
 #: How long a policy node may take to load its model and be ready, unless told otherwise.
-_POLICY_READY_S = 600.0
+POLICY_READY_S = 600.0
 
 
 def run_deploy(station: Any, policy: str | None = None, *, instruction: str | None = None,
@@ -43,7 +43,7 @@ def run_deploy(station: Any, policy: str | None = None, *, instruction: str | No
 
     def make(session: Any) -> PolicyController:
         return PolicyController.start(session, name, node_cls, policy_kwargs, config or AsyncConfig(),
-                                      ready_timeout=ready_timeout or _POLICY_READY_S)
+                                      ready_timeout=ready_timeout or POLICY_READY_S)
 
     return run_workflow(without_role(st, POLICY_ROLE), make, middleware=middleware, rate_hz=rate_hz, duration=duration,
                         instruction=instruction, record=record, on_tick=on_tick, profile=profile,

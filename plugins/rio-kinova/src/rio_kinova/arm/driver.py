@@ -21,6 +21,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
+from rio import clock
 from rio.control import quat_conj, quat_mul, quat_to_rotvec
 from rio.interfaces import ArmNode, ModelTable
 
@@ -64,6 +65,7 @@ class KinovaArm(ArmNode):
         self._q: np.ndarray | None = None
         self._last: dict[str, Any] = {}  # the last sample read (stands while the session is lost)
         self._goal: np.ndarray | None = None
+        self._t_goal = 0.0  # when `_goal` went out
         self._frame = 0
 
     @property
@@ -125,6 +127,13 @@ class KinovaArm(ArmNode):
         self._last = sample
         return sample
 
+    def drive(self, now: float) -> None:
+        """High level: the base went on at the last joint speeds through a late cycle; the goal takes up
+        from where that brought the arm (`JointCommander.follow_measured`) rather than pull it back."""
+        if self.enabled and not self.config.low_level and self._q is not None:
+            self.commander.follow_measured(self._q, now)
+        super().drive(now)
+
     def write_joints(self, joint_pos: np.ndarray) -> None:
         s = self.session
         assert s is not None and self._q is not None
@@ -137,10 +146,14 @@ class KinovaArm(ArmNode):
                 a.command_id, a.flags, a.position = self._frame, 1, math.degrees(float(qi)) % 360.0
             guarded(self, s.cyclic.Refresh, cmd)
             return
-        prev = joint_pos if self._goal is None else self._goal
-        self._goal = joint_pos.copy()
+        now, period = clock.now(), 1.0 / self.config.rate_hz
+        if self._goal is None:
+            prev, dt = joint_pos, period
+        else:  # the goal's velocity over the time it took, not over a cycle assumed on time
+            prev, dt = self._goal, max(now - self._t_goal, 0.25 * period)
+        self._goal, self._t_goal = joint_pos.copy(), now
         vmax = np.array(self.kinova.max_joint_speed)
-        speed = (joint_pos - prev) * self.config.rate_hz + self.config.gain * (joint_pos - self._q)
+        speed = (joint_pos - prev) / dt + self.config.gain * (joint_pos - self._q)
         speed = np.clip(speed, -vmax, vmax)
         msg = s.pb.Base_pb2.JointSpeeds()
         for i, v in enumerate(speed):

@@ -229,7 +229,7 @@ class ArmMachine:
         self.last_command_time = time.monotonic()
         if not self.can_move(Mode.SERVO) or not self._check_limits(q):
             return
-        self.motion.servo(np.where(np.isfinite(q), q, self.motion.servo_target))
+        self.motion.servo(np.where(np.isfinite(q), q, self.motion.servo_target), self.last_command_time)
 
     def servo_cartesian(self, pose6, tool_coord: bool = False) -> None:
         self.last_command_time = time.monotonic()
@@ -238,7 +238,7 @@ class ArmMachine:
         goal = from_xarm(pose6)
         if tool_coord:
             goal = pose_mul(self.tcp_frame(self.motion.servo_target), goal)
-        self.motion.servo(self._solve(goal, self.motion.servo_target, iterations=6).q)
+        self.motion.servo(self._solve(goal, self.motion.servo_target, iterations=6).q, self.last_command_time)
 
     def move_joints(self, q7, speed: float, acc: float, tag=None, kinds=(0, 0)) -> None:
         q = np.asarray(q7, dtype=float)[: self.axis]

@@ -4,7 +4,9 @@ The controller keeps a *setpoint* `q_cmd` and the joints follow it:
 
 - servo mode (1): each servo command replaces `servo_target`; the setpoint walks toward it at most
   at the arm's largest joint speed (the controller's rate limit), so a far target is approached,
-  never jumped to;
+  never jumped to. The walk is timed by when each target arrived (`servo(q, t)`), not by the control
+  ticks: a tick after the emulator's thread was descheduled used to walk the whole stall toward a
+  target that came at its end, moving faster than the limit allows (a loaded CI machine saw it);
 - position mode (0): motion commands queue up as segments (joint moves with a trapezoidal speed
   profile at the commanded speed and acceleration, pauses, markers for "tell me when the queue gets
   here"); the head segment drives the setpoint.
@@ -127,6 +129,7 @@ class MotionModel:
         self.qd = np.zeros_like(self.q)
         self.q_cmd = self.q.copy()
         self.servo_target = self.q.copy()
+        self.t_walked: float | None = None  # the time the servo setpoint has walked up to
         self.queue: deque[Segment] = deque()
         self.active: Segment | None = None
 
@@ -135,8 +138,19 @@ class MotionModel:
         """Segments not finished (the controller's command count)."""
         return len(self.queue) + (self.active is not None)
 
-    def servo(self, q) -> None:
+    def servo(self, q, t: float | None = None) -> None:
+        """A new servo target, arrived at `t` (monotonic s): up to then the setpoint walks toward the
+        target this one replaces."""
+        if t is not None:
+            self._walk(t)
         self.servo_target = np.asarray(q, dtype=float).copy()
+
+    def _walk(self, t: float) -> None:
+        """The servo setpoint toward `servo_target`, at most `max_speed` for the time since it last walked."""
+        if self.t_walked is not None and t > self.t_walked:
+            step = self.max_speed * (t - self.t_walked)
+            self.q_cmd = self.q_cmd + np.clip(self.servo_target - self.q_cmd, -step, step)
+        self.t_walked = t if self.t_walked is None else max(self.t_walked, t)
 
     def enqueue(self, seg: Segment) -> None:
         self.queue.append(seg)
@@ -161,10 +175,11 @@ class MotionModel:
         """Advance one tick of `dt` s; `run` False holds the setpoint (stopped, paused). Returns the
         segment events of the tick: ("start" | "end", segment)."""
         events: list[tuple[str, Segment]] = []
+        if run and servo_mode:
+            self._walk(t)
+        else:  # held (or queue-driven): no servo walk, but the time is spent
+            self.t_walked = t
         if run:
-            if servo_mode:
-                step = self.max_speed * dt
-                self.q_cmd = self.q_cmd + np.clip(self.servo_target - self.q_cmd, -step, step)
             budget = dt
             while True:
                 if self.active is None:

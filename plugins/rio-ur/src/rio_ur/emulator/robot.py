@@ -4,7 +4,11 @@ safety mode (protective stop, emergency stop, ...), speed slider, program state,
 Servo behaviour (what servoJ does on the controller, as far as a driver can tell): each servo command
 replaces the target; the setpoint follows it through a first-order filter whose time constant is the
 command's `lookahead_time` (UR's smoothing), at most at the joints' rated speed times the speed
-slider. The joints are the setpoint (model backend: a 4 ms lag) or a rio-sim arm's (`SimJoints`).
+slider. The setpoint is moved by the time since it last moved, up to when each command arrived (the
+target it replaces until then), not by control ticks: a tick after the emulator's thread was
+descheduled moved the whole stall (up to 50 ms) toward a target that came at its end, faster than
+the rated speed allows. The joints are the setpoint (model backend: a 4 ms lag) or a rio-sim arm's
+(`SimJoints`).
 Nothing moves unless the robot is RUNNING (powered, brakes released) in safety mode NORMAL and a
 control client is connected. Faults are injected by tests (`protective_stop()`, `emergency_stop()`) and
 cleared the way a person would: the dashboard's "unlock protective stop", releasing the e-stop and
@@ -64,6 +68,7 @@ class URRobot:
         self.q_cmd = self.q.copy()
         self.target = self.q.copy()
         self.lookahead = 0.1
+        self.t_followed: float | None = None  # the time the setpoint has followed the target up to
         self.robot_mode, self.safety_mode = RUNNING, NORMAL
         self.speed_slider = 1.0
         self.remote_control = True
@@ -94,7 +99,7 @@ class URRobot:
         period, t_next, t_last = 1.0 / RATE_HZ, time.monotonic(), time.monotonic()
         while not self._stop.is_set():
             now = time.monotonic()
-            self.tick(min(now - t_last, 0.05))
+            self.tick(min(now - t_last, 0.05), now)
             t_last = now
             t_next += period
             delay = t_next - time.monotonic()
@@ -103,12 +108,11 @@ class URRobot:
             elif delay < -0.1:
                 t_next = time.monotonic()
 
-    def tick(self, dt: float) -> None:
+    def tick(self, dt: float, now: float | None = None) -> None:
+        """One control tick at `now` (monotonic s; None: now): the setpoint follows the target for the
+        time since it last did, the joints follow the setpoint for `dt`."""
         with self.lock:
-            if self.can_move:
-                alpha = 1.0 - math.exp(-dt / max(self.lookahead, 1e-3))
-                step = np.asarray(self.model.max_speed) * self.speed_slider * dt
-                self.q_cmd = self.q_cmd + np.clip((self.target - self.q_cmd) * alpha, -step, step)
+            self._follow(time.monotonic() if now is None else now)
             self.joints.write(self.q_cmd, dt)
             q = self.joints.read()
             if dt > 0:
@@ -137,10 +141,24 @@ class URRobot:
         return (self.robot_mode >= POWER_ON) | (self.running << 1)
 
     # -- the control script's stand-in (servo port) ---------------------------------------------------
-    def servo_j(self, q: Sequence[float], lookahead: float) -> bool:
+    def _follow(self, t: float) -> None:
+        """The setpoint toward the target (lookahead filter, rated speed) from when it last moved to `t`."""
+        elapsed = 0.0 if self.t_followed is None else t - self.t_followed
+        if elapsed <= 0:
+            self.t_followed = t if self.t_followed is None else self.t_followed
+            return
+        self.t_followed = t
+        if self.can_move:
+            alpha = 1.0 - math.exp(-elapsed / max(self.lookahead, 1e-3))
+            step = np.asarray(self.model.max_speed) * self.speed_slider * elapsed
+            self.q_cmd = self.q_cmd + np.clip((self.target - self.q_cmd) * alpha, -step, step)
+
+    def servo_j(self, q: Sequence[float], lookahead: float, t: float | None = None) -> bool:
+        """A servo command that arrived at `t` (monotonic s; None: now)."""
         with self.lock:
             if not self.can_move:
                 return False
+            self._follow(time.monotonic() if t is None else t)  # toward the target it replaces, until now
             self.target = np.asarray(q, dtype=float).copy()
             self.lookahead = min(max(float(lookahead), 0.03), 0.2)
             self.servo_commands += 1
