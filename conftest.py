@@ -27,6 +27,11 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
+import pytest
+
+#: the main thread's scheduling policy and priority when the session started
+_SCHEDULING = pytest.StashKey[tuple[int, int]]()
+
 #: Files whose tests use one fixed machine resource, by resource: each group runs on one worker.
 SHARED_RESOURCE = {
     # the packaged UR and xArm stations serve their emulators on 127.0.0.2 (both on ports 30001-30003)
@@ -46,6 +51,28 @@ def pytest_collection_modifyitems(config: Any, items: list[Any]) -> None:
         items.sort(key=lambda item: -slow[unit_of(item.nodeid)])  # stable: a unit's tests keep their order
 
 
+def pytest_sessionstart(session: Any) -> None:
+    import os
+
+    session.config.stash[_SCHEDULING] = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+
+
+@pytest.hookimpl(trylast=True)  # after the test's fixtures are torn down: one may undo what it set
+def pytest_runtest_teardown(item: Any) -> None:
+    """A test that leaves the test process's main thread on another scheduling policy (SCHED_FIFO) fails here,
+    naming itself, and the policy is put back: every thread the process starts later inherits it, and a
+    real-time thread that busy-waits on a normal one starves the whole machine (seen in a full xdist run: both
+    workers' main threads at SCHED_FIFO 99, their realsense tests spinning for 45 min at a load of 60)."""
+    import os
+
+    policy, priority = item.config.stash[_SCHEDULING]
+    now = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+    if now != (policy, priority):
+        os.sched_setscheduler(0, policy, os.sched_param(priority))
+        raise AssertionError(f"{item.nodeid} left the test process's main thread at scheduling policy {now[0]}, "
+                             f"priority {now[1]} (was {policy}, {priority}); put back")
+
+
 def unit_of(nodeid: str) -> str:
     """The unit of work a test belongs to: its file, or the resource its file shares with others."""
     path = nodeid.split("::", 1)[0]
@@ -53,7 +80,6 @@ def unit_of(nodeid: str) -> str:
 
 
 def pytest_xdist_make_scheduler(config: Any, log: Any) -> Any:
-    import pytest
     from xdist.scheduler import LoadScopeScheduling
 
     missing = [path for path in SHARED_RESOURCE if not (config.rootpath / path).is_file()]
