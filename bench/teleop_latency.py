@@ -7,12 +7,12 @@ One function per device (`DEVICES`) sets up its device, runs `rio teleop`'s cont
 figures; `main` runs the devices asked for and prints them (`--json`: one object keyed by device).
 All timestamps are `rio.clock.now()`.
 
-gello: a virtual GELLO (xArm 7 layout, eight XL330s answering Protocol 2.0 on a pseudo-terminal, read by
+gello: an emulated GELLO (xArm 7 layout, eight XL330s answering Protocol 2.0 on a pseudo-terminal, read by
 the unmodified dynamixel-sdk) drives a 7-joint `rio.fake_arm`. Once the follower is aligned, the
 bench moves the leader's first joint by a step (`STEP_RAD`, alternating sign, at random intervals so
 events fall anywhere in the cycles) and times, from that instant, the first `write_joints` at the arm
 that moved 10 % of the step towards it (`event_to_arm`) and the one that reached 90 % (`..._done`).
-The reference, measured on the same virtual bus in the same run before teleop starts: one
+The reference, measured on the same emulated bus in the same run before teleop starts: one
 Protocol 2.0 READ of Present Position through the SDK (`pty_read`, the raw round trip) and one Sync
 Read of all eight servos (`pty_sync_read`, what the leader does each tick). The ratio is
 event_to_arm p50 / pty_read p50: what the node, the control loop and the arm's cycle add to the bus.
@@ -71,8 +71,8 @@ def _pty_round_trips(port: str, ids: tuple[int, ...], n: int) -> tuple[list[floa
 
 def bench_gello(args: argparse.Namespace, say: Callable[[str], None]) -> dict[str, Any]:
     from rio_teleop.gello.calibration import save_calibration
+    from rio_teleop.gello.emulator import GelloEmulator
     from rio_teleop.gello.layouts import get_layout
-    from rio_teleop.gello.virtual import VirtualGello
 
     from rio.clock import now
     from rio.fakes.arms import FakeArm
@@ -81,7 +81,7 @@ def bench_gello(args: argparse.Namespace, say: Callable[[str], None]) -> dict[st
 
     lay = get_layout("xarm7")
     q0 = np.asarray(lay.known_pose, float)
-    with VirtualGello(lay) as g, tempfile.TemporaryDirectory(prefix="dG") as tmp:
+    with GelloEmulator(lay) as g, tempfile.TemporaryDirectory(prefix="dG") as tmp:
         cal_file = save_calibration(g.mounting, Path(tmp) / "virtual.json")
         say(f"gello: raw round trips on {g.port} ...")
         reads, syncs = _pty_round_trips(g.port, lay.ids, args.round_trips)

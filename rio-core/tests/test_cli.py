@@ -94,7 +94,8 @@ def test_stations_list_and_check(registry, tmp_path, capsys):
     registry.register(mod, name="cli-stations", dist="rio-lab")
     assert main(["stations", "list", "--json"]) == 0
     assert json.loads(capsys.readouterr().out) == [
-        {"name": "lab-arm", "plugin": "rio-lab", "target": str(good), "description": "a lab arm"}]
+        {"name": "lab-arm", "plugin": "rio-lab", "target": str(good), "description": "a lab arm",
+         "formerly": []}]
 
     assert main(["stations", "check", "lab-arm"]) == 0
     out = capsys.readouterr().out

@@ -69,7 +69,7 @@ EXISTING_DIR_PARAMS = {"plugin_dir"}
 EMPTY_OK = {"instruction", "name"}
 
 #: Commands that serve until stopped when a bad value slips through: a subprocess with a deadline.
-SUBPROCESS = {("so100", "virtual-bus"), ("ur", "emulator"), ("ufactory", "emulator"), ("unitree", "bridge")}
+SUBPROCESS = {("so100", "emulator"), ("ur", "emulator"), ("ufactory", "emulator"), ("unitree", "bridge")}
 SUBPROCESS_DEADLINE_S = 10
 class _Started(BaseException):  # noqa: N818 - not an error: the marker that something was started
     """Raised where a station's nodes or an installer would start: a bad value got that far."""
@@ -90,6 +90,8 @@ class Case:
 
 def _leaves(group: typer.main.TyperGroup, path: tuple[str, ...] = ()):
     for name, cmd in sorted(group.commands.items()):
+        if cmd.hidden:  # an old name kept for one release (rio.cli.renamed): the same function as the new one
+            continue
         if hasattr(cmd, "commands"):
             yield from _leaves(cmd, (*path, name))
         else:

@@ -49,19 +49,19 @@ def error_line(err: str) -> str:
 
 @pytest.fixture
 def so100_station(tmp_path):
-    """A station file for an SO-100 follower on a virtual Feetech bus (a pseudo-terminal served by the
-    test), its leader virtual; `write(middleware, port=..., calibration=...)` writes one."""
+    """A station file for an SO-100 follower on an emulated Feetech bus (a pseudo-terminal served by the
+    test), its leader emulated; `write(middleware, port=..., calibration=...)` writes one."""
     pytest.importorskip("rio_so100")  # the SO-100 cases need the plugin; the rest only rio-core
-    from rio_so100.virtual import VirtualBus
+    from rio_so100.emulator import FeetechBusEmulator
 
-    bus = VirtualBus()
+    bus = FeetechBusEmulator()
 
     def write(middleware: str, port: str | None = None, calibration: str = "default") -> str:
         path = tmp_path / f"so100-{middleware}.toml"
         path.write_text(f'name = "so100-debug"\nrate_hz = 50\n[middleware]\nname = "{middleware}"\n'
                         f'[components.arm]\ndriver = "so100.follower"\nport = "{port or bus.port}"\n'
                         f'calibration = "{calibration}"\n'
-                        '[components.teleop]\ndriver = "so100.leader"\nport = "virtual"\n')
+                        '[components.teleop]\ndriver = "so100.leader"\nport = "emulator"\n')
         return str(path)
 
     yield write

@@ -259,6 +259,7 @@ def test_the_loop_freezes_the_collector_without_a_full_pass(monkeypatch):
         s = ControlLoop(env, Hold(), rate_hz=100.0, duration=0.2, settle=False, log=None,
                         on_tick=lambda _t: frozen.append(gc.get_freeze_count())).run()
         monkeypatch.setattr(gc, "collect", collect)
-    assert s.ticks > 0 and frozen and min(frozen) > 0  # the collector was paused for every tick it ran (ticks a loaded machine skips do not count)
+    # the collector was paused for every tick it ran (ticks a loaded machine skips do not count)
+    assert s.ticks > 0 and frozen and min(frozen) > 0
     assert collected and max(collected) < 2, collected  # and no full pass started it
     assert gc.get_freeze_count() == 0

@@ -142,11 +142,17 @@ def test_a_failed_export_removes_what_it_wrote_and_only_that(ds, tmp_path):
     with pytest.raises(ExportError, match=full):  # one line, not the writer's OSError and its traceback
         export_dataset(_Npz(fail_after=1), Dataset(ds), out)
     assert not out.exists()
-    out.mkdir()
-    (out / "mine.txt").write_text("keep me")
+    out.mkdir()  # an empty directory: kept, what the export wrote into it removed
     with pytest.raises(ExportError, match=full):
         export_dataset(_Npz(fail_after=1), Dataset(ds), out)
+    assert out.is_dir() and list(out.iterdir()) == []
+    (out / "mine.txt").write_text("keep me")
+    with pytest.raises(ExportError, match="exists and is not empty; --overwrite"):
+        export_dataset(_Npz(fail_after=1), Dataset(ds), out)
+    with pytest.raises(ExportError, match=full):  # replacing it: the old output comes back whole
+        export_dataset(_Npz(fail_after=1), Dataset(ds), out, overwrite=True)
     assert sorted(p.name for p in out.iterdir()) == ["mine.txt"]
+    assert [p.name for p in tmp_path.iterdir() if "rio-replaced" in p.name] == []
 
 
 @pytest.mark.parametrize("episodes,why", [("5-2", "ends before it starts"), ("1,x", "'x' is not an episode"),

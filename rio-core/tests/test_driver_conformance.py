@@ -15,6 +15,7 @@ from rio.conformance.drivers import (
     HumanoidConformance,
     SensorConformance,
     TeleopConformance,
+    WrenchConformance,
 )
 
 #: The joint ranges of rio.fakes.arms.SIX_DOF_MJCF, as a station would narrow the fake model arm to them.
@@ -57,6 +58,11 @@ class TestFakeHumanoid(HumanoidConformance):
 
 class TestFakeSensor(SensorConformance):
     driver = "rio.fake_sensor"
+
+
+class TestFakeWrench(WrenchConformance):
+    driver = "rio.fake_wrench"
+    config = {"load": [1.0, -2.0, -9.8, 0.1, 0.0, -0.05], "noise": 0.02}
 
 
 class TestScriptedTeleop(TeleopConformance):

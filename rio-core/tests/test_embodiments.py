@@ -155,6 +155,12 @@ def test_bimanual_station_steps(reg):
     with ServerManager(servers), env:
         assert env.action_dim == 14
         assert env.robot.describe_action().startswith("arm1_joint_pos (6), arm1_gripper (1), arm2_joint_pos (6)")
+        # every action element named from the drivers (what exports carry as `names`), the arms told apart
+        names = env.robot.action_names()
+        assert names[:7] == [f"arm1_joint{i}" for i in range(1, 7)] + ["arm1_gripper"]
+        assert names[7:] == [f"arm2_joint{i}" for i in range(1, 7)] + ["arm2_gripper"]
+        assert env.robot.observation_names()["arm2_proprio_joints"] == names[7:13]
+        assert env.drivers["arm2"] == "rio.fake_arm"
         left, right = np.full(6, 0.3), np.full(6, -0.3)
         action = env.robot.build_action(arm1_joint_pos=left, arm1_gripper=0.01, arm2_joint_pos=right,
                                         arm2_gripper=0.05)
@@ -172,6 +178,9 @@ def test_humanoid_station_steps(reg):
     servers, _, env = make_station(st, registry=reg)
     with ServerManager(servers), env:
         assert env.robot.describe_action() == "joint_pos (12), hand (6)"
+        names = env.robot.action_names()
+        assert names == [f"joint{i}" for i in range(1, 13)] + [f"hand.joint{i}" for i in range(1, 7)]
+        assert env.robot.observation_names()["hand1_joints"] == names[12:]
         action = np.r_[np.full(12, 0.1), np.full(6, 0.4)]
         env.step(action, t_cmd_target=clock.now() + 0.05)
         assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, action))
@@ -261,3 +270,50 @@ def test_observation_pixels_stay_in_the_camera_ring_until_read(reg, mw):
         for _ in range(2):  # and again: a frame gone never reads as "no image"
             with pytest.raises(FrameGone, match=rf"camera 'top_camera': frame {late_ts:.6f} is no longer"):
                 _ = late.rgb
+
+
+def test_a_node_behind_on_its_link_skips_a_command_and_the_others_still_get_theirs(reg):
+    """A network client with every request credit in flight raises NoCredits (nothing sent) at once. The
+    embodiment skips that node's command for this cycle and counts it; the gripper's command still goes out,
+    and the control loop's summary says how many were skipped. (The arm's client is wrapped by a test double
+    that answers NoCredits, as a zmq/zenoh/portal client does when its node is 8 requests behind.)"""
+    from rio.errors import NoCredits
+    from rio.loop.control_loop import ControlLoop
+
+    class Behind:
+        def __init__(self, client):
+            self.client = client
+
+        def __getattr__(self, name):
+            return getattr(self.client, name)
+
+        def move_joints(self, *_args):
+            raise NoCredits("arm", 8, 0.05)
+
+    st = station(reg, {"arm": {"driver": "rio.fake_arm", "dof": 6},
+                       "gripper": {"driver": "rio.fake_gripper", "max_width": 0.08}})
+    servers, _clients, env = make_station(st, registry=reg)
+    with ServerManager(servers), env:
+        env.reset()
+        env.robot.clients["arm"] = Behind(env.robot.clients["arm"])
+        target = np.r_[np.full(6, 0.3), 0.02]
+        env.step(target)
+        env.step(target)
+        assert env.robot.behind == {"arm": 2}
+        assert wait_until(lambda: env.get_state().observation.gripper_position == pytest.approx(0.02))
+        assert np.allclose(env.get_state().observation.proprio_joints, 0.0)  # the arm got nothing
+
+        class Hold:
+            name = "hold"
+
+            def reset(self, loop):
+                pass
+
+            def step(self, tick):
+                return target
+
+            def done(self):
+                return None
+
+        s = ControlLoop(env, Hold(), rate_hz=50.0, duration=0.2, settle=False, log=None).run()
+    assert any(w.startswith("arm: ") and "not sent" in w for w in s.warnings), s.warnings

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import rio
+from rio.conformance.middleware import send_in_turn
 from rio.errors import ConfigError
 from rio.middleware.portal import PortalMiddleware
 from rio.runtime import wire
@@ -58,7 +59,7 @@ def test_state_and_last_k(echo):
 def test_requests_arrive_in_order(echo):
     _, c = echo
     for i in range(50):
-        c.send_request(q=np.full(6, float(i)), client=7, seq=i)
+        send_in_turn(c, q=np.full(6, float(i)), client=7, seq=i)  # credits: a burst waits for acks
     assert wait_until(lambda: np.all(c.get_state()["last"] == 49.0))
     assert wait_until(lambda: [h for h in c.handled() if h[0] == 7] == [[7, i] for i in range(50)])
 
@@ -101,7 +102,7 @@ def test_server_rechecks_raw_records(echo):
     rec = EchoNode().layouts()[1].empty()
     rec["q"], rec["client"], rec["seq"] = np.nan, 3, 1
     with pytest.raises(rio.InvalidRequest, match="echo.*NaN") as ei:
-        c._transport._send_request(rec.tobytes())
+        c._transport.send_request_acknowledged(rec.tobytes())
     assert ei.value.field == "q"
     c.send_request(q=np.zeros(6), client=3, seq=2)
     assert wait_until(lambda: [3, 2] in c.handled())
@@ -398,9 +399,9 @@ def test_slow_call_does_not_stop_heartbeats(echo):
         while slow.is_alive():
             a.get_state()  # raises NodeDiedError once the heartbeat stops
             b.get_state()
-            b.send_request(q=np.full(6, 0.5), client=11, seq=i)
+            b.send_request(q=np.full(6, 0.5), client=11, seq=i)  # acknowledged: queued, the call holds the loop
             i += 1
-            time.sleep(0.05)
+            time.sleep(0.1)  # 40 requests in 4 s: within the node's queue (64), so never out of credits
         slow.join()
         assert i > 0 and _serving(b)
 
@@ -411,14 +412,19 @@ def test_full_request_queue_raises_queue_full(echo):
     _, c = echo
     slow = threading.Thread(target=c.sleep, args=(5.0,))
     slow.start()
+    sent = 0
     try:
         time.sleep(0.2)
         with pytest.raises(rio.QueueFull, match="node 'echo': request queue full"):
-            for seq in range(500):
-                c.send_request(q=np.zeros(6), client=12, seq=seq)
+            for sent in range(500):  # noqa: B007 - counted for the assertion below
+                send_in_turn(c, 1.0, q=np.zeros(6), client=12, seq=sent)  # NoCredits for good once it is full
+        assert sent >= 64, sent  # the node's queue filled first
     finally:
         slow.join()
-    c.send_request(q=np.zeros(6), client=12, seq=999)
+    c._transport.request_stats(wait_s=5.0)  # requests held past the put timeout were refused: said once
+    with pytest.raises(rio.QueueFull, match="'echo'.*for 1 s"):
+        c.send_request(q=np.zeros(6), client=12, seq=998)
+    send_in_turn(c, q=np.zeros(6), client=12, seq=999)  # credits back once the node caught up
     assert wait_until(lambda: [12, 999] in c.handled(), timeout=10.0)
 
 

@@ -16,6 +16,7 @@ pytest.importorskip("zenoh")
 
 import rio  # noqa: E402
 from rio import ServerManager, connect, serve  # noqa: E402
+from rio.conformance.middleware import send_in_turn
 from rio.errors import ConfigError  # noqa: E402
 from rio.middleware.zenoh import _SESSIONS, ZenohMiddleware, _config, _free_port  # noqa: E402
 from rio.runtime.transport import NodeLayouts  # noqa: E402
@@ -58,7 +59,7 @@ def test_requests_arrive_in_order(echo):
     _, c = echo
     before = len(c.handled())
     for i in range(50):
-        c.send_request(q=np.full(6, float(i)), client=3, seq=i)
+        send_in_turn(c, q=np.full(6, float(i)), client=3, seq=i)  # credits: a burst waits for acks
     assert wait_until(lambda: np.allclose(c.get_state()["last"], 49.0)), "timed out waiting for last request applied"
     got = [tuple(x) for x in c.handled()[before:]]
     assert got == [(3, i) for i in range(50)]
@@ -93,10 +94,10 @@ def test_bad_requests_rejected_and_node_keeps_serving(echo):
     rec = layout.encode({"q": np.zeros(6), "client": 0, "seq": 0}, fill_timestamp=0.0)
     rec["q"][2] = np.nan
     with pytest.raises(rio.InvalidRequest, match="NaN") as ei:
-        c._transport._send_request(rec.tobytes())
+        c._transport.send_request_acknowledged(rec.tobytes())
     assert ei.value.node == "echo" and ei.value.field == "q"
     with pytest.raises(rio.InvalidRequest, match="7 bytes"):
-        c._transport._send_request(b"\x00" * 7)  # wrong size
+        c._transport.send_request_acknowledged(b"\x00" * 7)  # wrong size
     pub = c._transport._req_pub
     pub.put(b"\x00" * 3)  # not even a request id: dropped, nobody to answer
     good = np.full(6, 0.75)
@@ -282,7 +283,7 @@ def test_slow_call_does_not_delay_other_clients_requests_or_hello(slow):
     try:
         with connect(EchoNode, "zenoh", name="slow", station="slow") as b:
             for i in range(10):
-                b.send_request(q=np.full(6, 1.0), client=7, seq=i)  # each waits for the node's answer
+                send_in_turn(b, 5.0, q=np.full(6, 1.0), client=7, seq=i)  # acknowledged while the call runs
             with connect(EchoNode, "zenoh", name="slow", station="slow") as c:  # hello
                 assert c.get_state()["tick"] > 0
             assert t.is_alive(), "requests and a handshake waited for the slow call to end"
@@ -301,11 +302,18 @@ def test_full_request_queue_raises_queue_full(slow):
             sent = 0
             with pytest.raises(rio.QueueFull, match="'slow'.*queue full") as ei:
                 for sent in range(10 * 64):  # noqa: B007 - counted for the assertion below
-                    b.send_request(q=np.zeros(6), client=8, seq=sent)
+                    # out of credits only while acknowledgements are on their way, until the queue is full
+                    # and the node holds this client's credits' worth (then NoCredits for good)
+                    send_in_turn(b, 1.0, q=np.zeros(6), client=8, seq=sent)
             assert ei.value.node == "slow" and sent >= 64, sent
             assert t.is_alive(), "the queue filled only after the slow call ended"
             t.join(30)
-            b.send_request(q=np.full(6, 3.0), client=8, seq=sent + 1)
+            # the requests the node held for more than its put timeout (1 s) were refused: said once
+            stats = b._transport.request_stats(wait_s=5.0)
+            assert stats.refused_full >= 1, stats
+            with pytest.raises(rio.QueueFull, match="'slow'.*queue full.*for 1 s"):
+                b.send_request(q=np.full(6, 2.0), client=8, seq=sent)
+            send_in_turn(b, q=np.full(6, 3.0), client=8, seq=sent + 1)  # credits back once the node caught up
             assert wait_until(lambda: np.allclose(b.get_state()["last"], 3.0)), "node did not catch up"
     finally:
         t.join(30)

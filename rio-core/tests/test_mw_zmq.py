@@ -14,6 +14,7 @@ from pydantic import ValidationError
 
 import rio
 from rio import ServerManager, connect, serve
+from rio.conformance.middleware import send_in_turn
 from rio.errors import ConfigError
 from rio.middleware.zmq import ZmqMiddleware
 from rio.runtime.node import remote
@@ -52,7 +53,7 @@ def test_state_seeded_at_connect_then_streams(c):
 def test_requests_arrive_in_order(c):
     before = len(c.handled())
     for i in range(20):
-        c.send_request(q=np.full(6, float(i)), client=7, seq=i)
+        send_in_turn(c, q=np.full(6, float(i)), client=7, seq=i)  # credits: a burst waits for acks
     assert wait_until(lambda: len(c.handled()) >= before + 20, timeout=2.0)
     mine = [tuple(x) for x in c.handled() if x[0] == 7]
     assert mine[-20:] == [(7, i) for i in range(20)]
@@ -87,9 +88,9 @@ def test_invalid_requests_rejected_node_keeps_serving(c):
     rec = c._node.request_queue._obj.layout.encode({"q": np.zeros(6), "client": 2, "seq": 0}, fill_timestamp=0.0)
     rec["q"][0] = np.inf
     with pytest.raises(rio.InvalidRequest, match="echo.*q"):
-        c._transport._send_request(rec.tobytes())
+        c._transport.send_request_acknowledged(rec.tobytes())
     with pytest.raises(rio.InvalidRequest, match="echo.*3 bytes"):
-        c._transport._send_request(b"\x00" * 3)  # wrong size
+        c._transport.send_request_acknowledged(b"\x00" * 3)  # wrong size
     c.send_request(q=np.zeros(6), client=2, seq=1)
     assert wait_until(lambda: [2, 1] in c.handled(), timeout=2.0)
     assert [2, 0] not in c.handled()

@@ -17,6 +17,7 @@ import zmq.utils.monitor
 import rio
 import rio.machine.keys
 from rio import ServerManager, connect, serve
+from rio.conformance.middleware import send_in_turn
 from rio.errors import ConfigError
 from rio.middleware.protocol.messages import REQUEST, REQUEST_ID
 from rio.middleware.zmq import ZmqMiddleware
@@ -135,7 +136,7 @@ def test_a_flood_of_calls_from_one_stranger_does_not_stop_a_real_client(plain_se
         with connect(EchoNode, ZmqMiddleware(call_timeout=30.0), name="hostile-plain") as client:
             for i in range(20):
                 assert client.echo(i) == i
-                client.send_request(q=np.full(6, float(i)), client=6, seq=i)
+                send_in_turn(client, q=np.full(6, float(i)), client=6, seq=i)
             assert wait_until(lambda: [6, 19] in client.handled(), timeout=30.0)
         replies = [wire.unpack_reply(m[1:]) for m in _messages(stranger, 2.0)]
         refused = [r for r in replies if not r[1] and r[2][0] == "TooManyCalls"]
@@ -156,7 +157,7 @@ def test_a_slow_call_does_not_delay_other_clients_requests_reads_or_handshakes(p
         t.start()
         time.sleep(0.3)  # the call is running now
         for i in range(10):
-            other.send_request(q=np.zeros(6), client=8, seq=i)  # each waits for its answer
+            send_in_turn(other, 5.0, q=np.zeros(6), client=8, seq=i)  # each acknowledged in time
         assert other.get_state()["tick"] >= 1
         with connect(EchoNode, "zmq", name="hostile-plain") as late:  # a handshake
             assert late.get_state()["tick"] >= 1
@@ -222,7 +223,7 @@ def test_a_keyed_client_and_node_work_end_to_end(keys, keyed_server):
         first = c.get_state()["tick"]
         assert wait_until(lambda: c.get_state()["tick"] >= first + 5, timeout=5.0)
         for i in range(5):
-            c.send_request(q=np.full(6, float(i)), client=3, seq=i)
+            send_in_turn(c, q=np.full(6, float(i)), client=3, seq=i)
         assert wait_until(lambda: [3, 4] in c.handled(), timeout=5.0)
         assert wait_until(lambda: c.get_state()["last"][0] == 4.0, timeout=5.0)
         np.testing.assert_array_equal(c.echo(np.arange(4.0)), np.arange(4.0))
@@ -261,22 +262,25 @@ def test_error_replies_carry_no_server_paths():
 
 def test_a_full_request_queue_makes_send_request_raise_queue_full():
     """Attack (or a stalled node): requests pile up faster than the node takes them. Once its queue is
-    full, `send_request` raises QueueFull naming the node, as the shared-memory queue does, instead of
-    the request being dropped with only a line in the server's log."""
+    full and the requests the server holds for this client have used its credits, `send_request` raises
+    QueueFull (NoCredits) naming the node at once, sending nothing, instead of the request being dropped
+    with only a line in the server's log; once the node takes its queue the credits come back."""
     node = EchoNode()
     node.name = "stalled"
     mw = ZmqMiddleware()
     srv, addr = _in_process_server(node, mw)  # no node loop: nothing takes the requests
     try:
         with connect(EchoNode, mw, name="stalled", address=addr) as c:
-            for i in range(node.request_capacity):
-                c.send_request(q=np.zeros(6), client=1, seq=i)
-            with pytest.raises(rio.QueueFull, match="stalled"):
+            held = mw.config.max_pending_per_peer  # the credits: requests the server holds for us
+            for i in range(node.request_capacity + held):
+                send_in_turn(c, q=np.zeros(6), client=1, seq=i)
+            with pytest.raises(rio.QueueFull, match="stalled.*credits"):
                 c.send_request(q=np.zeros(6), client=1, seq=999)
             assert len(srv.request_queue.get_all()) == node.request_capacity
-            c.send_request(q=np.zeros(6), client=1, seq=1000)  # room again
-            assert wait_until(lambda: len(srv.request_queue) == 1, timeout=5.0)
-            assert srv.request_queue.get()["seq"] == 1000
+            send_in_turn(c, q=np.zeros(6), client=1, seq=1000)  # room again: the held ones go in, credits return
+            assert wait_until(lambda: len(srv.request_queue) == held + 1, timeout=5.0)
+            seqs = [int(r["seq"]) for r in srv.request_queue.get_all()]
+            assert seqs == list(range(node.request_capacity, node.request_capacity + held)) + [1000]
     finally:
         srv.close()
 

@@ -75,8 +75,8 @@ def problems_of(reg: Registry, plugin: str) -> list[str]:
 def test_core_registers_middlewares_embodiments_and_fakes():
     reg = Registry(load_entry_points=False)
     assert {"thread", "shm", "zmq", "zenoh", "portal"} <= names(reg, "rio_middlewares")
-    assert names(reg, "rio_embodiments") == {"single_arm", "bimanual", "humanoid"}
-    assert {"rio.fake_arm", "rio.fake_gripper", "rio.fake_camera"} <= names(reg, "rio_drivers")
+    assert names(reg, "rio_embodiments") == {"single_arm", "bimanual", "humanoid", "mobile_manipulator"}
+    assert {"rio.fake_arm", "rio.fake_gripper", "rio.fake_camera", "rio.fake_base"} <= names(reg, "rio_drivers")
     assert all(s.plugin == "rio-core" for s in reg.all_specs())
     assert reg.problems == []
 
@@ -134,11 +134,11 @@ def test_register_module_directly_and_invalid_plugin():
 
     @hookimpl
     def rio_embodiments():
-        return [Spec("mobile_manipulator", "embodiment", "somewhere:Mobile")]
+        return [Spec("acme_mobile", "embodiment", "somewhere:Mobile")]
 
     mod.rio_embodiments = rio_embodiments
     assert reg.register(mod, name="inline", dist="rio-inline", version="9")
-    assert "mobile_manipulator" in names(reg, "rio_embodiments")
+    assert "acme_mobile" in names(reg, "rio_embodiments")
 
     bad = types.ModuleType("bad_plugin")
 

@@ -15,6 +15,7 @@ import rio
 from rio.errors import ConfigError, InvalidRequest, NodeDiedError, NodeError, NodeTimeout, QueueFull
 from rio.middleware.protocol import NetworkClient, NetworkConfig, NetworkServer
 from rio.middleware.protocol import messages as m
+from rio.middleware.protocol.credits import NoCredits
 from rio.middleware.protocol.fair import FairQueue
 from rio.middleware.protocol.requests import RequestIntake
 from rio.runtime import wire
@@ -175,6 +176,12 @@ class _Client(NetworkClient):
         except queue.Empty:
             return None
 
+    def _recv_now(self, kind):
+        try:
+            return self.inbox[kind].get_nowait()
+        except queue.Empty:
+            return None
+
 
 class _Slow(rio.Node):
     def setup(self):
@@ -299,13 +306,69 @@ def test_too_many_calls_name_the_node(pair):
     assert not ok and value[0] == "TooManyCalls" and cid == 2 + server.config.max_pending_per_peer
 
 
+def _req(server, x: float = 1.0) -> bytes:
+    return server.request_queue.layout.encode({"x": np.full(2, x)}, fill_timestamp=0.0).tobytes()
+
+
 def test_requests_through_the_flow(pair):
     _, server, client = pair
     c = client()
-    c._send_request(server.request_queue.layout.encode({"x": np.ones(2)}, fill_timestamp=0.0).tobytes())
+    c._send_request(_req(server))
     assert len(server.request_queue) == 1
-    with pytest.raises(InvalidRequest, match="'arm'.*5 bytes"):
-        c._send_request(b"\0" * 5)
+    c._send_request(b"\0" * 5)  # sent: the node's own check refuses it, and says so in its acknowledgement
+    with pytest.raises(InvalidRequest, match="'arm'.*5 bytes") as ei:
+        c._send_request(_req(server, 2.0))  # the refusal is raised by the next send, which is not sent
+    assert "not sent" in "".join(getattr(ei.value, "__notes__", ["not sent"]))
+    assert len(server.request_queue) == 1
+    stats = c.request_stats()
+    assert (stats.sent, stats.acknowledged, stats.refused_invalid, stats.refused) == (2, 2, 1, 1)
+    c._send_request(_req(server, 3.0))  # reported once: the next one goes
+    assert len(server.request_queue) == 2
+
+
+def test_no_credits_fails_at_once_and_acknowledgements_give_credits_back(pair):
+    """The node takes nothing (no loop runs it here): its queue fills, then the fair queue's room for this
+    peer; with every credit in flight the next request fails at once, sending nothing. Once the node takes
+    its queue the waiting ones are acknowledged and the credits come back."""
+    _, server, client = pair
+    q, credits = server.request_queue, server.config.max_pending_per_peer
+    c = client()
+    assert c._requests.credits == credits  # granted by the handshake
+    for i in range(q.capacity):
+        c._send_request(_req(server, i))  # each acknowledged at once: the queue has room
+    c.request_stats()  # takes in the acknowledgements that arrived
+    assert len(q) == q.capacity and c._requests.available == credits
+    for i in range(credits):
+        c._send_request(_req(server, 100 + i))  # parked by the server, unacknowledged: credits spent
+    assert len(server._intake._waiting) == credits and c._requests.available == 0
+    with pytest.raises(QueueFull, match="'arm'.*credits") as ei:
+        c._send_request(_req(server, -1))
+    assert isinstance(ei.value, NoCredits)
+    assert len(server._intake._waiting) == credits  # nothing was sent
+    assert c.request_stats().no_credits == 1
+    q.get_all()  # the node makes room: the waiting requests go in and are acknowledged
+    assert wait_until(lambda: c.request_stats().acknowledged == q.capacity + credits, timeout=5)
+    assert c._requests.available == credits
+    c._send_request(_req(server, 7.0))
+    assert [r["x"][0] for r in q.get_all()] == [100.0 + i for i in range(credits)] + [7.0]
+
+
+def test_a_request_refused_for_a_full_queue_is_reported_by_the_next_send(pair):
+    """A request that waited its queue's put timeout (1 s) for room is refused (FULL): the client hears it
+    on its next send as QueueFull naming the node (not NoCredits), and it is counted."""
+    _, server, client = pair
+    q = server.request_queue
+    c = client()
+    for i in range(q.capacity + 1):
+        c._send_request(_req(server, i))
+    c.request_stats()
+    assert c._requests.available == server.config.max_pending_per_peer - 1
+    assert wait_until(lambda: c.request_stats().refused_full == 1, timeout=5)
+    with pytest.raises(QueueFull, match="'arm'.*queue full") as ei:
+        c._send_request(_req(server))
+    assert not isinstance(ei.value, NoCredits)
+    stats = c.request_stats()
+    assert (stats.sent, stats.acknowledged, stats.refused) == (q.capacity + 1, q.capacity + 1, 1)
 
 
 def test_a_client_of_another_layout_or_version_is_refused_by_name(pair):

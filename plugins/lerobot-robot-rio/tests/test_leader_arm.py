@@ -1,5 +1,5 @@
 """RioTeleoperator with a leader arm: RIO's leader-follower teleop (align, then mirror) under LeRobot's loop,
-on rio-so100's virtual buses (the real Feetech driver code against emulated servos; a scripted hand waves
+on rio-so100's emulated buses (the real Feetech driver code against emulated servos; a scripted hand waves
 the leader)."""
 
 import pytest
@@ -15,8 +15,8 @@ from lerobot_robot_rio import RioRobot, RioRobotConfig, RioTeleoperator, RioTele
 
 
 def test_follower_mirrors_its_leader(tmp_path):
-    robot = RioRobot(RioRobotConfig(station="so100-virtual", calibration_dir=tmp_path))
-    teleop = RioTeleoperator(RioTeleoperatorConfig(station="so100-virtual", calibration_dir=tmp_path))
+    robot = RioRobot(RioRobotConfig(station="so100-emulator", calibration_dir=tmp_path))
+    teleop = RioTeleoperator(RioTeleoperatorConfig(station="so100-emulator", calibration_dir=tmp_path))
     assert teleop.rio.leader and teleop.action_features == robot.action_features
     joints = list(robot.action_features)[:5]
     teleop.connect()

@@ -1,5 +1,5 @@
 """The plugin as a user meets it: the registered driver, stations and requirement; the packaged stations
-validate without importing the SDK; the `t1-emulator` station runs (driver and emulated T1 in one
+validate without importing the SDK; the `t1-fake` station runs (driver and emulated T1 in one
 process) and a move of the left elbow reaches the emulated joints."""
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ def test_driver_stations_and_requirements_are_registered():
     drivers = {s.name: s for s in reg.specs("rio_drivers") if s.plugin == "rio-booster"}
     assert drivers["booster.t1"].kind == "humanoid"
     stations = sorted(s.name for s in reg.specs("rio_stations") if s.plugin == "rio-booster")
-    assert stations == ["t1", "t1-emulator", "t1-sim"]
+    assert stations == ["t1", "t1-fake", "t1-sim"]
     from rio_booster.plugin import rio_requirements
 
     assert {r.module for r in rio_requirements()} == {"booster_robotics_sdk_python"}
@@ -28,7 +28,7 @@ def test_driver_stations_and_requirements_are_registered():
 
 def test_stations_validate_without_importing_the_sdk():
     code = ("import sys; from rio.station.load import load_station\n"
-            "for name in ('t1', 't1-emulator', 't1-sim'):\n"
+            "for name in ('t1', 't1-fake', 't1-sim'):\n"
             "    st = load_station(name); assert st.components['humanoid'].driver == 'booster.t1'\n"
             "assert 'booster_robotics_sdk_python' not in sys.modules\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
@@ -43,7 +43,7 @@ def test_the_emulator_station_moves_the_emulated_robot():
     from rio import ServerManager
     from rio.station import make_station
 
-    servers, clients, _ = make_station("t1-emulator", middleware="thread")
+    servers, clients, _ = make_station("t1-fake", middleware="thread")
     with ServerManager(servers), clients["humanoid"]() as t1:
         q0 = np.asarray(t1.get_state()["joint_pos"])
         elbow = t1.joint_names().index("Left_Elbow_Pitch")

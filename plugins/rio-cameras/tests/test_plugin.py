@@ -22,7 +22,7 @@ def test_drivers_station_listers_and_requirements_are_registered():
     drivers = {s.name: s for s in reg.specs("rio_drivers") if s.plugin == "rio-cameras"}
     assert {n: s.load().__name__ for n, s in drivers.items()} == DRIVERS
     assert {s.kind for s in drivers.values()} == {"camera"}
-    assert [s.name for s in reg.specs("rio_stations") if s.plugin == "rio-cameras"] == ["cameras-virtual"]
+    assert [s.name for s in reg.specs("rio_stations") if s.plugin == "rio-cameras"] == ["cameras-fake"]
     listers = [path for dist, path in reg.camera_listers() if dist == "rio-cameras"]
     assert [p.split(":")[1] for p in listers] == ["list_uvc_cameras", "list_oak_cameras", "list_zed_cameras",
                                                   "list_record3d_devices"]

@@ -1,4 +1,4 @@
-"""The packaged `cameras-virtual` station: it validates, and its test-pattern camera's frames reach the
+"""The packaged `cameras-fake` station: it validates, and its test-pattern camera's frames reach the
 env's observation through the runtime (thread middleware), moving, with intrinsics."""
 
 from __future__ import annotations
@@ -12,13 +12,13 @@ from rio.testing import wait_until
 
 
 def test_the_station_validates():
-    st = load_station("cameras-virtual")
+    st = load_station("cameras-fake")
     cam = st.components["front_camera"]
     assert cam.driver == "cameras.stream" and cam.config.url == "test:pattern"
 
 
 def test_pattern_frames_reach_the_observation():
-    servers, clients, env = make_station("cameras-virtual")
+    servers, clients, env = make_station("cameras-fake")
     with ServerManager(servers), env:
         first = env.reset().observation.cameras["front"]
         assert first.rgb.shape == (120, 160, 3) and first.rgb.dtype == np.uint8

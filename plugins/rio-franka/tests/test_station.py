@@ -10,8 +10,8 @@ from rio.testing import run_scripted_square
 from rio.workflows.teleop import run_teleop
 
 
-def test_virtual_station_traces_the_scripted_square():
-    run_scripted_square("fr3-virtual")
+def test_fake_station_traces_the_scripted_square():
+    run_scripted_square("fr3-fake")
 
 
 @pytest.mark.slow

@@ -16,7 +16,7 @@ from rio.plugins import Registry
 from rio.station.load import load_station
 from rio.testing import lifecycle
 
-STATIONS = ["gen3-robotiq", "gen3-sim", "gen3-virtual"]
+STATIONS = ["gen3-fake", "gen3-robotiq", "gen3-sim"]
 
 
 def test_drivers_stations_and_requirement_are_registered():

@@ -1,4 +1,4 @@
-"""The packaged stations end to end through the real loop (thread middleware): on `gen3-virtual` the fake
+"""The packaged stations end to end through the real loop (thread middleware): on `gen3-fake` the fake
 base traces the scripted square; on `gen3-sim` it drives rio-sim's Gen3 (joints through physics, the
 2F-85's goal to the simulated fingers) through the scripted pick-and-place, and the world's ground truth
 says the cube was carried to the pad. The sim station also records a run (the code of `rio teleop
@@ -25,8 +25,8 @@ def needs_sim() -> None:
     pytest.importorskip("mujoco")
 
 
-def test_virtual_station_traces_the_scripted_square():
-    run_scripted_square("gen3-virtual")
+def test_fake_station_traces_the_scripted_square():
+    run_scripted_square("gen3-fake")
 
 
 def test_the_sim_gen3_is_the_drivers_arm_with_the_stations_tool():

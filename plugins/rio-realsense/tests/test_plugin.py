@@ -25,7 +25,7 @@ def test_drivers_station_lister_and_requirements_are_registered():
     assert {n: s.preset for n, s in drivers.items()} == {"realsense.d400": {"product_line": "d400"},
                                                          "realsense.l515": {"product_line": "l500"}}
     assert all(s.kind == "camera" and s.load() is RealSenseCamera for s in drivers.values())
-    assert [s.name for s in reg.specs("rio_stations") if s.plugin == "rio-realsense"] == ["realsense-virtual"]
+    assert [s.name for s in reg.specs("rio_stations") if s.plugin == "rio-realsense"] == ["realsense-fake"]
     assert ("rio-realsense", "rio_realsense.listing:list_devices") in list(reg.camera_listers())
     from rio_realsense.plugin import rio_requirements
 
@@ -82,10 +82,10 @@ def test_the_packaged_station_shows_the_software_camera():
     from rio.station import make_station
     from rio.testing import wait_until
 
-    st = load_station("realsense-virtual")
+    st = load_station("realsense-fake")
     cam = st.components["wrist_camera"]
     assert cam.driver == "realsense.d400" and cam.config.source == "software" and cam.config.depth
-    servers, clients, env = make_station("realsense-virtual")
+    servers, clients, env = make_station("realsense-fake")
     with ServerManager(servers), env:
         first = env.reset().observation.cameras["wrist"]
         assert first.rgb.shape == (240, 320, 3) and first.rgb.dtype == np.uint8

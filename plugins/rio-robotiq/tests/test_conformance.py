@@ -1,6 +1,6 @@
 """Every driver of the plugin passes the gripper conformance kit against its emulator, through its real
 transport: minimalmodbus on a pseudo-terminal, the URCap client on a TCP socket. The emulator hook
-starts a fresh gripper per case and yields where it is; two classes use `port = "virtual"` instead, the
+starts a fresh gripper per case and yields where it is; two classes use `port = "emulator"` instead, the
 path a station without hardware takes."""
 
 from __future__ import annotations
@@ -31,9 +31,9 @@ class TestRobotiq2F140(OnRobotiqLine, GripperConformance):
     model = "2f140"
 
 
-class TestRobotiqHandEVirtual(GripperConformance):
+class TestRobotiqHandEEmulated(GripperConformance):
     driver = "robotiq.hande"
-    config = {"port": "virtual"}
+    config = {"port": "emulator"}
     bad_config = {"port": "/dev/nonexistent-tty"}
 
 
@@ -58,7 +58,7 @@ class TestDhAg95(GripperConformance):
             yield {"port": dev.port}
 
 
-class TestDhAg105Virtual(GripperConformance):
+class TestDhAg105Emulated(GripperConformance):
     driver = "dh.ag105"
-    config = {"port": "virtual"}
+    config = {"port": "emulator"}
     bad_config = {"port": "/dev/nonexistent-tty"}

@@ -127,5 +127,5 @@ def test_initialization_timeout_and_dead_line_name_the_port(dh_rtu):
 
 
 def test_the_ag105_is_the_145_mm_model():
-    with lifecycle(DhGripper(port="virtual", model="ag105")) as g:
+    with lifecycle(DhGripper(port="emulator", model="ag105")) as g:
         assert g.cycle()["max_width"] == pytest.approx(0.145)

@@ -27,7 +27,7 @@ def test_drivers_station_and_requirements_are_registered():
     assert {n: s.preset for n, s in drivers.items()} == DRIVERS
     assert all(s.kind == "gripper" for s in drivers.values())
     assert {s.load() for s in drivers.values()} == {RobotiqGripper, RobotiqUrcapGripper, DhGripper}
-    assert [s.name for s in reg.specs("rio_stations") if s.plugin == "rio-robotiq"] == ["robotiq-virtual"]
+    assert [s.name for s in reg.specs("rio_stations") if s.plugin == "rio-robotiq"] == ["robotiq-emulator"]
     from rio_robotiq.plugin import rio_requirements
 
     assert {r.module for r in rio_requirements()} == {"minimalmodbus", "serial"}
@@ -79,10 +79,10 @@ def test_listing_imports_no_serial_library():
 def test_the_packaged_station_validates_and_teleoperates():
     from rio.workflows.teleop import run_teleop
 
-    st = load_station("robotiq-virtual")
-    assert st.components["gripper"].driver == "robotiq.2f85" and st.components["gripper"].config.port == "virtual"
+    st = load_station("robotiq-emulator")
+    assert st.components["gripper"].driver == "robotiq.2f85" and st.components["gripper"].config.port == "emulator"
     # down 2 cm with the gripper open, then close it; the scripted device ends the run when done
     script = {"script": "moves", "moves": [[0, 0, -0.02, 1.0, 0.5], [0, 0, 0, 0.0, 1.5]]}
-    summary = run_teleop("robotiq-virtual", "scripted", device_config=script, duration=20, log=None)
+    summary = run_teleop("robotiq-emulator", "scripted", device_config=script, duration=20, log=None)
     assert summary.reason == "the device finished"
     assert summary.arms[0].gripper == pytest.approx(0.0, abs=0.005)  # measured opening (m): closed

@@ -220,11 +220,11 @@ def test_urcap_dropped_connection_is_a_named_error(urcap):
                 g.cycle()
 
 
-def test_virtual_ports_start_private_emulators(runner):
-    for node in (RobotiqGripper(port="virtual", model="2f140"), RobotiqUrcapGripper(ip="virtual", model="hande")):
+def test_emulator_ports_start_private_emulators(runner):
+    for node in (RobotiqGripper(port="emulator", model="2f140"), RobotiqUrcapGripper(ip="emulator", model="hande")):
         with lifecycle(node) as g:
             r = runner(g)
             w = 0.5 * g.config.max_width
             r.move(w)
             r.until(lambda s, w=w: abs(s["position"] - w) <= 0.001)
-        assert node._virtual is None and node.device is None  # stopped with the node
+        assert node._emulator is None and node.device is None  # stopped with the node

@@ -9,7 +9,14 @@ from contextlib import contextmanager
 from rio_sim.world import SimWorld
 
 from rio import ServerManager, serve
-from rio.conformance.drivers import ArmConformance, CameraConformance, GripperConformance, SensorConformance
+from rio.conformance.drivers import (
+    ArmConformance,
+    BaseConformance,
+    CameraConformance,
+    GripperConformance,
+    SensorConformance,
+    WrenchConformance,
+)
 
 
 class InSimWorld:
@@ -35,10 +42,26 @@ class TestSimGripper(InSimWorld, GripperConformance):
     bad_config = {"arm": "no_such_arm"}
 
 
+class TestSimBase(InSimWorld, BaseConformance):
+    driver = "sim.base"
+    scene = "lekiwi"
+    bad_config = {"base": "no_such_base"}
+    tracking_tol = 0.05  # the velocity actuators lag the twist by a few ms of physics
+
+
 class TestSimCamera(InSimWorld, CameraConformance):
     driver = "sim.camera"
     config = {"camera": "front", "width": 48, "height": 32, "depth": True}
     bad_config = {"camera": "no_such_camera"}
+
+
+class TestSimWrench(InSimWorld, WrenchConformance):
+    """The so100's wrist, holding still at home: tared, only the physics' residue remains."""
+
+    driver = "sim.wrench"
+    bad_config = {"arm": "no_such_arm"}
+    tare_tol_n = 0.05
+    tare_tol_nm = 0.01
 
 
 class TestSimWorld(SensorConformance):

@@ -61,6 +61,14 @@ def test_scenes_compile_with_cameras_and_reachable_cubes(scene):
     assert cams == sc.camera_names()
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
+    if sc.base is not None:  # a mobile scene: the arm rides on the base, its cube is a drive away
+        site = m.site(f"arm/{get_robot(sc.arms[0].robot).tool_site}").id
+        before = d.site_xpos[site].copy()
+        d.qpos[[m.joint(f"{sc.base.name}/{j}").qposadr[0] for j in ("x", "y", "yaw")]] = [0.5, -0.2, np.pi / 2]
+        mujoco.mj_forward(m, d)
+        turned = np.array([[0.0, -1.0], [1.0, 0.0]]) @ before[:2] + [0.5, -0.2]
+        assert np.allclose(d.site_xpos[site][:2], turned) and np.isclose(d.site_xpos[site][2], before[2])
+        return
     for arm in sc.arms:
         r = get_robot(arm.robot)
         s = solver(arm.robot)

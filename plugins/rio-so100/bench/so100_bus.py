@@ -1,14 +1,14 @@
-"""How fast the SO-100 drivers talk to a (virtual) Feetech bus, with the raw pty as the reference.
+"""How fast the SO-100 drivers talk to an (emulated) Feetech bus, with the raw pty as the reference.
 
     python plugins/rio-so100/bench/so100_bus.py [--seconds 2]
 
 Rows, all over a pseudo-terminal and measured in this run:
   raw pty round trip     a thread answers each 14-byte request with 96 bytes (the size of a 6-servo
                          state-block SYNC READ) using bare os.read/os.write: the transport's ceiling
-  sdk GroupSyncRead      the unmodified scservo_sdk (zero-timeout busy-wait reads) against VirtualBus
+  sdk GroupSyncRead      the unmodified scservo_sdk (zero-timeout busy-wait reads) against FeetechBusEmulator
   FeetechBus.sync_read   our wrapper (error bytes, port lock, retries, blocking read slices)
   ServoGroup cycle       what the follower does per tick: sync read + decode + sync write of goals
-  ... emulator in a subprocess  the same, with the virtual bus in its own process (no shared GIL),
+  ... emulator in a subprocess  the same, with the emulated bus in its own process (no shared GIL),
                          closer to a real bus where the servos cost the host nothing
 Each row gives cycles per second, the median and 99th percentile cycle time and CPU time per cycle
 of this process. A real bus at 1 Mbaud adds ~1.3 ms of wire time per 6-servo sync read (plus the
@@ -116,13 +116,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=2.0, help="per row")
     args = ap.parse_args()
-    from rio_so100.virtual import VirtualBus
+    from rio_so100.emulator import FeetechBusEmulator
 
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} cpus")
     raw_pty(args.seconds)
-    with VirtualBus() as vb:
+    with FeetechBusEmulator() as vb:
         bus_rows(vb.port, args.seconds)
-    proc = subprocess.Popen([sys.executable, "-c", "from rio_so100.cli import app; app()", "virtual-bus",
+    proc = subprocess.Popen([sys.executable, "-c", "from rio_so100.cli import app; app()", "emulator",
                              "--seconds", str(4 * args.seconds + 10)],
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     try:

@@ -1,11 +1,11 @@
 """Shared fixtures: every test gets its own config directory (calibrations never touch the user's),
-and virtual buses that are always closed."""
+and emulated buses that are always closed."""
 
 from __future__ import annotations
 
 import pytest
 from rio_so100.calibration import default_calibration, save_calibration
-from rio_so100.virtual import VirtualBus
+from rio_so100.emulator import FeetechBusEmulator
 
 
 @pytest.fixture(autouse=True)
@@ -17,7 +17,7 @@ def config_home(tmp_path, monkeypatch):
 @pytest.fixture
 def vbus():
     """Six emulated servos (ids 1-6) on a pty, all at mid-turn."""
-    with VirtualBus() as bus:
+    with FeetechBusEmulator() as bus:
         yield bus
 
 
@@ -26,7 +26,7 @@ def make_vbus():
     buses = []
 
     def make(**kwargs):
-        buses.append(VirtualBus(**kwargs))
+        buses.append(FeetechBusEmulator(**kwargs))
         return buses[-1]
 
     yield make

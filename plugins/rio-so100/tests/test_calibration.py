@@ -1,4 +1,4 @@
-"""Calibration: the procedure on a virtual arm moved by a scripted hand, the JSON file in the config
+"""Calibration: the procedure on an emulated arm moved by a scripted hand, the JSON file in the config
 directory, and a follower that then reads 0 rad in the middle pose and knows its limits."""
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ from rio_so100.calibration import (
     load_calibration,
     save_calibration,
 )
+from rio_so100.emulator.hand import CalibrationHand
 from rio_so100.errors import CalibrationError
 from rio_so100.feetech import control_table as T
 from rio_so100.feetech.bus import FeetechBus
 from rio_so100.follower.driver import So100Follower
 from rio_so100.models import ARM_IDS, ARM_JOINTS, GRIPPER, GRIPPER_ID
-from rio_so100.virtual.hand import CalibrationHand
 
 from rio.testing import lifecycle
 

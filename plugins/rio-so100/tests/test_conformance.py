@@ -1,4 +1,4 @@
-"""The SO-100 drivers pass the driver conformance kit of their kind, each against a virtual Feetech
+"""The SO-100 drivers pass the driver conformance kit of their kind, each against an emulated Feetech
 bus on a pseudo-terminal (the emulator hook), calibrated as `rio so100 calibrate` would leave it."""
 
 from __future__ import annotations
@@ -8,12 +8,12 @@ import tempfile
 from contextlib import contextmanager
 
 from rio_so100.calibration import default_calibration, save_calibration
-from rio_so100.virtual import VirtualBus
+from rio_so100.emulator import FeetechBusEmulator
 
 from rio.conformance.drivers import ArmConformance, GripperConformance, TeleopConformance
 
 
-class OnVirtualBus:
+class OnBusEmulator:
     """Emulator hook: six emulated servos on a pty, and a saved default calibration of this device in a
     private config directory (the user's calibrations are never read or written)."""
 
@@ -27,7 +27,7 @@ class OnVirtualBus:
             os.environ["XDG_CONFIG_HOME"] = config_home
             try:
                 save_calibration(default_calibration("so100", self.device, "default"))
-                with VirtualBus() as bus:
+                with FeetechBusEmulator() as bus:
                     yield {"port": bus.port}
             finally:
                 if saved is None:
@@ -36,14 +36,14 @@ class OnVirtualBus:
                     os.environ["XDG_CONFIG_HOME"] = saved
 
 
-class TestSo100Follower(OnVirtualBus, ArmConformance):
+class TestSo100Follower(OnBusEmulator, ArmConformance):
     driver = "so100.follower"
 
 
-class TestSo100Gripper(OnVirtualBus, GripperConformance):
+class TestSo100Gripper(OnBusEmulator, GripperConformance):
     driver = "so100.gripper"
 
 
-class TestSo100Leader(OnVirtualBus, TeleopConformance):
+class TestSo100Leader(OnBusEmulator, TeleopConformance):
     driver = "so100.leader"
     device = "leader"

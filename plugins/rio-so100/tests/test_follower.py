@@ -1,4 +1,4 @@
-"""The driver nodes over virtual buses, through the runtime (thread middleware): the follower moves
+"""The driver nodes over emulated buses, through the runtime (thread middleware): the follower moves
 in radians, stops and names the servo on an overload / overheat / voltage fault, the gripper works
 in meters, and calibration is required on a real port."""
 
@@ -98,8 +98,8 @@ def test_missing_servo_is_named_at_start(make_vbus, calibrated):
             pass
 
 
-def test_port_virtual_runs_the_sdk_against_a_private_emulated_arm():
-    with ServerManager(MW, [serve(So100Follower, name="arm", port="virtual")]):
-        with connect(So100Follower, MW, name="arm", port="virtual") as arm:
+def test_port_emulator_runs_the_sdk_against_a_private_emulated_arm():
+    with ServerManager(MW, [serve(So100Follower, name="arm", port="emulator")]):
+        with connect(So100Follower, MW, name="arm", port="emulator") as arm:
             arm.move_joints([0.2, 0.2, 0.2, 0.2, 0.2], time.monotonic() + 0.2)
             assert wait_until(lambda: np.allclose(arm.get_state()["joint_pos"], 0.2, atol=2 * RAD_PER_STEP))

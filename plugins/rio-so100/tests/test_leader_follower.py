@@ -1,4 +1,4 @@
-"""Leader-follower teleop over two virtual buses: the follower first moves slowly to the leader's
+"""Leader-follower teleop over two emulated buses: the follower first moves slowly to the leader's
 pose, then mirrors it; ALOHA-style with two pairs."""
 
 from __future__ import annotations
@@ -68,8 +68,8 @@ def test_follower_aligns_slowly_then_mirrors_the_leader(make_vbus, calibrated):
     assert summary.late_ticks < summary.ticks // 5
 
 
-def test_bimanual_virtual_station_aligns_both_pairs():
-    summary = run("so100-bimanual-virtual", duration=2.0, middleware="thread", log=None)
+def test_bimanual_emulator_station_aligns_both_pairs():
+    summary = run("so100-bimanual-emulator", duration=2.0, middleware="thread", log=None)
     assert [a["arm"] for a in summary.details["pairs"]] == ["arm", "arm2"]
     for a in summary.details["pairs"]:
         assert a["align_s"] is not None and a["align_s"] < 1.5, summary.format()
@@ -78,7 +78,7 @@ def test_bimanual_virtual_station_aligns_both_pairs():
 
 def test_a_station_without_leader_arms_is_refused():
     st = parse_station({"name": "x", "middleware": {"name": "thread"},
-                        "components": {"arm": {"driver": "so100.follower", "port": "virtual"}}}, source="<test>")
+                        "components": {"arm": {"driver": "so100.follower", "port": "emulator"}}}, source="<test>")
     with pytest.raises(RioError, match="has no teleop component"):
         run(st, duration=0.1, log=None)
 
@@ -86,7 +86,7 @@ def test_a_station_without_leader_arms_is_refused():
 @pytest.mark.slow
 def test_rio_teleop_command_mirrors_with_a_leader_device(tmp_path):
     """`rio teleop STATION --teleop so100.leader --record DIR` (the core command) runs leader-follower,
-    ALOHA-style with two pairs, over virtual buses, and records the run as an episode."""
+    ALOHA-style with two pairs, over emulated buses, and records the run as an episode."""
     import os
 
     from rio.recording.dataset import Dataset
@@ -94,7 +94,7 @@ def test_rio_teleop_command_mirrors_with_a_leader_device(tmp_path):
 
     env = {**os.environ, "XDG_CONFIG_HOME": str(tmp_path)}
     data = tmp_path / "aloha"
-    out = run_rio("teleop", "so100-bimanual-virtual", "--teleop", "so100.leader", "--duration", "2.5",
+    out = run_rio("teleop", "so100-bimanual-emulator", "--teleop", "so100.leader", "--duration", "2.5",
                   "--record", str(data), "--on-end", "keep", timeout=180, env=env)
     assert "arm <- teleop:" in out.stdout and "arm2 <- teleop2:" in out.stdout
     assert out.stdout.count("aligned after") == 2, out.stdout

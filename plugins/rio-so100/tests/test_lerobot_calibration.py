@@ -2,7 +2,7 @@
 them (follower and leader, SO-100 and SO-101, the per-model folders of <= 0.4.2 and the shared ones of
 >= 0.4.3), the same encoder readings giving the same angles as LeRobot's normalisation, round trips,
 discovery through LeRobot's environment variables, `rio so100 calibrate --from-lerobot` in process and
-as a subprocess, one-line errors for bad files, and a virtual arm driven with an imported calibration.
+as a subprocess, one-line errors for bad files, and an emulated arm driven with an imported calibration.
 
 `lerobot_*` below is LeRobot's arithmetic as read in its `MotorsBus._normalize` / `_unnormalize` and the
 Feetech homing offset (Present_Position = encoder - Homing_Offset): the reference the conversion is
@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 from rio_so100.calibrate import Calibrator
 from rio_so100.calibration import RAD_PER_STEP, ArmCalibration, default_calibration, load_calibration
+from rio_so100.emulator.hand import CalibrationHand
 from rio_so100.errors import CalibrationError
 from rio_so100.feetech import control_table as T
 from rio_so100.feetech.bus import FeetechBus
@@ -36,7 +37,6 @@ from rio_so100.lerobot_calibration import (
     to_lerobot,
 )
 from rio_so100.models import ARM_IDS, ARM_JOINTS, GRIPPER, GRIPPER_ID
-from rio_so100.virtual.hand import CalibrationHand
 
 from rio import ServerManager, connect, serve
 from rio.cli import main
@@ -429,9 +429,9 @@ def test_no_lerobot_folder_says_where_it_looked(tmp_path, monkeypatch, capsys):
     assert f"{tmp_path / 'x.json'} does not exist" in capsys.readouterr().err
 
 
-# -- the real boundary: a virtual arm driven with an imported calibration -----------------------------------
+# -- the real boundary: an emulated arm driven with an imported calibration -----------------------------------
 
-def test_virtual_arm_runs_on_an_imported_calibration(lerobot_root, vbus, config_home):
+def test_emulated_arm_runs_on_an_imported_calibration(lerobot_root, vbus, config_home):
     data = SO101_FOLLOWER
     write_lerobot(lerobot_root, "robots/so101_follower", "my_follower", data)
     assert main(["so100", "calibrate", "--from-lerobot", "my_follower"]) == 0

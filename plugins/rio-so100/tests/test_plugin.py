@@ -10,13 +10,16 @@ import sys
 import pytest
 
 from rio.cli import main
+from rio.embodiments.infer import infer_embodiment
 from rio.plugins import Registry
 from rio.station.load import load_station
 
 DRIVERS = {"so100.follower": "arm", "so100.gripper": "gripper", "so100.leader": "teleop",
-           "so101.follower": "arm", "so101.gripper": "gripper", "so101.leader": "teleop"}
-STATIONS = ["so100-virtual", "so100-bimanual-virtual", "so100-sim", "so100", "so100-bimanual", "so101",
+           "so101.follower": "arm", "so101.gripper": "gripper", "so101.leader": "teleop",
+           "lekiwi.base": "base"}
+STATIONS = ["so100-emulator", "so100-bimanual-emulator", "so100-sim", "so100", "so100-bimanual", "so101",
             "so101-bimanual"]
+LEKIWI_STATIONS = ["lekiwi", "lekiwi-emulator", "lekiwi-sim"]
 
 
 def test_drivers_and_stations_are_registered():
@@ -26,9 +29,23 @@ def test_drivers_and_stations_are_registered():
     assert {n: s.kind for n, s in drivers.items()} == DRIVERS
     for spec in drivers.values():
         assert spec.config_model().model_fields["port"].is_required()
+        if spec.kind == "base":
+            continue
         assert spec.load().__name__.startswith("So100")  # one class per device; SO-101 is a preset
         assert spec.preset == {"model": spec.name.split(".")[0]}
-    assert sorted(s.name for s in reg.specs("rio_stations") if s.plugin == "rio-so100") == sorted(STATIONS)
+    stations = sorted(s.name for s in reg.specs("rio_stations") if s.plugin == "rio-so100")
+    assert stations == sorted(STATIONS + LEKIWI_STATIONS)
+
+
+@pytest.mark.parametrize("name", LEKIWI_STATIONS)
+def test_lekiwi_stations_are_mobile_manipulators_on_one_bus(name):
+    st = load_station(name)
+    base, arm = st.components["base"].driver, st.components["arm"].driver
+    assert (base, arm) == (("sim.base", "sim.arm") if name == "lekiwi-sim" else ("lekiwi.base", "so101.follower"))
+    if name != "lekiwi-sim":
+        ports = {st.components[r].config.port for r in ("arm", "gripper", "base")}
+        assert len(ports) == 1  # arm, jaw and wheels share LeKiwi's one bus
+    assert infer_embodiment(st.roles()).name == "mobile_manipulator"
 
 
 @pytest.mark.parametrize("name", STATIONS)
@@ -48,15 +65,15 @@ def test_listing_imports_no_sdk():
     assert out.stdout.strip() == "False", out.stderr
 
 
-def test_virtual_bus_command_prints_a_port(capsys):
-    assert main(["so100", "virtual-bus", "--seconds", "0.2"]) == 0
+def test_emulator_command_prints_a_port(capsys):
+    assert main(["so100", "emulator", "--seconds", "0.2"]) == 0
     assert capsys.readouterr().out.startswith("/dev/pts/")
 
 
-def test_calibrate_command_on_a_virtual_arm(capsys, config_home):
-    assert main(["so100", "calibrate", "--port", "virtual", "--device", "leader", "--model", "so101"]) == 0
+def test_calibrate_command_on_an_emulated_arm(capsys, config_home):
+    assert main(["so100", "calibrate", "--port", "emulator", "--device", "leader", "--model", "so101"]) == 0
     out = capsys.readouterr().out
-    saved = config_home / "rio" / "calibration" / "so101-leader" / "virtual-demo.json"
+    saved = config_home / "rio" / "calibration" / "so101-leader" / "emulator-demo.json"
     assert f"saved {saved}" in out and saved.is_file()
     assert "wrist_roll" in out and "rad" in out
 

@@ -1,4 +1,4 @@
-"""The virtual bus backed by rio-sim's MuJoCo SO-100 (`port = "sim"`): the real follower and gripper
+"""The emulated bus backed by rio-sim's MuJoCo SO-100 (`port = "sim"`): the real follower and gripper
 drivers move the simulated arm, and leader-follower works against physics."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ pytest.importorskip("rio_sim")
 pytest.importorskip("mujoco")
 
 from rio_so100.calibration import default_calibration  # noqa: E402
-from rio_so100.virtual.sim import parse_sim_port  # noqa: E402
+from rio_so100.emulator.sim import parse_sim_port  # noqa: E402
 
 from rio.station.load import parse_station  # noqa: E402
 from rio.workflows.teleop import run_teleop as run  # noqa: E402

@@ -1,4 +1,4 @@
-"""GELLO leader arms through the unmodified dynamixel-sdk on the virtual Protocol 2.0 bus: the
+"""GELLO leader arms through the unmodified dynamixel-sdk on the emulated Protocol 2.0 bus: the
 emulator against the SDK, calibration, reading at rate, leader-follower on stations, errors."""
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from rio_teleop.gello.calibration import (
     save_calibration,
 )
 from rio_teleop.gello.driver import GelloLeader
+from rio_teleop.gello.emulator import DynamixelBusEmulator, GelloEmulator, emulator_mounting
 from rio_teleop.gello.layouts import LAYOUTS, get_layout
-from rio_teleop.gello.virtual import VirtualDynamixelBus, VirtualGello, virtual_mounting
 
 from rio.errors import RioError
 from rio.station.load import parse_station
@@ -45,7 +45,7 @@ def gello():
     made = []
 
     def make(layout="xarm7", **kw):
-        made.append(VirtualGello(layout, **kw))
+        made.append(GelloEmulator(layout, **kw))
         return made[-1]
 
     yield make
@@ -80,9 +80,9 @@ def test_framing_agrees_with_the_sdk():
         assert P.unstuff(pkt[7:-2]) == bytes([P.WRITE]) + params
 
 
-def test_sdk_talks_to_the_virtual_bus():
+def test_sdk_talks_to_the_emulated_bus():
     """PortHandler / PacketHandler / GroupSyncRead / GroupBulkRead, unmodified, on the pty."""
-    with VirtualDynamixelBus([1, 2, 3]) as bus:
+    with DynamixelBusEmulator([1, 2, 3]) as bus:
         sdk, ph, pk = _sdk_port(bus.port)
         try:
             assert pk.ping(ph, 2)[:2] == (T.XL330_M288, sdk.COMM_SUCCESS)
@@ -171,19 +171,19 @@ def test_calibration_refuses_a_leader_out_of_the_pose(gello):
         calibrate("fr3", np.zeros(6))
 
 
-def test_calibrate_command_on_a_virtual_leader(config_home):
+def test_calibrate_command_on_an_emulated_leader(config_home):
     from rio_teleop.gello.cli import app
     from typer.testing import CliRunner
 
-    out = CliRunner().invoke(app, ["calibrate", "--port", "virtual", "--layout", "xarm7", "--name", "bench"])
+    out = CliRunner().invoke(app, ["calibrate", "--port", "emulator", "--layout", "xarm7", "--name", "bench"])
     assert out.exit_code == 0, out.output
     cal = GelloCalibration.from_json(calibration_path("bench", "xarm7").read_text())
-    truth = virtual_mounting(get_layout("xarm7"))
+    truth = emulator_mounting(get_layout("xarm7"))
     assert np.allclose(cal.offsets, truth.offsets) and cal.signs == truth.signs
     assert cal.gripper_open == pytest.approx(truth.gripper_open, abs=1e-3)
     assert cal.gripper_closed == pytest.approx(truth.gripper_closed, abs=1e-3)  # measured squeezed
     assert "joint4: offset" in out.output
-    out = CliRunner().invoke(app, ["read", "--port", "virtual", "--layout", "xarm7", "--calibration", "bench",
+    out = CliRunner().invoke(app, ["read", "--port", "emulator", "--layout", "xarm7", "--calibration", "bench",
                                    "--seconds", "0.5", "--json"])
     assert out.exit_code == 0, out.output
     readings = [json.loads(line) for line in out.stdout.splitlines()]
@@ -225,7 +225,7 @@ def _station(leader_port, cal_file, *, dof=7, layout="xarm7", rate_hz=50):
 
 
 def test_follower_tracks_the_leaders_scripted_motion(gello, tmp_path):
-    """`rio teleop`'s leader-follower controller on a station: virtual GELLO xArm 7 -> 7-joint fake arm.
+    """`rio teleop`'s leader-follower controller on a station: emulated GELLO xArm 7 -> 7-joint fake arm.
     The follower aligns, then tracks the person's motion within a few cycles of lag; the trigger
     drives the gripper across its range."""
     g = gello("xarm7")
@@ -274,18 +274,18 @@ def test_gripper_trigger_maps_to_the_follower_gripper_range(gello, tmp_path):
     assert widths[-1] == pytest.approx(0.3 * max_width, abs=0.003), summary.format()
 
 
-def test_packaged_virtual_station_runs():
-    """`gello-xarm7-virtual` as shipped (the leader waves), over the thread middleware."""
-    summary = run_teleop(os.path.join(STATIONS, "gello-xarm7-virtual.toml"), duration=2.0, middleware="thread",
+def test_packaged_fake_station_runs():
+    """`gello-xarm7-fake` as shipped (the leader waves), over the thread middleware."""
+    summary = run_teleop(os.path.join(STATIONS, "gello-xarm7-fake.toml"), duration=2.0, middleware="thread",
                          log=None)
     pair = summary.details["pairs"][0]
     assert pair["align_s"] is not None and pair["align_s"] < 1.0, summary.format()
     assert pair["final_error"] < 0.08, summary.format()
 
 
-def test_bimanual_virtual_station_aligns_both_pairs():
+def test_bimanual_emulator_station_aligns_both_pairs():
     """ALOHA-style: two GELLOs, two arms (teleop -> arm, teleop2 -> arm2)."""
-    summary = run_teleop(os.path.join(STATIONS, "gello-bimanual-virtual.toml"), duration=2.0, middleware="thread",
+    summary = run_teleop(os.path.join(STATIONS, "gello-bimanual-fake.toml"), duration=2.0, middleware="thread",
                          log=None)
     assert [a["arm"] for a in summary.details["pairs"]] == ["arm", "arm2"]
     for a in summary.details["pairs"]:
@@ -295,7 +295,7 @@ def test_bimanual_virtual_station_aligns_both_pairs():
 
 
 def test_gello_drives_the_xarm7_through_its_sdk_and_emulator():
-    """`gello-xarm7-emulator`: both ends run their real driver code (dynamixel-sdk on the virtual bus,
+    """`gello-xarm7-emulator`: both ends run their real driver code (dynamixel-sdk on the emulated bus,
     the xArm SDK against rio-ufactory's emulator); the arm aligns from its home pose, then follows."""
     pytest.importorskip("rio_ufactory")
     summary = run_teleop(os.path.join(STATIONS, "gello-xarm7-emulator.toml"), duration=5.0, middleware="thread",
@@ -330,7 +330,7 @@ def test_wrong_or_missing_ids_name_port_and_id(gello, tmp_path):
     text = _one_line(e)
     assert g.port in text and "id 3 (joint3) did not answer" in text and "[1, 2, 4, 5, 6, 7]" in text
     # nothing at all on the bus (unpowered leader)
-    with VirtualDynamixelBus([]) as empty, pytest.raises(BusError) as e:
+    with DynamixelBusEmulator([]) as empty, pytest.raises(BusError) as e:
         with DynamixelBus(empty.port, label="/dev/ttyUSB0") as bus:
             bus.check_present([1, 2])
     assert "/dev/ttyUSB0" in _one_line(e) and "ids that did: none" in _one_line(e)

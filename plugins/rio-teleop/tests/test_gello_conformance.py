@@ -1,4 +1,4 @@
-"""The GELLO leader passes the teleop driver conformance kit against a virtual GELLO on a pty (the
+"""The GELLO leader passes the teleop driver conformance kit against an emulated GELLO on a pty (the
 emulator hook), calibrated as `rio gello calibrate` would leave it."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ from contextlib import contextmanager
 from dataclasses import replace
 
 from rio_teleop.gello.calibration import save_calibration
-from rio_teleop.gello.virtual import VirtualGello
+from rio_teleop.gello.emulator import GelloEmulator
 
 from rio.conformance.drivers import TeleopConformance
 
 
-class OnVirtualGello:
+class OnGelloEmulator:
     layout = "xarm7"
     bad_config = {"port": "/dev/nonexistent-tty"}
 
@@ -24,7 +24,7 @@ class OnVirtualGello:
         with tempfile.TemporaryDirectory(prefix="rio-kit-config-") as config_home:
             os.environ["XDG_CONFIG_HOME"] = config_home
             try:
-                with VirtualGello(self.layout) as g:
+                with GelloEmulator(self.layout) as g:
                     g.wave()
                     save_calibration(replace(g.mounting, name="default"))
                     yield {"port": g.port}
@@ -35,12 +35,12 @@ class OnVirtualGello:
                     os.environ["XDG_CONFIG_HOME"] = saved
 
 
-class TestGelloXarm7(OnVirtualGello, TeleopConformance):
+class TestGelloXarm7(OnGelloEmulator, TeleopConformance):
     driver = "rio_teleop.gello.driver:GelloLeader"
     config = {"layout": "xarm7"}
 
 
-class TestGelloUr5e(OnVirtualGello, TeleopConformance):
+class TestGelloUr5e(OnGelloEmulator, TeleopConformance):
     driver = "rio_teleop.gello.driver:GelloLeader"
     config = {"layout": "ur5e"}
     layout = "ur5e"

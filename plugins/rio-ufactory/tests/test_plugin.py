@@ -16,7 +16,7 @@ from rio.cli import main
 from rio.plugins import Registry
 from rio.station.load import load_station
 
-STATIONS = ["xarm7-robotiq", "xarm7-emulator", "xarm7-virtual", "lite6-virtual"]
+STATIONS = ["xarm7-robotiq", "xarm7-sim", "xarm7-emulator", "lite6-emulator"]
 
 
 def test_drivers_and_stations_are_registered():

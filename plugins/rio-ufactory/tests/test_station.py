@@ -1,5 +1,5 @@
 """The emulator station end to end, through the real command line: the scripted pick-and-place with
-`rio teleop xarm7-emulator --record` (the rio-ufactory drivers, the unmodified SDK, the emulated
+`rio teleop xarm7-sim --record` (the rio-ufactory drivers, the unmodified SDK, the emulated
 controller backed by rio-sim physics, each node in its own process), then `rio deploy` replaying the
 recorded episode on the same station. The world's ground truth says the cube was carried to the pad."""
 
@@ -15,11 +15,11 @@ from rio.testing import run_scripted_square
 
 pytestmark = pytest.mark.skipif(not can_listen_on_502(), reason=PORT_502_HINT)
 
-STATION = "xarm7-emulator"
+STATION = "xarm7-sim"
 
 
-@pytest.mark.parametrize("station", ["xarm7-virtual", "lite6-virtual"])
-def test_virtual_stations_trace_the_scripted_square(station):
+@pytest.mark.parametrize("station", ["xarm7-emulator", "lite6-emulator"])
+def test_emulator_stations_trace_the_scripted_square(station):
     run_scripted_square(station)
 
 

@@ -1,4 +1,4 @@
-"""A locomotion policy deployed on `g1-bridge-floating` through the unmodified `unitree.g1` driver over real DDS
+"""A locomotion policy deployed on `g1-sim-floating` through the unmodified `unitree.g1` driver over real DDS
 on loopback: the gantry holds the free G1 while the station starts, lowers it once the driver holds the legs,
 and the G1 then stands on its own feet, judged from the bridge's physics (pelvis height and tilt).
 
@@ -24,11 +24,11 @@ def station_in(domain_id: int, tmp_path: Path) -> str:
     """The packaged station, in this test's DDS domain (no other run on this machine hears it)."""
     import rio_unitree
 
-    text = (Path(rio_unitree.__file__).parent / "stations" / "g1-bridge-floating.toml").read_text()
+    text = (Path(rio_unitree.__file__).parent / "stations" / "g1-sim-floating.toml").read_text()
     assert text.count("domain_id = 1 ") + text.count("domain_id = 1\n") == 2
     text = text.replace("domain_id = 1 ", f"domain_id = {domain_id} ").replace("domain_id = 1\n",
                                                                                f"domain_id = {domain_id}\n")
-    path = tmp_path / "g1-bridge-floating.toml"
+    path = tmp_path / "g1-sim-floating.toml"
     path.write_text(text)
     return str(path)
 

@@ -16,7 +16,10 @@ import time
 import numpy as np
 import pytest
 from rio_unitree.cli import app
+from rio_unitree.dds import LOWSTATE, Participant
+from rio_unitree.testing import publishing
 from rio_unitree.tools import check
+from rio_unitree.wire import LowState
 from typer.testing import CliRunner
 
 from rio.testing import wait_until
@@ -29,7 +32,8 @@ def test_check_hears_the_bridge(make_bridge, domain_id):
     out = runner.invoke(app, ["check", "--interface", "lo", "--domain-id", str(domain_id)])
     assert out.exit_code == 0, out.output
     assert "ok: the robot is heard" in out.output and "joints reporting: 29 of 29" in out.output
-    assert "mode_machine 5" in out.output and "0 with a bad CRC" in out.output
+    assert "mode_machine 5" in out.output and "0 with a wrong CRC" in out.output
+    assert "rt/arm_sdk: read by 1" in out.output and "unsigned state" not in out.output
     out = runner.invoke(app, ["check", "--interface", "lo", "--domain-id", str(domain_id), "--json"])
     got = json.loads(out.stdout)
     assert out.exit_code == 0 and got["ok"] and got["problem"] is None and any("29 of 29" in x for x in got["lines"])
@@ -38,8 +42,19 @@ def test_check_hears_the_bridge(make_bridge, domain_id):
 def test_check_names_what_is_missing(domain_id):
     out = runner.invoke(app, ["check", "--interface", "lo", "--domain-id", str(domain_id), "--timeout", "0.3"])
     assert out.exit_code == 1 and f"no rt/lowstate on 'lo' (DDS domain {domain_id}) within 0.3 s" in out.output
+    assert "--domain-id N" in out.output  # a simulator on its own domain is the usual cause
     report = check("nope0")
     assert not report.ok and "no interface 'nope0'" in report.problem
+
+
+def test_check_says_a_simulator_s_state_is_unsigned(domain_id):
+    """Unitree's unitree_mujoco publishes rt/lowstate with CRC 0 and reads no rt/arm_sdk: `check` hears it
+    (not "a bad CRC"), says the driver needs peer = "simulator", and that only control = "lowcmd" works."""
+    with Participant(domain_id, "lo") as p, publishing(p.writer(LOWSTATE), LowState().encode(fix_crc=False)):
+        out = runner.invoke(app, ["check", "--interface", "lo", "--domain-id", str(domain_id)])
+    assert out.exit_code == 0, out.output
+    assert "0 with a wrong CRC" in out.output and "unsigned state:" in out.output and 'peer = "simulator"' in out.output
+    assert "rt/arm_sdk: nobody reads it" in out.output
 
 
 def test_damp_makes_the_motors_soft(make_bridge, domain_id):

@@ -1,7 +1,7 @@
 """The Dex3-1 hands: their wire format against cyclonedds' serializer of the SDK's IDL, the mode byte, the
 joint table against rio-sim's model; and the unmodified `unitree.dex3` driver against the bridge (with
 rio-sim's G1-with-hands model) over real DDS on loopback: a hand closes to a commanded pose, a stream that
-stops is damped on the wire, no state is a named error, and `rio teleop` on the `g1-bridge-hands` station
+stops is damped on the wire, no state is a named error, and `rio teleop` on the `g1-sim-hands` station
 curls the fingers by a scripted hand tracker."""
 
 from __future__ import annotations
@@ -138,8 +138,8 @@ def test_a_hand_tracker_curls_the_fingers_on_the_bridge_station(tmp_path, domain
     from rio.station.load import read_station_text
     from rio.workflows.teleop import run_teleop
 
-    text, _ = read_station_text("g1-bridge-hands")
-    path = tmp_path / "g1-bridge-hands.toml"
+    text, _ = read_station_text("g1-sim-hands")
+    path = tmp_path / "g1-sim-hands.toml"
     # a loaded CI machine can starve the bridge's hand state for longer than a robot's 0.25 s
     text = text.replace('driver = "unitree.dex3"', 'driver = "unitree.dex3"\nstate_timeout_s = 2.0')
     path.write_text(text.replace("domain_id = 1", f"domain_id = {domain_id}"))

@@ -5,7 +5,6 @@ matters: the simulated joints, the sample, and the bytes on the wire (a raw DDS 
 
 from __future__ import annotations
 
-import threading
 import time
 
 import numpy as np
@@ -13,7 +12,7 @@ import pytest
 from rio_unitree.commands import is_damping
 from rio_unitree.dds import ARM_SDK, LOWCMD, LOWSTATE, Participant
 from rio_unitree.g1 import WEIGHT_SLOT, joint_names
-from rio_unitree.testing import Tap
+from rio_unitree.testing import Tap, publishing
 from rio_unitree.wire import LowCmd, LowState
 
 from rio import clock
@@ -220,28 +219,34 @@ def test_no_lowstate_at_open_is_a_named_error_within_the_timeout(domain_id):
 
 
 def test_a_lowstate_with_a_wrong_crc_is_not_believed(domain_id):
-    unsigned = LowState()
-    unsigned.crc = 1
-    data, stop = unsigned.encode(fix_crc=False), threading.Event()
-    with Participant(domain_id, "lo") as p:
-        out = p.writer(LOWSTATE)
-
-        def publish():
-            while not stop.is_set():
-                out.write(data)
-                time.sleep(0.005)
-
-        thread = threading.Thread(target=publish)
-        thread.start()
-        try:
+    wrong = LowState()
+    wrong.crc = 1
+    with Participant(domain_id, "lo") as p, publishing(p.writer(LOWSTATE), wrong.encode(fix_crc=False)):
+        for peer in ("robot", "simulator"):  # a simulator's state may be unsigned, never wrongly signed
             with pytest.raises(TimeoutError, match="arrived with a wrong CRC"):
-                g1(domain_id, connect_timeout_s=0.5).open()
-            trusting = g1(domain_id, check_state_crc=False, control="lowcmd", enable_on_open=False)
-            with lifecycle(trusting):  # e.g. Unitree's unitree_mujoco, which does not sign its state
+                g1(domain_id, connect_timeout_s=0.5, peer=peer, control="lowcmd").open()
+
+
+def test_a_simulator_s_unsigned_state_is_believed_when_the_station_says_so(domain_id):
+    """Unitree's unitree_mujoco publishes rt/lowstate with CRC 0: refused from a robot (the error says what
+    to set), believed with peer = "simulator" (and with the field's old name, check_state_crc = false)."""
+    unsigned = LowState().encode(fix_crc=False)
+    with Participant(domain_id, "lo") as p, publishing(p.writer(LOWSTATE), unsigned):
+        with pytest.raises(TimeoutError, match=r'arrived unsigned, CRC 0.*set peer = "simulator"'):
+            g1(domain_id, connect_timeout_s=0.5, control="lowcmd").open()
+        for fields in ({"peer": "simulator"}, {"check_state_crc": False}):
+            trusting = g1(domain_id, control="lowcmd", enable_on_open=False, **fields)
+            assert trusting.config.peer == "simulator"
+            with lifecycle(trusting):
                 assert trusting.cycle()["joint_pos"].shape == (29,)
-        finally:
-            stop.set()
-            thread.join()
+
+
+def test_arm_sdk_that_nobody_reads_is_an_error(domain_id):
+    """unitree_mujoco does not listen on rt/arm_sdk: a station left on control = "arm_sdk" would run to a
+    normal end with the arms never moved. The driver refuses to start, naming the fix."""
+    with Participant(domain_id, "lo") as p, publishing(p.writer(LOWSTATE), LowState().encode()):
+        with pytest.raises(ConnectionError, match=r'nothing reads rt/arm_sdk.*set control = "lowcmd"'):
+            g1(domain_id, connect_timeout_s=0.5).open()
 
 
 @pytest.mark.parametrize("fields, problem", [

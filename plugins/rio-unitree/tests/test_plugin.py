@@ -1,5 +1,5 @@
 """The plugin as a user meets it: registered drivers, stations and requirements; the packaged stations
-validate without importing the SDK, cyclonedds or MuJoCo; and the `g1-bridge` station runs: the bridge
+validate without importing the SDK, cyclonedds or MuJoCo; and the `g1-sim` station runs: the bridge
 and the driver as station components, a move of the left elbow seen in the bridge's ground truth."""
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ def test_drivers_stations_and_requirements_are_registered():
     assert drivers["unitree.g1"].kind == "humanoid" and drivers["unitree.g1_23dof"].preset == {"dof": 23}
     assert drivers["unitree.bridge"].kind == "sensor" and drivers["unitree.dex3"].kind == "hand"
     stations = sorted(s.name for s in reg.specs("rio_stations") if s.plugin == "rio-unitree")
-    assert {"g1", "g1-bridge", "g1-bridge-hands", "g1-bridge-inspire"} <= set(stations) <= {
-        "g1", "g1-bridge", "g1-bridge-hands", "g1-bridge-floating", "g1-bridge-inspire"}
+    assert {"g1", "g1-sim", "g1-sim-hands", "g1-sim-inspire"} <= set(stations) <= {
+        "g1", "g1-sim", "g1-sim-hands", "g1-sim-floating", "g1-sim-inspire"}
     assert drivers["unitree.inspire"].kind == "hand"
     from rio_unitree.plugin import rio_requirements
 
@@ -32,10 +32,10 @@ def test_drivers_stations_and_requirements_are_registered():
 
 def test_stations_validate_without_importing_the_sdk():
     code = ("import sys; from rio.station.load import load_station\n"
-            "for name in ('g1', 'g1-bridge', 'g1-bridge-hands', 'g1-bridge-inspire'):\n"
+            "for name in ('g1', 'g1-sim', 'g1-sim-hands', 'g1-sim-inspire'):\n"
             "    st = load_station(name); assert st.components['humanoid'].driver == 'unitree.g1'\n"
-            "assert load_station('g1-bridge-hands').components['hand2'].config.side == 'right'\n"
-            "assert load_station('g1-bridge-inspire').components['bridge_sensor'].config.hands == 'inspire'\n"
+            "assert load_station('g1-sim-hands').components['hand2'].config.side == 'right'\n"
+            "assert load_station('g1-sim-inspire').components['bridge_sensor'].config.hands == 'inspire'\n"
             "heavy = [m for m in ('cyclonedds', 'unitree_sdk2py', 'mujoco') if m in sys.modules]\n"
             "assert not heavy, heavy\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
@@ -50,10 +50,10 @@ def test_the_bridge_station_moves_the_simulated_robot(tmp_path, domain_id):
     from rio.station import make_station
     from rio.station.load import read_station_text
 
-    text, _ = read_station_text("g1-bridge")
+    text, _ = read_station_text("g1-sim")
     text = text.replace("domain_id = 1", f"domain_id = {domain_id}").replace(
         'interface = "lo"\ndomain_id', 'interface = "lo"\nmodel = "fallback"\ndomain_id', 1)
-    path = tmp_path / "g1-bridge.toml"
+    path = tmp_path / "g1-sim.toml"
     path.write_text(text)
     assert load_station(path).components["bridge_sensor"].config.model == "fallback"
     servers, clients, env = make_station(path, middleware="thread")

@@ -1,4 +1,4 @@
-"""The packaged stations end to end: `ur5e-virtual` traces the scripted square through the real ur-rtde
+"""The packaged stations end to end: `ur5e-emulator` traces the scripted square through the real ur-rtde
 against the emulator (its own process), and `ur5e-sim` carries the cube to the pad with the scripted
 pick-and-place (the emulator's joints and the URCap's fingers are rio-sim's); the world's ground truth
 says where the cube went. Plus one `rio ur`
@@ -16,8 +16,8 @@ from rio.workflows.teleop import run_teleop
 
 
 @pytest.mark.slow
-def test_the_virtual_station_traces_the_scripted_square():
-    run_scripted_square("ur5e-virtual")
+def test_the_emulator_station_traces_the_scripted_square():
+    run_scripted_square("ur5e-emulator")
 
 
 def test_rio_ur_status_reads_the_emulated_controller(emulator):

@@ -116,7 +116,7 @@ def accept_renamed(model: type, data: Any) -> Any:
             out[new] = out.pop(old)
     for field, table in values.items():
         value = out.get(field)
-        if isinstance(value, str) and value in table:
+        if isinstance(value, (str, bool)) and value in table:  # (a flag that became a choice: True/False)
             _notice(model, f"{field} = {value!r}", repr(table[value]))
             out[field] = table[value]
     return out

@@ -53,8 +53,10 @@ class Env:
     def __init__(self, embodiment: type[Embodiment], config: EmbodimentConfig,
                  robot_clients: Mapping[str, Callable[[], Any]], camera_clients: Mapping[str, Callable[[], Any]],
                  sensor_clients: Mapping[str, Callable[[], Any]] | None = None, *, rate_hz: float = 30.0,
-                 station: str = "rio"):
+                 station: str = "rio", drivers: Mapping[str, str] | None = None):
         self.embodiment_cls, self.config = embodiment, config
+        #: {role: driver name} of the station (`so101.follower`): the recorder's `robot_type`
+        self.drivers: dict[str, str] = dict(drivers or {})
         self.robot_clients, self.camera_clients = robot_clients, camera_clients
         self.sensor_clients = dict(sensor_clients or {})
         self.rate_hz, self.station = float(rate_hz), station

@@ -60,6 +60,19 @@ class QueueFull(RioError):
         )
 
 
+class NoCredits(QueueFull):
+    """`send_request` on a network middleware found no credit left: the node has acknowledged none of this
+    client's last `credits` requests, so this one was not sent (nothing waits on the network). A control
+    loop skips the node's command this cycle and counts it (the next command supersedes it)."""
+
+    def __init__(self, node: str, credits: int, oldest_s: float):
+        self.node, self.credits, self.oldest_s = node, credits, oldest_s
+        RioError.__init__(self, f"node '{node}': request queue full for this client, request not sent: all "
+                                f"{credits} of its request credits are in flight (the oldest unacknowledged for "
+                                f"{oldest_s * 1e3:.3g} ms); the node or the link is not keeping up (lower the "
+                                "command rate, or raise max_pending_per_peer)")
+
+
 class ConfigError(RioError, ValueError):
     """A station file, plugin spec or middleware option is wrong; the message names where."""
 

@@ -224,3 +224,15 @@ class HumanoidObs(Observation):
 
     hand1_joints: np.ndarray | None = None
     hand2_joints: np.ndarray | None = None
+
+
+@dataclass
+class MobileManipulatorObs(SingleArmObs):
+    """Not in the paper; follows its pattern: a single arm (and its gripper) on a mobile base. `proprio` is
+    the arm's part then `base_twist`, as the action is laid out. The base's twist `[vx, vy, wz]` (m/s, rad/s)
+    is in its own frame; `base_odom` `[x, y, theta]` (m, rad) is its odometry since it started."""
+
+    base_twist: np.ndarray | None = None
+    base_odom: np.ndarray | None = None
+    base_wheel_pos: np.ndarray | None = None
+    base_wheel_vel: np.ndarray | None = None

@@ -118,7 +118,7 @@ def run_scripted_square(station: str, side: float = 0.05, speed: float = 0.15) -
     that its arm traced the four `side` edges and came back where it started, stage by stage: the device's
     motion as the loop took it, the arm's target (low-pass, speed limit), the commands sent, the measured
     tool; a failure names every stage's path and end, so it says which stage added or lost travel.
-    Returns the run's summary. Every arm plugin's virtual station test is this one call."""
+    Returns the run's summary. Every arm plugin's no-hardware station test is this one call."""
     from rio.workflows.teleop import run_teleop
 
     summary = run_teleop(station, "scripted", device_config={"script": "square", "side": side, "speed": speed},

@@ -22,15 +22,20 @@ def rio_drivers() -> list[Spec]:
 
 _STATIONS = {
     "t1": "Booster T1: the whole body in custom mode over Booster's SDK (edit the interface; hang the robot)",
-    "t1-emulator": "Booster T1 driver against the in-process emulated T1 (SDK-object fake, no robot, no DDS)",
+    "t1-fake": "Booster T1 driver against the in-process fake T1 (SDK-object fake, no robot, no DDS)",
     "t1-sim": "Booster T1 driver against the emulated T1 on rio-sim physics: stand, table, head camera, "
               "scripted hand tracking (pip install 'rio-booster[sim]')",
 }
 
 
+#: station names before the stand-ins got one word each (fake, emulator, sim): still loaded, with a notice
+_FORMERLY = {"t1-fake": ("t1-emulator",)}
+
+
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text, formerly=_FORMERLY.get(name, ()))
+            for name, text in _STATIONS.items()]
 
 
 @hookimpl

@@ -31,9 +31,10 @@ def rio_drivers() -> list[Spec]:
 
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec("cameras-virtual", "station", f"{_P}:stations/cameras-virtual.toml",
+    return [Spec("cameras-fake", "station", f"{_P}:stations/cameras-fake.toml",
                  "a fake arm with a cameras.stream camera showing a moving test pattern, scripted teleop "
-                 "(no hardware)")]
+                 "(no hardware)",
+                 formerly=("cameras-virtual",))]
 
 
 @hookimpl

@@ -10,7 +10,11 @@ Two things an exporter writes differently from the native record, so a trainer c
   when the export recorded the episode's first native action (`rio_attrs`: `first_action`);
 - the environment state: the columns the episode's metadata names as such (`environment_state`, written by
   the recorder: a simulator's object poses), flattened into one `environment_state` vector per step with
-  one name per element (`cube.x`, ..., `cube.qz`, ...), aligned with the observation (read at the same step).
+  one name per element (`cube.x`, ..., `cube.qz`, ...), aligned with the observation (read at the same step);
+- wrenches: a force/torque sensor of the wrench kind (`rio.interfaces.WrenchNode`) is recorded as two native
+  columns, `meta.sensors.<name>.force` and `.torque` (the latest sample at each step); every format exports
+  them as one field `wrench_<name>` of 6 values per step (fx, fy, fz N; tx, ty, tz N m, in the sensor's frame),
+  beside the observation of the same step.
 """
 
 from __future__ import annotations
@@ -47,6 +51,9 @@ def common_fps(eps: list[Episode]) -> float:
 
 #: The exported field of the environment state (`observation.environment_state` in LeRobot).
 ENVIRONMENT_STATE = "environment_state"
+#: The exported field of a wrench sensor: `wrench_<sensor name>`, and the names of its 6 elements.
+WRENCH_PREFIX = "wrench_"
+WRENCH_NAMES = ["fx", "fy", "fz", "tx", "ty", "tz"]
 #: How exported actions pair with observations (`rio_attrs`), see the module docstring.
 ACTIONS_AFTER_OBSERVATIONS = "action[t] is the command issued after observation[t]"
 
@@ -60,7 +67,25 @@ def lowdim(ep: Episode) -> dict[str, np.ndarray]:
     env = environment_state(ep)
     if env is not None:
         out[ENVIRONMENT_STATE] = env[0]
+    out.update(wrenches(ep))
     out["t"] = ep.column("t")
+    return out
+
+
+def wrenches(ep: Episode) -> dict[str, np.ndarray]:
+    """{`wrench_<sensor>`: (T, 6) float64} for every sensor recorded with a 3-vector `force` and `torque`
+    (the wrench kind's keys), sorted by sensor name."""
+    names, out = set(ep.schema.names), {}
+    for col in sorted(names):
+        if not (col.startswith("meta.sensors.") and col.endswith(".force")):
+            continue
+        sensor = col[len("meta.sensors."):-len(".force")]
+        torque = f"meta.sensors.{sensor}.torque"
+        if torque not in names:
+            continue
+        f, t = ep.column(col), ep.column(torque)
+        if f.shape[1:] == (3,) and t.shape[1:] == (3,):
+            out[WRENCH_PREFIX + sensor] = np.concatenate([f, t], axis=1).astype(np.float64)
     return out
 
 
@@ -107,6 +132,62 @@ def environment_state(ep: Episode) -> tuple[np.ndarray, list[str]] | None:
     return x, [n for spec in layout.values() for n in spec["names"]]
 
 
+#: The elements of an end-effector pose (`proprio_eef`, an `eef_pose` action): m, then the quaternion w, x, y, z.
+EEF_NAMES = ("x", "y", "z", "qw", "qx", "qy", "qz")
+
+
+def episode_names(ep: Episode, field: str) -> list[str] | None:
+    """The names the recording gave the elements of `field` ("action", "proprio", "proprio_joints",
+    "environment_state", ...): the drivers' joint and gripper names (`action_names`, `observation_names`,
+    written by the recorder), the environment state's object names; None if it named none."""
+    meta = ep.meta
+    if field == ENVIRONMENT_STATE:
+        layout = environment_layout(ep)
+        return [n for spec in layout.values() for n in spec["names"]] or None
+    obs = meta.get("observation_names") if isinstance(meta.get("observation_names"), dict) else {}
+    names = meta.get("action_names") if field == "action" else obs.get(field)
+    if names is None and field == "proprio":  # recorded before observation names: proprio is laid out as the action
+        names = meta.get("action_names")
+    return [str(n) for n in names] if isinstance(names, list) and names else None
+
+
+def element_names(eps: list[Episode], field: str, n: int) -> list[str]:
+    """One name per element of an exported column of `n` values, for every format's `names`.
+
+    Each episode's own names (`episode_names`) sit at the start of the column, where a merged episode's real
+    values are (`rio datasets merge` pads after them); where the episodes name one element differently (a
+    merged dataset of two robots) its name is theirs joined with `|` (`shoulder_pan|left_hip_pitch`). An
+    element no episode names is `<field>_<i>` (an end-effector pose of 7: `x` ... `qz`)."""
+    found: list[list[str]] = [[] for _ in range(n)]
+    for ep in eps:
+        names = episode_names(ep, field)
+        if names is None or len(names) > n:
+            continue
+        for i, name in enumerate(names):
+            if name not in found[i]:
+                found[i].append(name)
+    default = (list(EEF_NAMES) if field.endswith("eef") and n == len(EEF_NAMES)
+               else list(WRENCH_NAMES) if field.startswith(WRENCH_PREFIX) and n == len(WRENCH_NAMES)
+               else [f"{field}_{i}" for i in range(n)])
+    out = ["|".join(f) if f else default[i] for i, f in enumerate(found)]
+    if len(set(out)) != n:  # two elements named alike (a name repeated after padding): numbered instead
+        return [f"{field}_{i}" for i in range(n)]
+    return out
+
+
+def robot_type(eps: list[Episode]) -> str | None:
+    """The robot the episodes were recorded on: their `robot_type` (the station's arm driver, written by the
+    recorder), distinct ones joined with `+` (a merged dataset); None when none recorded one."""
+    types = list(dict.fromkeys(str(e.meta["robot_type"]) for e in eps if e.meta.get("robot_type")))
+    return "+".join(types) or None
+
+
+def empty_task_episodes(eps: list[Episode]) -> list[int]:
+    """The episodes with a step recorded without an instruction (trainers of language-conditioned
+    policies read an empty task there)."""
+    return [e.index for e in eps if any(not s for s in e.instructions())]
+
+
 def image_streams(ep: Episode, depth: bool = True) -> list[tuple[str, str]]:
     """(camera, kind) pairs, sorted, depth included only if asked."""
     return sorted((s["camera"], s["kind"]) for s in ep.streams.values() if depth or s["kind"] == "rgb")
@@ -114,7 +195,8 @@ def image_streams(ep: Episode, depth: bool = True) -> list[tuple[str, str]]:
 
 def rio_attrs(ep: Episode) -> dict[str, Any]:
     """What a RIO import needs to rebuild the episode exactly (stored as an attribute / JSON)."""
-    keys = ("fps", "instruction", "station", "embodiment", "action_names", "action_parts", "observation_class")
+    keys = ("fps", "instruction", "station", "embodiment", "robot_type", "action_names", "observation_names",
+            "action_parts", "observation_class")
     out = {k: ep.meta.get(k) for k in keys if ep.meta.get(k) is not None}
     out["index"] = ep.index
     if "action" in ep.schema.names:

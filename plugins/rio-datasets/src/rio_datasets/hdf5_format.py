@@ -5,9 +5,12 @@ ALOHA (act, lerobot's aloha converters): one file per episode, OUT/episode_<k>.h
     /observations/qpos            (T, S)   proprio
     /observations/<field>         (T, ...) other observation fields (proprio_eef, ...)
     /observations/environment_state (T, E) the environment state (a simulator's object poses); attrs `names`
+    /observations/wrench_<sensor> (T, 6) a force/torque sensor's fx fy fz (N) tx ty tz (N m)
     /observations/images/<cam>    (T, H, W, 3) uint8
     /observations/depth/<cam>     (T, H, W) uint16 (depth_unit_m units)
-    attrs: sim=False, fps, rio (JSON)
+    attrs: sim=False, fps, rio (JSON), robot_type (the station's arm driver, when recorded)
+    every numeric dataset (action, qpos, <field>): attrs `names` (JSON), one per element: the drivers'
+    joint names, `gripper`, `x` ... `qz`, the objects' `cube.x` ...
 
 robomimic: one file, OUT.hdf5
     /data/demo_<k>/actions, /obs/<field> (proprio as `state`, the environment state as `object`, robomimic's
@@ -42,10 +45,11 @@ from .common import (
     ExportError,
     check_same_layout,
     common_fps,
-    environment_state,
+    element_names,
     image_streams,
     lowdim,
     rio_attrs,
+    robot_type,
     select,
 )
 from .hdf5_file import GuardedFile
@@ -92,16 +96,17 @@ class Hdf5Format(DatasetFormat):
         cols = lowdim(ep)
         t = cols.pop("t")
         action = cols.pop("action", None)
+        def names(field: str, x: np.ndarray) -> str:
+            """The `names` attribute (JSON): one per element, the drivers' joints, `gripper`, `cube.x` ..."""
+            return json.dumps(element_names([ep], field, int(np.prod(x.shape[1:]))))
+
         if action is not None:
-            top.create_dataset("action" if aloha else "actions", data=action)
+            top.create_dataset("action" if aloha else "actions", data=action).attrs["names"] = names("action", action)
         for field, x in cols.items():
             name = ("qpos" if aloha else "state") if field == "proprio" else field
             if field == ENVIRONMENT_STATE:
                 name = ENV_KEY["aloha" if aloha else "robomimic"]
-                env = environment_state(ep)
-                obs.create_dataset(name, data=x).attrs["names"] = json.dumps(env[1] if env is not None else [])
-                continue
-            obs.create_dataset(name, data=x)
+            obs.create_dataset(name, data=x).attrs["names"] = names(field, x)
         obs.create_dataset("timestamp", data=t - t[0])
         check()
         for cam, kind in image_streams(ep, depth=self.config.depth):
@@ -112,6 +117,8 @@ class Hdf5Format(DatasetFormat):
                 self._image(obs, f"{cam}_{'image' if kind == 'rgb' else 'depth'}", x)
             check()
         top.attrs["rio"] = json.dumps(rio_attrs(ep))
+        if (robot := robot_type([ep])) is not None:
+            top.attrs["robot_type"] = robot
 
     def export(self, dataset: Dataset, out: Path, *, episodes: list[int] | None = None,
                progress: Progress | None = None) -> dict[str, Any]:

@@ -5,7 +5,8 @@ frame that step saw), so video and parquet timestamps agree to the microsecond h
 cameras' real rates drifted during recording: lerobot's tolerance checks cannot fail.
 
 Frame t holds `observation.state` (the proprio), the other observation fields, the environment state
-(`observation.environment_state`, float32, one name per element: `cube.x`, ..., `cube.qz`, ...) all read at
+(`observation.environment_state`, float32, one name per element: `cube.x`, ..., `cube.qz`, ...), each
+force/torque sensor's wrench (`observation.wrench_<sensor>`, float32, fx fy fz N, tx ty tz N m) all read at
 step t, and `action`: the command issued after that observation (`common`: native actions shifted by one).
 """
 
@@ -32,18 +33,20 @@ from rio.recording.video import quiet_svt
 from . import lerobot_paths as LL
 from .common import (
     ENVIRONMENT_STATE,
+    WRENCH_PREFIX,
     ExportError,
     check_same_layout,
     common_fps,
+    element_names,
+    empty_task_episodes,
     environment_state,
     image_streams,
     lowdim,
     rio_attrs,
+    robot_type,
     select,
 )
 from .native_writer import episode_steps, name_environment_state, open_recorder
-
-EEF_NAMES = ["x", "y", "z", "qw", "qx", "qy", "qz"]
 
 
 class _VideoFile:
@@ -127,16 +130,6 @@ def _mask(ep: Any, col: str, size: int) -> np.ndarray:
 ENVIRONMENT_FEATURE = f"observation.{ENVIRONMENT_STATE}"
 
 
-def _names(field: str, n: int, action_names: list[str] | None, env_names: list[str] | None = None) -> list[str]:
-    if field in ("proprio", "action") and action_names and len(action_names) == n:
-        return list(action_names)
-    if field == ENVIRONMENT_STATE and env_names and len(env_names) == n:
-        return list(env_names)
-    if field.endswith("eef") and n == 7:
-        return list(EEF_NAMES)
-    return [f"{field}_{i}" for i in range(n)]
-
-
 class LeRobotFormat(DatasetFormat):
     name = "lerobot"
     can_import = True
@@ -146,22 +139,27 @@ class LeRobotFormat(DatasetFormat):
         crf: int = Field(30, ge=0, le=63)
         gop: int = Field(2, ge=1, description="keyframe interval in frames (lerobot uses 2: fast random access)")
         preset: str | None = Field(None, description="encoder preset (default: 10 for av1, veryfast for h264)")
-        robot_type: str | None = None
+        robot_type: str | None = Field(None, description="info.json robot_type (default: the station's arm driver, "
+                                                          "as recorded)")
+        task: str | None = Field(None, description="the task of frames recorded without an instruction "
+                                                    "(otherwise an empty task, and a warning)")
         extra_observations: bool = Field(True, description="also export observation.<field> beside observation.state")
         data_files_size_in_mb: int = Field(100, gt=0)
         video_files_size_in_mb: int = Field(200, gt=0)
         chunks_size: int = Field(1000, gt=0)
 
     # -- export -------------------------------------------------------------------------------------
-    def _features(self, ep: Any) -> tuple[dict, dict[str, str]]:
-        """(lerobot features, {lerobot key: rio column}) for the numeric columns."""
+    def _features(self, eps: list[Any]) -> tuple[dict, dict[str, str]]:
+        """(lerobot features, {lerobot key: rio column}) for the numeric columns, each named per element
+        (`common.element_names`: the drivers' joint names, `gripper`, the objects' `cube.x` ...)."""
         o = self.config
+        ep = eps[0]
         cols = lowdim(ep)
-        names = ep.meta.get("action_names")
         mapping = {"observation.state": "proprio", "action": "action"}
         env = environment_state(ep)
         if env is not None:  # the environment state is a standard LeRobot feature: exported either way
             mapping[ENVIRONMENT_FEATURE] = ENVIRONMENT_STATE
+        mapping.update({f"observation.{k}": k for k in cols if k.startswith(WRENCH_PREFIX)})  # either way too
         if o.extra_observations:
             mapping.update({f"observation.{k}": k for k in cols
                             if k not in ("proprio", "action", "t", ENVIRONMENT_STATE)})
@@ -171,16 +169,15 @@ class LeRobotFormat(DatasetFormat):
                 raise ExportError(f"episode {ep.index} has no '{col}' column; "
                                   "LeRobot needs observation.state and action")
             n = int(np.prod(cols[col].shape[1:])) if cols[col].ndim > 1 else 1
-            feats[key] = {"dtype": "float32", "shape": [n],
-                          "names": _names(col, n, names, env[1] if env is not None else None)}
+            feats[key] = {"dtype": "float32", "shape": [n], "names": element_names(eps, col, n)}
         return feats, mapping
 
     def export(self, dataset: Dataset, out: Path, *, episodes: list[int] | None = None,
                progress: Progress | None = None) -> dict[str, Any]:
         o = self.config
         out = Path(out)
-        if out.exists() and any(out.iterdir()):
-            raise ExportError(f"{out} exists and is not empty")
+        if out.exists() and any(out.iterdir()):  # export_dataset refuses it first, naming --overwrite
+            raise ExportError(f"{out} exists and is not empty; --overwrite replaces it")
         eps = select(dataset, episodes)
         check_same_layout(eps, absent_ok=True)
         # a merged dataset (`rio datasets merge`): masks as columns, embodiments, cameras some episodes lack
@@ -190,7 +187,7 @@ class LeRobotFormat(DatasetFormat):
         fps = round(fps_f)
         if abs(fps - fps_f) > 1e-6:
             raise ExportError(f"LeRobotDataset needs an integer fps; this dataset was recorded at {fps_f:g} Hz")
-        features, mapping = self._features(eps[0])
+        features, mapping = self._features(eps)
         if merged:
             for key in mapping:
                 features[f"mask.{key}"] = {"dtype": "bool", "shape": features[key]["shape"],
@@ -232,7 +229,9 @@ class LeRobotFormat(DatasetFormat):
             for e_i, ep in enumerate(eps):
                 n = len(ep)
                 cols = lowdim(ep)
-                instr = [s or "" for s in ep.instructions()]
+                instr = [s or o.task or "" for s in ep.instructions()]
+                mark = {k: len(v) for k, v in numeric.items()}
+                px_mark = {c: len(v) for c, v in pixels.items()}
                 for s in instr:
                     if s not in tasks:
                         tasks.append(s)
@@ -312,6 +311,13 @@ class LeRobotFormat(DatasetFormat):
                                 f"videos/{key}/from_timestamp": start / fps,
                                 f"videos/{key}/to_timestamp": vf.frames / fps})
                 row["meta/episodes/chunk_index"], row["meta/episodes/file_index"] = 0, 0
+                # this episode's stats, as lerobot writes them beside it (`stats/<feature>/<min|max|...>`)
+                ep_stats = {k: _Stats.numeric(np.concatenate(v[mark[k]:])) for k, v in numeric.items()}
+                for cam in cams:
+                    if len(pixels[cam]) > px_mark[cam]:
+                        px = np.concatenate(pixels[cam][px_mark[cam]:]).astype(np.float64) / 255.0
+                        ep_stats[f"observation.images.{cam}"] = _Stats.image(px, n)
+                row.update({f"stats/{k}/{stat}": v for k, st in ep_stats.items() for stat, v in st.items()})
                 ep_rows.append(row)
                 g_index += n
                 done += n
@@ -322,7 +328,8 @@ class LeRobotFormat(DatasetFormat):
                 data_writer.close()
             for vf in videos.values():
                 vf.close()
-        ep_table = pa.Table.from_pylist(ep_rows)
+        keys = list(dict.fromkeys(k for r in ep_rows for k in r))  # a camera a merged episode lacks: no stats
+        ep_table = pa.Table.from_pylist([{k: r.get(k) for k in keys} for r in ep_rows])
         path = out / LL.EPISODES_PATH.format(chunk_index=0, file_index=0)
         path.parent.mkdir(parents=True, exist_ok=True)
         pq.write_table(ep_table, path)
@@ -332,10 +339,13 @@ class LeRobotFormat(DatasetFormat):
             px = np.concatenate(pixels[cam]).astype(np.float64) / 255.0
             stats[f"observation.images.{cam}"] = _Stats.image(px, total)
         LL.write_json(out / LL.STATS_PATH, stats)
-        robot_type = o.robot_type or eps[0].meta.get("embodiment") or eps[0].meta.get("station")
-        if merged and len(tags) > 1 and not o.robot_type:
-            robot_type = "+".join(sorted({t.partition("@")[0] for t in tags}))  # e.g. bimanual+single_arm
-        LL.write_json(out / LL.INFO_PATH, LL.info_json(fps, features, robot_type, len(eps), total, len(tasks),
+        # the station's arm driver as recorded (so101.follower); datasets recorded before it was: the embodiment
+        robot = o.robot_type or robot_type(eps)
+        if robot is None:
+            robot = eps[0].meta.get("embodiment") or eps[0].meta.get("station")
+            if merged and len(tags) > 1:
+                robot = "+".join(sorted({t.partition("@")[0] for t in tags}))  # e.g. bimanual+single_arm
+        LL.write_json(out / LL.INFO_PATH, LL.info_json(fps, features, robot, len(eps), total, len(tasks),
                                                         o.chunks_size, o.data_files_size_in_mb,
                                                         o.video_files_size_in_mb))
         # what a RIO import needs to restore the morphology (lerobot ignores this file)
@@ -345,8 +355,14 @@ class LeRobotFormat(DatasetFormat):
             for entry, e in zip(rio["episodes"], eps, strict=True):
                 entry["merge"] = _merge(e)
         LL.write_json(out / "meta" / "rio.json", rio)
-        result = {"episodes": len(eps), "frames": total, "cameras": cams, "fps": fps, "skipped_streams": skipped,
-                  "path": str(out)}
+        result: dict[str, Any] = {"episodes": len(eps), "frames": total, "cameras": cams, "fps": fps,
+                                  "skipped_streams": skipped, "robot_type": robot, "path": str(out)}
+        if not o.task and (untasked := empty_task_episodes(eps)):
+            which = ", ".join(map(str, untasked[:5])) + (", ..." if len(untasked) > 5 else "")
+            result["warnings"] = [f"{len(untasked)} episode(s) ({which}) have frames recorded without an instruction: "
+                                  "their LeRobot "
+                                  "task is empty (a language-conditioned policy learns nothing from it); record "
+                                  "with --instruction, or export with -o task=\"...\""]
         if merged:
             result["embodiments"] = tags
         return result

@@ -15,7 +15,7 @@ from rio.recording import Recorder
 from rio.recording.flatten import load_class
 from rio.schema import Camera, Observation, Step
 
-from .common import ENVIRONMENT_STATE, native_actions
+from .common import ENVIRONMENT_STATE, WRENCH_PREFIX, native_actions
 
 #: Where an environment state from a dataset made elsewhere goes (no RIO layout says where it came from).
 FOREIGN_ENVIRONMENT_STATE = "meta.environment_state"
@@ -45,7 +45,8 @@ def episode_steps(lowdim: dict[str, np.ndarray], images: dict[tuple[str, str], I
                   rio_meta: dict[str, Any] | None = None, env_names: list[str] | None = None) -> Iterator[Step]:
     """Steps of one episode: `lowdim` has "action" (paired with the observation it followed, as exported),
     observation fields ("proprio", ...) and perhaps "environment_state" (named `env_names` when the data
-    comes from elsewhere); `images` maps (camera, kind) to one frame per step (depth as uint16 units or float
+    comes from elsewhere) and `wrench_<sensor>` fields (6 each: back into `meta.sensors.<sensor>.force` /
+    `.torque`); `images` maps (camera, kind) to one frame per step (depth as uint16 units or float
     meters). `rio_meta`: what a RIO export recorded of the episode (`common.rio_attrs`)."""
     cls: type[Observation] = load_class(observation_class, Observation) if observation_class else Observation
     fields = set(cls.__dataclass_fields__)
@@ -63,6 +64,9 @@ def episode_steps(lowdim: dict[str, np.ndarray], images: dict[tuple[str, str], I
             size = len(spec["names"])
             columns.append((col, env[:, start:start + size].astype(np.float64).reshape(n, *spec["shape"])))
             start += size
+    for name in [k for k in lowdim if k.startswith(WRENCH_PREFIX)]:  # back into the sensor's own columns
+        w, sensor = np.asarray(lowdim.pop(name), dtype=np.float64).reshape(n, 6), name[len(WRENCH_PREFIX):]
+        columns += [(f"meta.sensors.{sensor}.force", w[:, :3]), (f"meta.sensors.{sensor}.torque", w[:, 3:])]
     iters = {k: iter(v) for k, v in images.items()}
     for i in range(n):
         kw: dict[str, Any] = {}
@@ -89,7 +93,7 @@ def episode_steps(lowdim: dict[str, np.ndarray], images: dict[tuple[str, str], I
 def open_recorder(out: Path, fps: float, info: dict[str, Any] | None = None, video: Any = None,
                   camera_fps: Any = None) -> Recorder:
     rec = Recorder(out, fps=fps, video=video, camera_fps=camera_fps, station=(info or {}).get("station"))
-    for k in ("embodiment", "action_names", "action_parts"):
+    for k in ("embodiment", "robot_type", "action_names", "observation_names", "action_parts"):
         if (info or {}).get(k) is not None:
             rec.info[k] = info[k]
     return rec

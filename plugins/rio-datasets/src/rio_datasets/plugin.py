@@ -15,6 +15,8 @@ def rio_dataset_formats() -> list[Spec]:
              "Zarr replay buffer (Diffusion Policy / UMI: data/*, meta/episode_ends); export and import"),
         Spec("hdf5", "dataset_format", f"{p}.hdf5_format:Hdf5Format",
              "HDF5, ALOHA (one file per episode) or robomimic (data/demo_N) layout; export and import"),
+        Spec("rlds", "dataset_format", f"{p}.rlds_format:RldsFormat",
+             "RLDS (Open X-Embodiment), TensorFlow Datasets' own writer; export (extra: rio-datasets[rlds])"),
     ]
 
 
@@ -25,4 +27,6 @@ def rio_requirements() -> list[Requirement]:
         Requirement("av", "pip install av", "lerobot format: one mp4 per camera (encode and decode)"),
         Requirement("zarr", "pip install 'zarr>=3.1'", "zarr format (zarr 3 needs Python 3.11+)"),
         Requirement("h5py", "pip install h5py", "hdf5 format (ALOHA, robomimic)"),
+        Requirement("tensorflow_datasets", "pip install 'rio-datasets[rlds]'",
+                    "rlds format (TensorFlow, ~1.7 GB: an extra, not in the workspace's uv sync)"),
     ]

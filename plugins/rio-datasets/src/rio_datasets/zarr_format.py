@@ -3,9 +3,12 @@
     OUT.zarr/
       data/action            (N, A)        every step of every episode, concatenated
       data/state             (N, S)        proprio (the policy's action space)
-      data/<field>           (N, ...)      other observation fields (proprio_eef, gripper_position, ...)
+      data/<field>           (N, ...)      other observation fields (proprio_eef, gripper_position, ...);
+                                           every numeric array's attrs `names`: one per element (the
+                                           drivers' joint names, `gripper`, `x` ... `qz`)
       data/environment_state (N, E)        the environment state (a simulator's object poses), float64;
                                            its attrs `names`: one per element (cube.x, ..., cube.qz, ...)
+      data/wrench_<sensor>   (N, 6)        a force/torque sensor's fx fy fz (N) tx ty tz (N m), float64
       data/timestamp         (N,)          seconds since the episode start
       data/<camera>_rgb      (N, H, W, 3)  uint8, one chunk per frame
       data/<camera>_depth    (N, H, W)     uint16 in depth_unit_m units (lossless)
@@ -36,10 +39,11 @@ from .common import (
     ExportError,
     check_same_layout,
     common_fps,
-    environment_state,
+    element_names,
     image_streams,
     lowdim,
     rio_attrs,
+    robot_type,
     select,
 )
 from .native_writer import episode_steps, name_environment_state, open_recorder
@@ -152,11 +156,12 @@ class ZarrFormat(DatasetFormat):
             done += n
             if progress:
                 progress(done, total, f"episode {ep.index}")
-        env = environment_state(eps[0])
-        if env is not None:
-            arrays[ENVIRONMENT_STATE].attrs["names"] = env[1]
+        for field in lowdim(eps[0]):  # one name per element: the drivers' joints, `gripper`, the objects' `cube.x`
+            if field != "t":
+                a = arrays[_name(field)]
+                a.attrs["names"] = element_names(eps, field, int(np.prod(a.shape[1:])))
         meta.create_array("episode_ends", shape=(len(ends),), dtype=np.int64, chunks=(max(len(ends), 1),))[:] = ends
-        root.attrs["rio"] = {"fps": fps, "episodes": [rio_attrs(e) for e in eps],
+        root.attrs["rio"] = {"fps": fps, "robot_type": robot_type(eps), "episodes": [rio_attrs(e) for e in eps],
                              "fields": {_name(f): f for f in lowdim(eps[0]) if f != "t"}}
         return {"episodes": len(eps), "steps": total, "arrays": sorted(arrays), "path": str(out)}
 

@@ -25,14 +25,19 @@ def rio_drivers() -> list[Spec]:
 
 _STATIONS = {
     "fr3-hand": "FR3 + Franka Hand through franky (edit the IP and the RealSense serials)",
-    "fr3-virtual": "FR3 + Franka Hand on the fake franky robot (modelled arm, no hardware)",
+    "fr3-fake": "FR3 + Franka Hand on the fake franky robot (modelled arm, no hardware)",
     "panda-sim": "Panda + hand on the fake franky robot driving a rio-sim world (needs rio-sim)",
 }
 
 
+#: station names before the stand-ins got one word each (fake, emulator, sim): still loaded, with a notice
+_FORMERLY = {"fr3-fake": ("fr3-virtual",)}
+
+
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text, formerly=_FORMERLY.get(name, ()))
+            for name, text in _STATIONS.items()]
 
 
 @hookimpl

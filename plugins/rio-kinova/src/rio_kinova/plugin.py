@@ -24,14 +24,19 @@ def rio_drivers() -> list[Spec]:
 
 _STATIONS = {
     "gen3-robotiq": "Kinova Gen3 7-DOF + Robotiq 2F-85 on its base (edit the IP, user, password and camera serials)",
-    "gen3-virtual": "Kinova Gen3 7-DOF + Robotiq 2F-85 on the fake kortex backend (no hardware, no kortex_api)",
+    "gen3-fake": "Kinova Gen3 7-DOF + Robotiq 2F-85 on the fake kortex backend (no hardware, no kortex_api)",
     "gen3-sim": "Kinova Gen3 7-DOF + 2F-85 on the fake kortex backend driving a rio-sim world (needs rio-sim)",
 }
 
 
+#: station names before the stand-ins got one word each (fake, emulator, sim): still loaded, with a notice
+_FORMERLY = {"gen3-fake": ("gen3-virtual",)}
+
+
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text, formerly=_FORMERLY.get(name, ()))
+            for name, text in _STATIONS.items()]
 
 
 @hookimpl

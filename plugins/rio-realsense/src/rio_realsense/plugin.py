@@ -30,8 +30,9 @@ def rio_drivers() -> list[Spec]:
 
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec("realsense-virtual", "station", f"{_P}:stations/realsense-virtual.toml",
-                 "a fake arm with a software RealSense D435 (colour + aligned depth), scripted teleop (no hardware)")]
+    return [Spec("realsense-fake", "station", f"{_P}:stations/realsense-fake.toml",
+                 "a fake arm with a software RealSense D435 (colour + aligned depth), scripted teleop (no hardware)",
+                 formerly=("realsense-virtual",))]
 
 
 @hookimpl

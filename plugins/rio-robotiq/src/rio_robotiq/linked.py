@@ -1,6 +1,6 @@
 """What both gripper drivers do around the link to their gripper (a Modbus RTU client, the Robotiq URCap
-socket), held as the node's `device`: open it (starting a private emulator first for a "virtual"
-address, held as `_virtual`), bring the gripper up over it (Robotiq activation, DH initialization), and
+socket), held as the node's `device`: open it (starting a private emulator first for an "emulator"
+address, held as `_emulator`), bring the gripper up over it (Robotiq activation, DH initialization), and
 release both, when the node closes and when bringing the gripper up fails."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import logging
 from collections.abc import Callable
 from typing import Any
 
-from . import virtual
+from .emulator import private
 from .errors import CommunicationError
 from .models import GripperModel
 
@@ -26,7 +26,7 @@ def model_width(max_width: float | None, spec: GripperModel) -> float:
 
 
 def open_device(node: Any, connect: Callable[[], Any], bring_up: Callable[[], None]) -> None:
-    """`node.device = connect()` (which may start `node._virtual`), then `bring_up()`; a failure on the way
+    """`node.device = connect()` (which may start `node._emulator`), then `bring_up()`; a failure on the way
     releases both before it goes on."""
     try:
         node.device = connect()
@@ -37,7 +37,7 @@ def open_device(node: Any, connect: Callable[[], Any], bring_up: Callable[[], No
 
 
 def close_device(node: Any) -> None:
-    """Close `node.device` and stop `node._virtual` (each at most once)."""
+    """Close `node.device` and stop `node._emulator` (each at most once)."""
     try:
         if node.device is not None:
             node.device.close()
@@ -45,5 +45,5 @@ def close_device(node: Any) -> None:
         log.warning("%s: closing the link: %s", node.spec.label, e)
     finally:
         node.device = None
-        virtual.stop(node._virtual)
-        node._virtual = None
+        private.stop(node._emulator)
+        node._emulator = None

@@ -63,7 +63,7 @@ class RunningBridge:
 
 
 def node_name(station: str) -> str:
-    """A valid ROS node name for the station ('so100-virtual' -> 'rio_so100_virtual')."""
+    """A valid ROS node name for the station ('so100-emulator' -> 'rio_so100_emulator')."""
     return "rio_" + re.sub(r"[^A-Za-z0-9_]", "_", station)
 
 

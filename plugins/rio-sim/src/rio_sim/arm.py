@@ -20,6 +20,7 @@ from rio.interfaces import ArmNode
 from .attached import WorldAttachment
 from .indices import arm_indices
 from .robots import ROBOTS, RobotModel, get_robot
+from .wrist_ft import wrist_ft_indices
 
 
 class SimArm(ArmNode):
@@ -44,6 +45,7 @@ class SimArm(ArmNode):
     def open(self) -> None:
         self.sim.attach()
         self.idx = arm_indices(self.sim.model, self.arm, self.robot)
+        self.ft = wrist_ft_indices(self.sim.model, self.arm)
 
     def close(self) -> None:
         self.sim.detach()
@@ -55,6 +57,11 @@ class SimArm(ArmNode):
     def read_joints(self) -> dict[str, Any]:
         s = self.sim.state()
         return {"joint_pos": s["qpos"][self.idx.qpos], "joint_vel": s["qvel"][self.idx.dof]}
+
+    def read_wrench(self) -> np.ndarray:
+        """The wrist force/torque sensor's reading (`rio_sim.wrist_ft`): the arm's wrench source for a
+        station's `force_limit`, as a real arm's wrist cell or external-force estimate would be."""
+        return self.sim.state()["sensordata"][self.ft].copy()
 
     def write_joints(self, joint_pos: np.ndarray) -> None:
         self.sim.bus.command(self.idx.act, joint_pos, clock.now() + 1.0 / self.rate_hz)

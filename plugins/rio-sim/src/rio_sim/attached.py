@@ -30,13 +30,14 @@ class WorldAttachment:
                                "(different rio-sim versions in one station?)")
 
     def state(self) -> dict[str, Any]:
-        """The world's qpos, qvel and ctrl now (into buffers this attachment reuses)."""
+        """The world's qpos, qvel, ctrl and sensordata now (into buffers this attachment reuses)."""
         assert self.bus is not None
         self.bus.check_alive()
         if self._buf is None:
             import numpy as np
 
-            self._buf = {"qpos": np.empty(self.bus.nq), "qvel": np.empty(self.bus.nv), "ctrl": np.empty(self.bus.nu)}
+            self._buf = {"qpos": np.empty(self.bus.nq), "qvel": np.empty(self.bus.nv), "ctrl": np.empty(self.bus.nu),
+                         "sensordata": np.empty(self.bus.ns)}
         return self.bus.read_state(self._buf)
 
     def detach(self) -> None:

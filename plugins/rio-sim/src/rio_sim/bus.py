@@ -4,8 +4,9 @@ One shared-memory block per world, created by the world node (the only process t
 and attached by the arm, gripper and camera nodes of the same station, whatever middleware runs
 them (threads of one process or a process each):
 
-- state, written by the world after every batch of physics steps: `qpos`, `qvel`, `ctrl`, simulated
-  time, under a sequence counter (odd while a write is in progress) and a checksum of the state
+- state, written by the world after every batch of physics steps: `qpos`, `qvel`, `ctrl`, `sensordata`
+  (the scene's sensors: each arm's wrist force/torque, `rio_sim.scenes`), simulated time, under a sequence
+  counter (odd while a write is in progress) and a checksum of the state
   seeded with the counter (`rio.runtime.slot_check`): a reader accepts its copy only when the checksum of
   the copy matches, which holds on CPUs that reorder memory (ARM) as on x86;
 - commands, one slot per actuator: `target`, `t_target` (a `rio.clock.now()` time), a `stamp`
@@ -42,11 +43,13 @@ from rio.runtime import slot_check
 from .session import session_id
 
 _MAGIC = 0x52494F53494D  # "RIOSIM"
-_VERSION = 3
+_VERSION = 4
 # int64 header fields (the state's check is a uint64)
 _H_MAGIC, _H_VERSION, _H_PID, _H_READY, _H_CLOSED, _H_SEQ, _H_NQ, _H_NV, _H_NU, _H_CHECK = range(10)
 # the episode: a counter (bumped last), then its start and time limit (float64 in int64 slots)
 _H_EPISODE, _H_EPISODE_T0, _H_TIME_LIMIT = range(10, 13)
+# the number of sensor values the state carries
+_H_NS = 13
 _NHDR = 16
 _NAME_BYTES = 128
 #: How long a reader waits for a write in progress before calling the writer dead (a preempted writer on
@@ -59,8 +62,8 @@ def block_name(world: str) -> str:
     return f"rio-sim-{os.getuid()}-{session_id()}-{safe}"
 
 
-def _size(nq: int, nv: int, nu: int) -> int:
-    return 8 * _NHDR + _NAME_BYTES + 8 * (2 + nq + nv + nu + 8 * nu)
+def _size(nq: int, nv: int, nu: int, ns: int = 0) -> int:
+    return 8 * _NHDR + _NAME_BYTES + 8 * (2 + nq + nv + nu + ns + 8 * nu)
 
 
 def _read_header(name: str) -> np.ndarray | None:
@@ -97,8 +100,8 @@ class WorldBus:
     def __init__(self, name: str, fd: int, mm: mmap.mmap, owner: bool):
         self.name, self._fd, self._mm, self.owner = name, fd, mm, owner
         self.hdr = np.frombuffer(mm, dtype=np.int64, count=_NHDR)
-        nq, nv, nu = (int(self.hdr[i]) for i in (_H_NQ, _H_NV, _H_NU))
-        self.nq, self.nv, self.nu = nq, nv, nu
+        nq, nv, nu, ns = (int(self.hdr[i]) for i in (_H_NQ, _H_NV, _H_NU, _H_NS))
+        self.nq, self.nv, self.nu, self.ns = nq, nv, nu, ns
         self._name_buf = np.frombuffer(mm, dtype=np.uint8, count=_NAME_BYTES, offset=8 * _NHDR)
         f = np.frombuffer(mm, dtype=np.float64, offset=8 * _NHDR + _NAME_BYTES)
         i = 0
@@ -109,9 +112,9 @@ class WorldBus:
             i += n
             return out
 
-        self._state = f[:2 + nq + nv + nu]  # what one write_state writes, checked as one
+        self._state = f[:2 + nq + nv + nu + ns]  # what one write_state writes, checked as one
         self._times = take(2)             # sim time, wall time of the last write
-        self.qpos, self.qvel, self.ctrl = take(nq), take(nv), take(nu)
+        self.qpos, self.qvel, self.ctrl, self.sensordata = take(nq), take(nv), take(nu), take(ns)
         self.cmd_target, self.cmd_t, self.cmd_stamp = take(nu), take(nu), take(nu)
         self.cmd_check = take(nu).view(np.uint64)
         self.gain_kp, self.gain_kd, self.gain_stamp = take(nu), take(nu), take(nu)
@@ -120,11 +123,11 @@ class WorldBus:
 
     # -- creation / attachment ------------------------------------------------------------------
     @classmethod
-    def create(cls, world: str, scene: str, nq: int, nv: int, nu: int) -> WorldBus:
+    def create(cls, world: str, scene: str, nq: int, nv: int, nu: int, ns: int = 0) -> WorldBus:
         host.require_shared_memory("the sim world bus")
         sweep_stale()
         name = block_name(world)
-        size = _size(nq, nv, nu)
+        size = _size(nq, nv, nu, ns)
         try:
             fd = host.shm_create(name, size)
         except FileExistsError:
@@ -132,7 +135,7 @@ class WorldBus:
             fd = host.shm_create(name, size)
         mm = mmap.mmap(fd, size)
         hdr = np.frombuffer(mm, dtype=np.int64, count=_NHDR)
-        hdr[_H_NQ], hdr[_H_NV], hdr[_H_NU] = nq, nv, nu
+        hdr[_H_NQ], hdr[_H_NV], hdr[_H_NU], hdr[_H_NS] = nq, nv, nu, ns
         hdr[_H_PID], hdr[_H_VERSION] = os.getpid(), _VERSION
         raw = scene.encode()[:_NAME_BYTES - 1]
         np.frombuffer(mm, dtype=np.uint8, count=_NAME_BYTES, offset=8 * _NHDR)[:len(raw)] = list(raw)
@@ -171,7 +174,7 @@ class WorldBus:
                     hdr = np.frombuffer(probe, dtype=np.int64, count=_NHDR).copy()
                     del probe
                     if (hdr[_H_MAGIC] == _MAGIC and hdr[_H_VERSION] == _VERSION and hdr[_H_READY] and not hdr[_H_CLOSED]
-                            and size >= _size(*(int(hdr[i]) for i in (_H_NQ, _H_NV, _H_NU)))):
+                            and size >= _size(*(int(hdr[i]) for i in (_H_NQ, _H_NV, _H_NU, _H_NS)))):
                         return cls(name, fd, mmap.mmap(fd, size), owner=False)
                 os.close(fd)
             if clock.now() > deadline:
@@ -194,17 +197,19 @@ class WorldBus:
             raise RioError("the sim world stopped (its node closed or its process died)")
 
     # -- state ----------------------------------------------------------------------------------
-    def write_state(self, sim_time: float, qpos, qvel, ctrl) -> None:
+    def write_state(self, sim_time: float, qpos, qvel, ctrl, sensordata=None) -> None:
         hdr = self.hdr
         seq = int(hdr[_H_SEQ]) + 2
         hdr[_H_SEQ] = seq - 1  # odd: write in progress
         self.qpos[:], self.qvel[:], self.ctrl[:] = qpos, qvel, ctrl
+        if self.ns:
+            self.sensordata[:] = sensordata
         self._times[0], self._times[1] = sim_time, clock.now()
         self._hdr_u[_H_CHECK] = slot_check.checksum(seq, self._state)
         hdr[_H_SEQ] = seq
 
     def read_state(self, out: dict | None = None) -> dict:
-        """Consistent copy of {qpos, qvel, ctrl, sim_time, wall_time}."""
+        """Consistent copy of {qpos, qvel, ctrl, sim_time, wall_time}, and `sensordata` where `out` has it."""
         out = out if out is not None else {"qpos": np.empty(self.nq), "qvel": np.empty(self.nv),
                                            "ctrl": np.empty(self.nu)}
         hdr = self.hdr
@@ -217,7 +222,10 @@ class WorldBus:
                     nq, nv = self.nq, self.nv
                     out["sim_time"], out["wall_time"] = float(state[0]), float(state[1])
                     out["qpos"][:], out["qvel"][:] = state[2:2 + nq], state[2 + nq:2 + nq + nv]
-                    out["ctrl"][:] = state[2 + nq + nv:]
+                    nu = self.nu
+                    out["ctrl"][:] = state[2 + nq + nv:2 + nq + nv + nu]
+                    if "sensordata" in out:
+                        out["sensordata"][:] = state[2 + nq + nv + nu:]
                     return out
             # a write is in progress, or not yet visible here; its writer may be preempted on a busy machine
             if attempt % 16 == 15:
@@ -288,7 +296,7 @@ class WorldBus:
             host.shm_unlink(self.name)
         # numpy views keep the mapping alive; drop ours and let the last view release it
         self.hdr = self._name_buf = self._times = None  # type: ignore[assignment]
-        self.qpos = self.qvel = self.ctrl = self.cmd_target = self.cmd_t = self.cmd_stamp = None  # type: ignore
+        self.qpos = self.qvel = self.ctrl = self.sensordata = self.cmd_target = self.cmd_t = self.cmd_stamp = None  # type: ignore
         self._state = self.cmd_check = self._hdr_u = None  # type: ignore[assignment]
         self.gain_kp = self.gain_kd = self.gain_stamp = self.gain_check = None  # type: ignore[assignment]
         os.close(self._fd)

@@ -28,6 +28,7 @@ from functools import cache, lru_cache
 import numpy as np
 
 from .robots import get_robot
+from .wrist_ft import add_wrist_ft
 
 #: Where the cube and the place pad are, relative to an arm's home tool position (its base frame).
 PICK_OFFSET = (0.0, 0.06, -0.085)
@@ -68,6 +69,22 @@ class HumanoidMount:
 
 
 @dataclass(frozen=True)
+class BaseMount:
+    """A mobile base on the floor carrying the scene's arms on its deck: a planar body that slides in x and
+    y and turns about z (joints `<name>/x`, `<name>/y`, `<name>/yaw`, in the world frame), each driven by a
+    velocity actuator of the same name; `sim.base` turns a body twist into them. Its omni wheels are drawn
+    (at `wheel_mounts_deg` around the center, `wheel_radius`) but carry nothing: the base is driven by its
+    body twist, not by wheel contacts, so it never slips and its odometry error is the driver's alone."""
+
+    name: str = "base"
+    radius: float = 0.16          # chassis (m)
+    height: float = 0.12          # deck above the floor (m): the arms' mount
+    wheel_radius: float = 0.05
+    wheel_mounts_deg: tuple[float, ...] = (60.0, 180.0, -60.0)
+    arm_pos: tuple[float, float] = (0.06, 0.0)   # arm mount on the deck (base frame, m)
+
+
+@dataclass(frozen=True)
 class SceneObject:
     name: str
     shape: str                # "box" | "cylinder" | "sphere"
@@ -99,6 +116,8 @@ class Scene:
     humanoid: HumanoidMount | None = None
     #: (arm, object, target): the arm that picks `object` and puts it on the pad `target`
     pick_place: tuple[tuple[str, str, str], ...] = ()
+    #: a mobile base carrying the arms (their mounts are then on its deck)
+    base: BaseMount | None = None
 
     def arm(self, name: str) -> ArmMount:
         for a in self.arms:
@@ -223,8 +242,22 @@ def _t1() -> Scene:
                  humanoid=HumanoidMount(name="t1", hands=False, robot="t1"))
 
 
+def _lekiwi() -> Scene:
+    """LeKiwi-like: an SO-100-class arm on a three-wheel base on the floor (world z = 0 is the table height
+    of the other scenes, so the floor is at -TABLE_HEIGHT), a cube on the floor ahead to drive to, a low
+    table off to the side as a landmark, a camera watching from the front."""
+    base = BaseMount()
+    floor = -TABLE_HEIGHT
+    objs = (SceneObject("cube", "box", (CUBE / 2,) * 3, (0.6, 0.0, floor + CUBE / 2), (0.85, 0.2, 0.2, 1)),)
+    return Scene("lekiwi", "LeKiwi-like mobile manipulator: an SO-100-class arm on a three-wheel base, a cube on "
+                 "the floor ahead", (ArmMount("arm", "so100"),), objs,
+                 (_look((1.6, -0.9, floor + 1.1), (0.3, 0.0, floor), 60),), table=(0.2, 0.3),
+                 table_center=(0.9, -1.2), base=base)
+
+
 SCENES = {"so100": _so100, "so100_bimanual": _bimanual, "xarm7": _xarm7, "xarm6": _xarm6, "lite6": _lite6,
-          "panda": _panda, "ur5e": _ur5e, "gen3": _gen3, "g1": _g1, "t1": _t1}
+          "panda": _panda, "ur5e": _ur5e, "gen3": _gen3, "g1": _g1, "t1": _t1,
+          "lekiwi": _lekiwi}
 FLOATING = ":floating"
 
 
@@ -278,11 +311,13 @@ def build_spec(scene: Scene, max_render: tuple[int, int] = (1280, 960)):
     wb.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[tx, ty, TABLE_HEIGHT / 2],
                 pos=[cx, cy, -TABLE_HEIGHT / 2], rgba=[0.62, 0.48, 0.34, 1], contype=1, conaffinity=3,
                 friction=[1.0, 0.01, 0.001])
+    mount = wb if scene.base is None else _add_base(spec, scene.base)
     for arm in scene.arms:
         robot = get_robot(arm.robot)
         child = mujoco.MjSpec.from_file(str(robot.path))
-        frame = wb.add_frame(pos=list(arm.pos), quat=arm.quat)
+        frame = mount.add_frame(pos=list(arm.pos), quat=arm.quat)
         spec.attach(child, prefix=f"{arm.name}/", frame=frame)
+        add_wrist_ft(spec, arm.name, robot.tool_site)
     if scene.humanoid is not None:
         _add_humanoid(spec, scene.humanoid)
     shapes = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
@@ -306,6 +341,41 @@ def build_spec(scene: Scene, max_render: tuple[int, int] = (1280, 960)):
         c.alt.type = mujoco.mjtOrientation.mjORIENTATION_XYAXES
         c.alt.xyaxes = _xyaxes(cam.pos, cam.lookat)
     return spec
+
+
+def _add_base(spec, b: BaseMount):
+    """The mobile base (`BaseMount`): its body, planar joints, velocity actuators and drawn wheels; returns
+    the deck frame the arms are mounted on."""
+    import mujoco
+
+    body = spec.worldbody.add_body(name=b.name, pos=[0.0, 0.0, -TABLE_HEIGHT + b.height])
+    body.add_joint(name=f"{b.name}/x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0])
+    body.add_joint(name=f"{b.name}/y", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0])
+    body.add_joint(name=f"{b.name}/yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
+    body.add_geom(name=f"{b.name}/chassis", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                  size=[b.radius, b.height / 2 - 0.01, 0], pos=[0, 0, -b.height / 2 + 0.01], rgba=[0.9, 0.9, 0.88, 1],
+                  mass=3.0, contype=0, conaffinity=0)
+    for k, deg in enumerate(b.wheel_mounts_deg):
+        a = np.radians(deg)
+        c = [b.radius * np.cos(a), b.radius * np.sin(a), -b.height + b.wheel_radius]
+        axis = [float(np.cos(a)), float(np.sin(a)), 0.0]  # the wheel's axle points out from the center
+        q = _quat_z_to(axis)
+        body.add_geom(name=f"{b.name}/wheel{k + 1}", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                      size=[b.wheel_radius, 0.012, 0], pos=c, quat=q, rgba=[0.15, 0.15, 0.15, 1], mass=0.1,
+                      contype=0, conaffinity=0)
+    for joint, kv in (("x", 400.0), ("y", 400.0), ("yaw", 40.0)):
+        act = spec.add_actuator(name=f"{b.name}/{joint}", target=f"{b.name}/{joint}",
+                                trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_velocity(kv=kv)
+    return body
+
+
+def _quat_z_to(axis) -> list[float]:
+    """The quaternion turning z onto the horizontal unit vector `axis` (a cylinder's axis)."""
+    x, y, _ = axis
+    # rotate 90 deg about the horizontal vector perpendicular to `axis`: (-y, x, 0)
+    h = np.sqrt(0.5)
+    return [h, -y * h, x * h, 0.0]
 
 
 def _add_humanoid(spec, h: HumanoidMount) -> None:

@@ -92,14 +92,14 @@ class SimWorld(Node):
         m = self.model
         self._obj_qadr = np.array([m.joint(o).qposadr[0] for o in self.objects], dtype=int)
         self._home()
-        self.bus = WorldBus.create(self.world, self.scene_name, m.nq, m.nv, m.nu)
+        self.bus = WorldBus.create(self.world, self.scene_name, m.nq, m.nv, m.nu, m.nsensordata)
         self._seen, self._gains_seen = self.bus.cmd_stamp.copy(), self.bus.gain_stamp.copy()
         if self.task is not None:
             from .success import PickPlaceJudge
 
             self.judge = PickPlaceJudge(m, self.scene)
             self._start(self.task.seed, 0)
-        self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
+        self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl, self.data.sensordata)
         self.bus.mark_ready()
 
     def close(self) -> None:
@@ -164,7 +164,7 @@ class SimWorld(Node):
         for _ in range(max(n, 0)):
             d.ctrl[:] = self._ctrl.sample(self._t_origin + d.time + dt)
             mj.mj_step(m, d)
-        self.bus.write_state(d.time, d.qpos, d.qvel, d.ctrl)
+        self.bus.write_state(d.time, d.qpos, d.qvel, d.ctrl, d.sensordata)
         if now - self._rtf_wall > 1.0:  # real-time factor over the last second or so
             self._rtf = (d.time - self._rtf_sim) / (now - self._rtf_wall)
             self._rtf_sim, self._rtf_wall = d.time, now
@@ -187,7 +187,7 @@ class SimWorld(Node):
             self._t_episode = float(self.data.time)
             self.bus.write_episode(self._t_episode, self.task.time_limit_s)
         self._seen = self.bus.cmd_stamp.copy()
-        self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
+        self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl, self.data.sensordata)
 
     @remote
     def set_object_pose(self, name: str, pose: list[float]) -> None:
@@ -214,7 +214,7 @@ class SimWorld(Node):
         if self.task is None:
             return None
         start = self._start(self.task.seed if seed is None else int(seed), int(episode))
-        self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl)
+        self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl, self.data.sensordata)
         return {"kind": self.task.kind, "time_limit_s": self.task.time_limit_s, **start.to_json()}
 
     def _start(self, seed: int, episode: int) -> Any:

@@ -1,6 +1,6 @@
 """`WorldArm`: one arm of a running rio-sim world, for code in another process.
 
-The one way for a hardware emulator (a virtual servo bus, an emulated arm controller) to be "an arm
+The one way for a hardware emulator (an emulated servo bus, an emulated arm controller) to be "an arm
 of a running rio-sim world": attach to the world's bus by name, find the arm's joints and fingers
 in the world's scene, read their positions and send timed targets to their position actuators. The
 world node interpolates each target in physics time, exactly as for the `sim.arm` and `sim.gripper`

@@ -14,7 +14,7 @@ limits and the drivers' joint limits), `sign` flips a joint's direction. Leader 
 calibrated in the same middle pose report the same radians for the same pose.
 
 Files live in `$XDG_CONFIG_HOME/rio/calibration/<model>-<device>/<name>.json` (default
-`~/.config/...`). A virtual bus without a file gets `default_calibration()`.
+`~/.config/...`). An emulated bus without a file gets `default_calibration()`.
 """
 
 from __future__ import annotations
@@ -104,8 +104,8 @@ def save_calibration(cal: ArmCalibration, path: Path | None = None) -> Path:
     return files.save_text(path or calibration_path(cal.name, cal.model, cal.device), cal.to_json() + "\n")
 
 
-def default_calibration(model: str, device: str, name: str = "virtual") -> ArmCalibration:
-    """What a fresh virtual arm uses: offsets 0, mid-turn is 0 rad, ranges like a real SO-arm's."""
+def default_calibration(model: str, device: str, name: str = "emulator") -> ArmCalibration:
+    """What a fresh emulated arm uses: offsets 0, mid-turn is 0 rad, ranges like a real SO-arm's."""
     half = {"shoulder_pan": 110, "shoulder_lift": 100, "elbow_flex": 100, "wrist_flex": 100, "wrist_roll": 160}
     joints = {}
     for name_, sid in zip(ARM_JOINTS, ARM_IDS, strict=True):
@@ -115,11 +115,11 @@ def default_calibration(model: str, device: str, name: str = "virtual") -> ArmCa
     return ArmCalibration(model, device, name, joints)
 
 
-def load_calibration(name: str, model: str, device: str, *, virtual: bool = False) -> ArmCalibration:
+def load_calibration(name: str, model: str, device: str, *, emulated: bool = False) -> ArmCalibration:
     path = calibration_path(name, model, device)
     if path.is_file():
         return ArmCalibration.from_json(path.read_text(encoding="utf-8"), str(path))
-    if virtual:
+    if emulated:
         return default_calibration(model, device, name)
     raise CalibrationError(f"no calibration '{name}' for the {model} {device} ({path} does not exist); run "
                            f"`rio so100 calibrate --port PORT --model {model} --device {device} --name {name}`")

@@ -1,9 +1,9 @@
-"""`rio so100 ...`: calibrate an arm (or import its LeRobot calibration), serve a virtual bus, torque,
+"""`rio so100 ...`: calibrate an arm (or import its LeRobot calibration), serve an emulated bus, torque,
 scan. Leader-follower teleop is `rio teleop STATION` (a station whose teleop device is a leader arm is
 mirrored joint by joint).
 
 Mounted by the plugin's `rio_cli` hook. Each command imports what it needs when it runs; the work
-itself lives in importable modules (`calibrate`, `virtual`), so scripts and tests
+itself lives in importable modules (`calibrate`, `emulator`), so scripts and tests
 call exactly what the commands run.
 """
 
@@ -16,13 +16,15 @@ from typing import Annotated
 
 import typer
 
-from rio.cli.args import not_empty, one_of, positive
+from rio.cli.args import not_empty, one_of, positive, servo_port
+from rio.cli.renamed import keep_old_name
 
-app = typer.Typer(help="SO-100 / SO-101 arms on the Feetech bus: calibrate, virtual bus, torque, scan "
+app = typer.Typer(help="SO-100 / SO-101 arms on the Feetech bus: calibrate, emulated bus, torque, scan "
                        "(leader-follower teleop: `rio teleop STATION`).",
                   no_args_is_help=True)
 
-Port = Annotated[str, typer.Option("--port", "-p", help='serial port (e.g. /dev/ttyACM0), or "virtual"')]
+Port = Annotated[str, typer.Option("--port", "-p", callback=servo_port,
+                                   help='serial port (e.g. /dev/ttyACM0), or "emulator"')]
 
 
 def _enter_pressed(timeout: float) -> bool:
@@ -37,7 +39,8 @@ def _enter_pressed(timeout: float) -> bool:
 @app.command()
 def calibrate(
     port: Annotated[str | None, typer.Option(
-        "--port", "-p", help='serial port (e.g. /dev/ttyACM0), or "virtual"; not with --from-lerobot')] = None,
+        "--port", "-p", callback=servo_port,
+        help='serial port (e.g. /dev/ttyACM0), or "emulator"; not with --from-lerobot')] = None,
     device: Annotated[str | None, typer.Option(
         "--device", callback=one_of("follower", "leader"),
         help="follower or leader (default: follower, or what LeRobot's folder says)")] = None,
@@ -46,7 +49,7 @@ def calibrate(
         help="so100 or so101 (default: so100, or what LeRobot's folder says)")] = None,
     name: Annotated[str | None, typer.Option(
         "--name", help="calibration name (left, right, ...) used by station files as `calibration = NAME`, or a "
-                       ".json path (default: default; virtual-demo with --port virtual; the LeRobot id with "
+                       ".json path (default: default; emulator-demo with --port emulator; the LeRobot id with "
                        "--from-lerobot)")] = None,
     from_lerobot: Annotated[str | None, typer.Option(
         "--from-lerobot", metavar="FILE|ID", callback=not_empty,
@@ -67,22 +70,22 @@ def calibrate(
     device, model = device or "follower", model or "so100"
     from .calibrate import Calibrator
     from .calibration import calibration_path, save_calibration
-    from .connection import check_present, is_virtual
+    from .connection import check_present, is_emulator
     from .feetech.bus import FeetechBus
     from .models import ARM_IDS, ARM_JOINTS, GRIPPER, GRIPPER_ID
 
     joints = {**dict(zip(ARM_JOINTS, ARM_IDS, strict=True)), GRIPPER: GRIPPER_ID}
-    virtual = hand = None
+    emu = hand = None
     path = port
-    if is_virtual(port):
-        from .virtual import VirtualBus
-        from .virtual.hand import CalibrationHand
+    if is_emulator(port):
+        from .emulator import FeetechBusEmulator
+        from .emulator.hand import CalibrationHand
 
-        virtual = VirtualBus()
-        hand = CalibrationHand(virtual)
-        path = virtual.port
-        typer.echo(f"virtual arm on {path}: a scripted hand answers the prompts")
-    name = name or ("virtual-demo" if virtual is not None else "default")
+        emu = FeetechBusEmulator()
+        hand = CalibrationHand(emu)
+        path = emu.port
+        typer.echo(f"emulated arm on {path}: a scripted hand answers the prompts")
+    name = name or ("emulator-demo" if emu is not None else "default")
     try:
         with FeetechBus(path, names={v: k for k, v in joints.items()}) as bus:
             check_present(bus, joints.values(), port)
@@ -118,8 +121,8 @@ def calibrate(
         typer.echo(f"saved {saved}")
         _show(result)
     finally:
-        if virtual is not None:
-            virtual.close()
+        if emu is not None:
+            emu.close()
 
 
 def _show(cal) -> None:
@@ -148,21 +151,21 @@ def _import_lerobot(source: str, model: str | None, device: str | None, name: st
     _show(cal)
 
 
-@app.command("virtual-bus")
-def virtual_bus(
+@app.command("emulator")
+def emulator(
     ids: Annotated[str, typer.Option(help="servo ids on the bus, comma separated")] = "1,2,3,4,5,6",
     motion: Annotated[str, typer.Option(help="none, or wave: a scripted hand moves torque-off servos")] = "none",
     seconds: Annotated[float | None, typer.Option(callback=positive,
                                                   help="stop after this long (default: until Ctrl+C)")] = None,
 ) -> None:
     """Serve emulated STS3215 servos on a pseudo-terminal; use the printed path as a port."""
-    from .virtual import VirtualBus
-    from .virtual.hand import attach_motion
+    from .emulator import FeetechBusEmulator
+    from .emulator.hand import attach_motion
 
-    bus = VirtualBus([int(i) for i in ids.split(",") if i.strip()])
+    bus = FeetechBusEmulator([int(i) for i in ids.split(",") if i.strip()])
     attach_motion(bus, motion)
     typer.echo(bus.port)
-    typer.echo(f"virtual Feetech bus with servos {sorted(bus.servos)} on {bus.port} (Ctrl+C to stop); e.g. "
+    typer.echo(f"emulated Feetech bus with servos {sorted(bus.servos)} on {bus.port} (Ctrl+C to stop); e.g. "
                f"port = \"{bus.port}\" in a station file", err=True)
     t_end = None if seconds is None else time.monotonic() + seconds
     try:
@@ -173,6 +176,9 @@ def virtual_bus(
     finally:
         bus.close()
         typer.echo(f"served {bus.stats['status']} status packets", err=True)
+
+
+keep_old_name(app, "virtual-bus", "emulator", emulator)  # the old name, for one release
 
 
 @app.command()

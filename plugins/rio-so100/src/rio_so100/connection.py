@@ -1,11 +1,11 @@
-"""Opening an SO-arm's bus for a driver: the real port or a private virtual bus, presence and model
+"""Opening an SO-arm's bus for a driver: the real port or a private emulated bus, presence and model
 checks, and the calibration put into the servos. Shared by the follower, gripper and leader drivers
 so each of them is only its control logic.
 
-`port = "virtual"` starts a `VirtualBus` inside the driver's process and opens its pty through the
+`port = "emulator"` starts a `FeetechBusEmulator` inside the driver's process and opens its pty through the
 same SDK code path as a real port; without a calibration file it uses `default_calibration()`.
 `port = "sim"` (`"sim:ARM@WORLD"`) does the same with servos that are joints of a running rio-sim
-world (`rio_so100.virtual.sim`), calibrated from the sim model.
+world (`rio_so100.emulator.sim`), calibrated from the sim model.
 """
 
 from __future__ import annotations
@@ -16,47 +16,47 @@ from .feetech import control_table as T
 from .feetech.bus import FeetechBus
 from .servo_group import ServoGroup
 
-VIRTUAL = "virtual"
+EMULATOR = "emulator"
 
 
-#: Status-packet timeout on an emulated bus (virtual or sim-backed): generous, nothing real waits on it.
+#: Status-packet timeout on an emulated bus (in-process or sim-backed): generous, nothing real waits on it.
 EMULATED_TIMEOUT_MS = 500.0
 
 
-def is_virtual(port: str) -> bool:
-    return port == VIRTUAL
+def is_emulator(port: str) -> bool:
+    return port == EMULATOR
 
 
 class ArmConnection:
     def __init__(self, port: str, *, model: str, device: str, calibration: str, baudrate: int = 1_000_000,
-                 retries: int = 2, virtual_motion: str = "none"):
+                 retries: int = 2, emulator_motion: str = "none"):
         self.port, self.model, self.device, self.calibration = port, model, device, calibration
-        self.baudrate, self.retries, self.virtual_motion = baudrate, retries, virtual_motion
-        self.virtual = None
+        self.baudrate, self.retries, self.emulator_motion = baudrate, retries, emulator_motion
+        self.emulator = None
         self.bus: FeetechBus | None = None
 
     def open(self, joint_names: list[str]) -> ServoGroup:
-        from .virtual.sim import parse_sim_port
+        from .emulator.sim import parse_sim_port
 
         path, cal = self.port, None
-        if is_virtual(self.port):
-            from .virtual import VirtualBus
-            from .virtual.hand import attach_motion
+        if is_emulator(self.port):
+            from .emulator import FeetechBusEmulator
+            from .emulator.hand import attach_motion
 
-            self.virtual = VirtualBus()
-            attach_motion(self.virtual, self.virtual_motion)
-            path = self.virtual.port
+            self.emulator = FeetechBusEmulator()
+            attach_motion(self.emulator, self.emulator_motion)
+            path = self.emulator.port
         elif parse_sim_port(self.port):
-            from .virtual.sim import open_sim_bus
+            from .emulator.sim import open_sim_bus
 
-            self.virtual, cal = open_sim_bus(self.port)
-            path = self.virtual.port
+            self.emulator, cal = open_sim_bus(self.port)
+            path = self.emulator.port
         if cal is None:
-            cal = load_calibration(self.calibration, self.model, self.device, virtual=self.virtual is not None)
+            cal = load_calibration(self.calibration, self.model, self.device, emulated=self.emulator is not None)
         joints = {name: cal.joint(name) for name in joint_names}
         names = {j.id: n for n, j in joints.items()}
         # an emulated bus answers from a thread that a loaded machine may not schedule for a while
-        slack_ms = EMULATED_TIMEOUT_MS if self.virtual is not None else 0.0
+        slack_ms = EMULATED_TIMEOUT_MS if self.emulator is not None else 0.0
         self.bus = FeetechBus(path, baudrate=self.baudrate, retries=self.retries, names=names,
                               min_timeout_ms=slack_ms).open()
         check_present(self.bus, names, self.port)
@@ -67,9 +67,9 @@ class ArmConnection:
         if self.bus is not None:
             self.bus.close()
             self.bus = None
-        if self.virtual is not None:
-            self.virtual.close()
-            self.virtual = None
+        if self.emulator is not None:
+            self.emulator.close()
+            self.emulator = None
 
 
 def check_present(bus: FeetechBus, ids, port: str | None = None) -> None:

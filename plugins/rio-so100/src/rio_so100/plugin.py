@@ -17,7 +17,7 @@ def _arm_specs(model: str) -> list[Spec]:
     preset = {"model": model}  # SO-101 is the same driver with another calibration folder
     return [
         Spec(f"{model}.follower", "arm", f"{_P}.follower.driver:So100Follower",
-             f"{label} follower arm joints (Feetech STS3215 bus, or port = \"virtual\")", preset=preset),
+             f"{label} follower arm joints (Feetech STS3215 bus, or port = \"emulator\")", preset=preset),
         Spec(f"{model}.gripper", "gripper", f"{_P}.gripper.driver:So100Gripper",
              f"{label} jaw servo as a gripper (shares the follower's bus)", preset=preset),
         Spec(f"{model}.leader", "teleop", f"{_P}.leader.driver:So100Leader",
@@ -27,23 +27,38 @@ def _arm_specs(model: str) -> list[Spec]:
 
 @hookimpl
 def rio_drivers() -> list[Spec]:
-    return _arm_specs("so100") + _arm_specs("so101")
+    lekiwi = Spec("lekiwi.base", "base", f"{_P}.lekiwi.wheels:LeKiwiBase",
+                  "LeKiwi's three omni wheels (STS3215 in wheel mode, ids 7-9, on the arm's bus; or port = "
+                  "\"emulator\")")
+    return _arm_specs("so100") + _arm_specs("so101") + [lekiwi]
 
 
 _STATIONS = {
-    "so100-virtual": "SO-100 follower + gripper + leader on virtual buses (no hardware; the leader waves)",
-    "so100-bimanual-virtual": "two SO-100 followers + grippers + two leaders on virtual buses (ALOHA-style)",
-    "so100-sim": "SO-100 drivers on virtual buses backed by rio-sim's MuJoCo arm, virtual leader (needs rio-sim)",
+    "so100-emulator": "SO-100 follower + gripper + leader on emulated buses (no hardware; the leader waves)",
+    "so100-bimanual-emulator": "two SO-100 followers + grippers + two leaders on emulated buses (ALOHA-style)",
+    "so100-sim": "SO-100 drivers on emulated buses backed by rio-sim's MuJoCo arm, emulated leader (needs rio-sim)",
     "so100": "SO-100 follower + gripper + leader arm on serial ports (edit the ports)",
     "so100-bimanual": "two SO-100 followers + grippers + two leaders on serial ports (edit the ports)",
     "so101": "SO-101 follower + gripper + leader arm on serial ports (edit the ports)",
     "so101-bimanual": "two SO-101 followers + grippers + two leaders on serial ports (edit the ports)",
+    "lekiwi": "LeKiwi: SO-101 follower + gripper and the three-wheel base on one serial port (edit the port)",
+    "lekiwi-emulator": "LeKiwi's arm, gripper and wheels on emulated buses (no hardware), keyboard teleop",
+    "lekiwi-sim": "LeKiwi in rio-sim's MuJoCo: arm + gripper on a three-wheel base, cameras (needs rio-sim)",
+}
+
+
+#: station names before the stand-ins got one word each (fake, emulator, sim): still loaded, with a notice
+_FORMERLY = {
+    "so100-emulator": ("so100-virtual",),
+    "so100-bimanual-emulator": ("so100-bimanual-virtual",),
+    "lekiwi-emulator": ("lekiwi-virtual",),
 }
 
 
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text, formerly=_FORMERLY.get(name, ()))
+            for name, text in _STATIONS.items()]
 
 
 @hookimpl

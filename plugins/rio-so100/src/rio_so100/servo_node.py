@@ -32,10 +32,10 @@ class Servos:
         self.conn: ArmConnection | None = None
         self.group: Any = None
 
-    def open(self, joints: list[str], virtual_motion: str = "none") -> ServoGroup:
+    def open(self, joints: list[str], emulator_motion: str = "none") -> ServoGroup:
         c = self.config
         self.conn = ArmConnection(c.port, model=c.model, device=self.device, calibration=c.calibration,
-                                  baudrate=c.baudrate, retries=c.retries, virtual_motion=virtual_motion)
+                                  baudrate=c.baudrate, retries=c.retries, emulator_motion=emulator_motion)
         self.group = self.conn.open(joints)
         return self.group
 

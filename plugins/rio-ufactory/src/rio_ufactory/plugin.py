@@ -44,16 +44,26 @@ def rio_drivers() -> list[Spec]:
 _STATIONS = {
     "xarm7-robotiq": "xArm 7 + Robotiq 2F-85 on the tool RS-485 + RealSense cameras (the paper's station: edit "
                      "the IP and serials)",
-    "xarm7-emulator": "xArm 7 + gripper through the real SDK against the emulator, backed by rio-sim physics "
-                      "(no hardware; needs rio-sim)",
-    "xarm7-virtual": "xArm 7 + xArm Gripper through the real SDK against the emulator's model arm (no hardware)",
-    "lite6-virtual": "Lite 6 + its gripper through the real SDK against the emulator's model arm (no hardware)",
+    "xarm7-sim": "xArm 7 + gripper through the real SDK against the emulator, backed by rio-sim physics "
+                 "(no hardware; needs rio-sim)",
+    "xarm7-emulator": "xArm 7 + xArm Gripper through the real SDK against the emulator's model arm (no physics, "
+                      "no hardware)",
+    "lite6-emulator": "Lite 6 + its gripper through the real SDK against the emulator's model arm (no hardware)",
+}
+
+
+#: station names before the stand-ins got one word each (fake, emulator, sim): still loaded, with a notice
+_FORMERLY = {
+    "xarm7-sim": ("xarm7-emulator",),
+    "xarm7-emulator": ("xarm7-virtual",),
+    "lite6-emulator": ("lite6-virtual",),
 }
 
 
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text, formerly=_FORMERLY.get(name, ()))
+            for name, text in _STATIONS.items()]
 
 
 @hookimpl

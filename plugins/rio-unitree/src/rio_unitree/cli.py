@@ -1,6 +1,6 @@
-"""`rio unitree ...`: run the simulated G1 (bridge), check that a robot is heard (check), make it soft
-(damp), release Unitree's locomotion (debug-mode) and ramp it to its home pose (stand). Each talks DDS
-directly, so it works beside a running station."""
+"""`rio unitree ...`: run the G1 sim (`bridge`: MuJoCo physics behind the robot's DDS topics), check that a
+robot is heard (check), make it soft (damp), release Unitree's locomotion (debug-mode) and ramp it to its home
+pose (stand). Each talks DDS directly, so it works beside a running station."""
 
 from __future__ import annotations
 
@@ -15,7 +15,8 @@ import typer
 from rio.cli.args import non_negative, positive
 
 app = typer.Typer(
-    help="Unitree G1: MuJoCo DDS bridge, bring-up check, damping, debug mode, stand.", no_args_is_help=True
+    help="Unitree G1: the G1 sim (bridge: MuJoCo physics behind the robot's DDS topics), bring-up check, damping, "
+    "debug mode, stand.", no_args_is_help=True
 )
 
 Interface = Annotated[str, typer.Option("--interface", help="network interface on the robot's network (192.168.123.x)")]
@@ -75,7 +76,8 @@ def bridge(
         float | None, typer.Option("--seconds", callback=positive, help="stop after this long (default: Ctrl-C)")
     ] = None,
 ) -> None:
-    """Simulate a G1 behind rt/lowstate, rt/lowcmd and rt/arm_sdk until Ctrl-C; point a driver (or
+    """The G1 sim: MuJoCo physics behind rt/lowstate, rt/lowcmd and rt/arm_sdk until Ctrl-C (what the g1-sim
+    stations run as a component); point a driver (or
     Unitree's SDK examples) at --interface and --domain-id. With --gantry the free G1 hangs, as a real one
     is brought up on its hoist, until you press Enter (or --release-after passes once its legs are held)."""
     from .bridge import Bridge

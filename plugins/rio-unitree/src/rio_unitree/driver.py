@@ -39,7 +39,7 @@ from rio.interfaces.damping import state_lost, tilt_from_quat
 from . import g1
 from .commands import Commands
 from .dds import ARM_SDK, LOWCMD, LOWSTATE, DdsConfig, Participant
-from .wire import LowState, state_crc_ok
+from .wire import LowState, state_signature
 
 log = logging.getLogger("rio_unitree")
 
@@ -56,9 +56,12 @@ class G1(HumanoidNode):
                                                      "effort limit")
         arm_sdk_ramp_s: float = Field(1.0, gt=0, description="arm_sdk: seconds to ramp the weight 0 -> 1 (enable) "
                                                              "and 1 -> 0 (disable)")
-        check_state_crc: bool = Field(True, description="drop rt/lowstate messages whose CRC is wrong (false for "
-                                                        "a simulator that does not sign its state, e.g. "
-                                                        "unitree_mujoco)")
+        peer: Literal["robot", "simulator"] = Field(
+            "robot", description='who publishes rt/lowstate: "robot" (every state must carry its CRC) or '
+                                 '"simulator" (Unitree\'s unitree_mujoco: unsigned state, CRC 0, is accepted too; a '
+                                 'wrong CRC never is)')
+        renamed = {"check_state_crc": "peer"}
+        renamed_values = {"peer": {True: "robot", False: "simulator"}}
 
     # -- setup --------------------------------------------------------------------------------------
     def default_joint_names(self) -> list[str]:
@@ -85,7 +88,8 @@ class G1(HumanoidNode):
                                   ask=self.safety.device_fault)
         self.dds: Participant | None = None
         self.state: LowState | None = None
-        self.bad_crc = 0
+        self.bad_crc = 0  # states refused: a wrong CRC, or unsigned from a peer that should sign
+        self.unsigned = 0  # of those, unsigned (CRC 0: a simulator)
         self._weight = 0.0  # arm_sdk weight last sent
         self._t_sent = 0.0
         self._goal: np.ndarray | None = None  # last goal sent (held while the arm_sdk weight ramps down)
@@ -100,14 +104,18 @@ class G1(HumanoidNode):
             deadline = time.monotonic() + c.connect_timeout_s
             while not self._poll():
                 if time.monotonic() > deadline:
-                    bad = (f" ({self.bad_crc} arrived with a wrong CRC: check_state_crc = false for a simulator that "
-                           "does not sign its state)") if self.bad_crc else ""
                     raise TimeoutError(
                         f"no rt/lowstate on interface '{c.interface}' (DDS domain {c.domain_id}) within "
-                        f"{c.connect_timeout_s} s{bad}: is the robot on, and this interface on its network "
-                        f"(192.168.123.x)? `rio unitree check --interface {c.interface}` tells")
+                        f"{c.connect_timeout_s} s{self._refused()}: is the robot on, and this interface on its "
+                        f"network (192.168.123.x)? `rio unitree check --interface {c.interface} --domain-id "
+                        f"{c.domain_id}` tells (a simulator: its interface and domain, unitree_mujoco's are lo and 1)")
                 time.sleep(0.005)
-            if not self._out.wait_matched(1.0):
+            if not self._out.wait_matched(max(1.0, c.connect_timeout_s) if c.control == "arm_sdk" else 1.0):
+                if c.control == "arm_sdk":  # commands nobody reads: the run would end "normally", arms never moved
+                    raise ConnectionError(
+                        f"nothing reads rt/arm_sdk on '{c.interface}' (DDS domain {c.domain_id}): on the robot "
+                        "Unitree's locomotion service does; a simulator such as unitree_mujoco listens on rt/lowcmd "
+                        "only: set control = \"lowcmd\" for it")
                 log.warning("node '%s': nothing reads %s on %s (domain %d) yet: commands may go unheard", self.name,
                             self._out.topic, c.interface, c.domain_id)
         except BaseException:
@@ -193,14 +201,26 @@ class G1(HumanoidNode):
         return self.state.mode_machine if self.state is not None else 0
 
     def _poll(self) -> bool:
-        """Take the newest lowstate with a good CRC; whether one came."""
+        """Take the newest lowstate its peer signs as it should; whether one came."""
         got = False
+        trusted = ("signed", "unsigned") if self.config.peer == "simulator" else ("signed",)
         for data in reversed(self._state_in.take()):
-            if not self.config.check_state_crc or state_crc_ok(data):
+            signature = state_signature(data)
+            if signature in trusted:
                 self.state, self.safety.t_state, got = LowState.decode(data), clock.now(), True
                 break
             self.bad_crc += 1
+            self.unsigned += signature == "unsigned"
         return got
+
+    def _refused(self) -> str:
+        """Why states that came were not believed, for the error that no state came."""
+        if not self.bad_crc:
+            return ""
+        if self.unsigned == self.bad_crc:
+            return (f" ({self.unsigned} arrived unsigned, CRC 0, as a simulator such as unitree_mujoco publishes: "
+                    "set peer = \"simulator\" for it)")
+        return f" ({self.bad_crc} arrived with a wrong CRC, {self.unsigned} of them unsigned)"
 
     def _send(self, cmd: Any) -> None:
         assert self.dds is not None

@@ -27,24 +27,34 @@ def rio_drivers() -> list[Spec]:
              "Inspire RH56 hand of a G1 (config side) through Unitree's Inspire service: rt/inspire/cmd and state, "
              "6 joints"),
         Spec("unitree.bridge", "sensor", f"{_P}.bridge.node:BridgeNode",
-             "a simulated G1 (MuJoCo) behind the robot's DDS topics, for the G1 drivers without a robot"),
+             "the G1 sim: MuJoCo physics behind the robot's DDS topics, for the G1 drivers without a robot"),
     ]
 
 
 _STATIONS = {
-    "g1-bridge": "Unitree G1 (whole body, rt/lowcmd) against the MuJoCo DDS bridge on loopback (no robot)",
-    "g1-bridge-hands": "Unitree G1 and its two Dex3-1 hands against the MuJoCo DDS bridge on loopback (needs rio-sim)",
-    "g1-bridge-inspire": "Unitree G1 and its two Inspire hands (emulated) against the MuJoCo DDS bridge on loopback",
-    "g1-bridge-floating": "Unitree G1, free base held by a gantry until lowered, against the MuJoCo DDS bridge "
-                          "(locomotion policies; no robot)",
+    "g1-sim": "Unitree G1 (whole body, rt/lowcmd) against the G1 sim: the MuJoCo DDS bridge on loopback (no robot)",
+    "g1-sim-hands": "Unitree G1 and its two Dex3-1 hands against the G1 sim on loopback (needs rio-sim)",
+    "g1-sim-inspire": "Unitree G1 and its two Inspire hands (emulated fingers) against the G1 sim on loopback",
+    "g1-sim-floating": "Unitree G1, free base held by a gantry until lowered, against the G1 sim "
+                       "(locomotion policies; no robot)",
     "g1": "Unitree G1: arms and waist over rt/arm_sdk while Unitree's locomotion stands it (edit the interface)",
+}
+
+
+#: station names before the stand-ins got one word each (fake, emulator, sim): still loaded, with a notice
+_FORMERLY = {
+    "g1-sim": ("g1-bridge",),
+    "g1-sim-hands": ("g1-bridge-hands",),
+    "g1-sim-inspire": ("g1-bridge-inspire",),
+    "g1-sim-floating": ("g1-bridge-floating",),
 }
 
 
 @hookimpl
 def rio_stations() -> list[Spec]:
     here = Path(__file__).parent / "stations"
-    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text, formerly=_FORMERLY.get(name, ()))
+            for name, text in _STATIONS.items()
             if (here / f"{name}.toml").is_file()]
 
 

@@ -3,9 +3,12 @@ side by side must never hear each other's robots), and a tap that records what g
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import random
+import threading
 import time
+from collections.abc import Iterator
 from typing import Any
 
 from .dds import Participant
@@ -43,6 +46,26 @@ def free_domain_id(interface: str = "lo", lo: int = 100, hi: int = 200, listen_s
             _handed_out[domain] = next(_order)
             return domain
     raise RuntimeError(f"no free DDS domain in {share.start}..{share.stop - 1} on {interface}: 20 probed, each in use")
+
+
+@contextlib.contextmanager
+def publishing(writer: Any, data: bytes, period_s: float = 0.005) -> Iterator[None]:
+    """`writer` publishes the same sample every `period_s` from a thread while the block runs: a peer that
+    only talks (a simulator's state, a damaged robot's) without a whole bridge behind it."""
+    stop = threading.Event()
+
+    def publish() -> None:
+        while not stop.is_set():
+            writer.write(data)
+            stop.wait(period_s)
+
+    thread = threading.Thread(target=publish, name="rio-test-publish", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
 
 
 class Tap:

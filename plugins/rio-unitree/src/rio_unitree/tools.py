@@ -16,9 +16,9 @@ import numpy as np
 
 from rio.interfaces.damping import tilt_from_quat
 
-from .dds import LOWCMD, LOWSTATE, Participant, interfaces
+from .dds import ARM_SDK, LOWCMD, LOWSTATE, Participant, interfaces
 from .g1 import HOME, JOINTS, NUM_SLOTS, joint_names
-from .wire import LowState, state_crc_ok
+from .wire import LowState, state_crc_ok, state_signature
 
 
 def ipv4_of(interface: str) -> str | None:
@@ -57,31 +57,43 @@ def check(interface: str, domain_id: int = 0, timeout_s: float = 3.0) -> CheckRe
         r.lines.append(f"  note: {addr} is not on the G1's network 192.168.123.0/24")
     with Participant(domain_id, interface) as p:
         reader = p.reader(LOWSTATE, depth=64)
+        arm_sdk = p.writer(ARM_SDK)  # writes nothing: asks discovery whether anyone reads rt/arm_sdk
         t0 = time.monotonic()
-        good, bad, first, last = 0, 0, None, None
-        while time.monotonic() - t0 < timeout_s and (good < 50 or time.monotonic() - t0 < 0.5):
+        seen = {"signed": 0, "unsigned": 0, "wrong": 0}
+        first, last = None, None
+        while time.monotonic() - t0 < timeout_s and (seen["signed"] + seen["unsigned"] < 50 or
+                                                     time.monotonic() - t0 < 0.5):
             for data in reader.take():
-                if state_crc_ok(data):
-                    good, last = good + 1, data
+                signature = state_signature(data)
+                seen[signature] += 1
+                if signature != "wrong":
+                    last = data
                     first = first if first is not None else time.monotonic()
-                else:
-                    bad += 1
             time.sleep(0.002)
         span = time.monotonic() - first if first is not None else 0.0
+        arm_sdk_readers = arm_sdk.matched()
     if last is None:
         r.problem = (f"no rt/lowstate on '{interface}' (DDS domain {domain_id}) within {timeout_s} s"
-                     + (f" ({bad} arrived with a bad CRC)" if bad else "")
-                     + ": is the robot on and this cable on its network? (a firewall blocking UDP also does this)")
+                     + (f" ({seen['wrong']} arrived with a wrong CRC)" if seen["wrong"] else "")
+                     + ": is the robot on and this cable on its network? (a firewall blocking UDP also does this); "
+                       "another DDS domain? --domain-id N (the robot's is 0, unitree_mujoco's 1)")
         return r
     s = LowState.decode(last)
-    rate = (good - 1) / span if span > 0 and good > 1 else float("nan")
+    heard = seen["signed"] + seen["unsigned"]
+    rate = (heard - 1) / span if span > 0 and heard > 1 else float("nan")
     live = [j for j in JOINTS if s.mode[j.slot] != 0 or s.q[j.slot] != 0.0]
-    r.lines += [f"rt/lowstate: {good} messages ({rate:.0f} Hz), {bad} with a bad CRC",
-                f"mode_machine {s.mode_machine}, mode_pr {s.mode_pr}, tick {s.tick}",
+    r.lines += [f"rt/lowstate: {heard} messages ({rate:.0f} Hz), {seen['wrong']} with a wrong CRC"]
+    if seen["unsigned"]:
+        r.lines.append(f"  unsigned state: {seen['unsigned']} of them carry no CRC (0), as a simulator such as "
+                       "unitree_mujoco publishes: the driver believes them with peer = \"simulator\" only")
+    r.lines += [f"mode_machine {s.mode_machine}, mode_pr {s.mode_pr}, tick {s.tick}",
                 f"joints reporting: {len(live)} of {len(JOINTS)}",
                 f"IMU: quaternion {np.round(s.quaternion, 3).tolist()}, "
                 f"tilt {tilt_from_quat(s.quaternion):.1f} deg, gyro "
-                f"{np.round(s.gyroscope, 3).tolist()} rad/s"]
+                f"{np.round(s.gyroscope, 3).tolist()} rad/s",
+                f"rt/arm_sdk: read by {arm_sdk_readers}" if arm_sdk_readers else
+                "rt/arm_sdk: nobody reads it (Unitree's locomotion does on the robot; a simulator such as "
+                "unitree_mujoco does not): control = \"lowcmd\" only"]
     r.ok = True
     return r
 

@@ -219,8 +219,17 @@ def cmd_crc_ok(data: bytes) -> bool:
 
 
 def state_crc_ok(data: bytes) -> bool:
+    return state_signature(data) == "signed"
+
+
+def state_signature(data: bytes) -> str:
+    """How a LowState_ is signed: "signed" (its CRC is right), "unsigned" (its CRC field is 0, as Unitree's
+    unitree_mujoco publishes it) or "wrong" (a CRC that does not match: damaged, or not a G1's)."""
     buf = _payload(data, STATE_SIZE, "LowState_")
-    return int(buf[2084:2088].view("<u4")[0]) == state_crc(buf)
+    crc = int(buf[2084:2088].view("<u4")[0])
+    if crc == state_crc(buf):
+        return "signed"
+    return "unsigned" if crc == 0 else "wrong"
 
 
 @functools.cache

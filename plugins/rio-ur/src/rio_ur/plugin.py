@@ -26,13 +26,18 @@ def rio_drivers() -> list[Spec]:
 _STATIONS = {
     "ur5e-robotiq": "UR5e + Robotiq 2F-85 through the URCap socket (edit the IP and the RealSense serials)",
     "ur5e-sim": "UR5e + Robotiq URCap through the real ur-rtde against the emulator, backed by rio-sim physics",
-    "ur5e-virtual": "UR5e + emulated URCap Robotiq through the real ur-rtde against the emulator (no hardware)",
+    "ur5e-emulator": "UR5e + emulated URCap Robotiq through the real ur-rtde against the emulator (no hardware)",
 }
+
+
+#: station names before the stand-ins got one word each (fake, emulator, sim): still loaded, with a notice
+_FORMERLY = {"ur5e-emulator": ("ur5e-virtual",)}
 
 
 @hookimpl
 def rio_stations() -> list[Spec]:
-    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text) for name, text in _STATIONS.items()]
+    return [Spec(name, "station", f"{_P}:stations/{name}.toml", text, formerly=_FORMERLY.get(name, ()))
+            for name, text in _STATIONS.items()]
 
 
 @hookimpl

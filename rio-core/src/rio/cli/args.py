@@ -156,3 +156,14 @@ def key_values(pairs: list[str] | None, option: str) -> dict[str, Any]:
         except ValueError:
             out[key.strip()] = value
     return out
+
+
+def servo_port(value: P) -> P:
+    """A serial bus's `--port`, with the station field's renamed values (`ServoBus.renamed_values`: the old
+    "virtual" is "emulator" now) applied as a station file gets them, with the same one log line."""
+    if value is None:
+        return value
+    from rio.config import accept_renamed
+    from rio.interfaces.devices import ServoBus
+
+    return accept_renamed(ServoBus, {"port": value})["port"]

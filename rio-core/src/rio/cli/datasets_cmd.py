@@ -75,7 +75,7 @@ def info(
                 markup=False, soft_wrap=True)
     table(None, ("episode", "steps", "seconds", "instruction", "cameras", "note"),
           [(e["index"], e.get("length"), f"{e.get('duration_s', 0):.2f}", e.get("instruction") or "",
-            ", ".join(f"{k} {v.get('frames')}f@{v.get('rate')}" for k, v in e.get("cameras", {}).items()),
+            ", ".join(_camera_text(k, v) for k, v in e.get("cameras", {}).items()),
             _note(e, damaged)) for e in ds.episodes])
     for p in summary["partial"]:
         warn(f"{p}: an interrupted episode; run `rio datasets repair {dataset}`")
@@ -93,6 +93,14 @@ def info(
         warn(f"{len(damaged)} damaged episodes: export and replay refuse them (--allow-damaged to use them anyway)")
         raise typer.Exit(1)
     c.print("verified: every file matches its recorded sha256", markup=False)
+
+
+def _camera_text(key: str, stream: dict) -> str:
+    """'front.rgb 90f@30 (measured 29.7)': frames, the configured rate the video is encoded at, and the
+    rate the frames really came at, when recorded (an episode recorded before it was kept has none)."""
+    text = f"{key} {stream.get('frames')}f@{stream.get('rate')}"
+    measured = stream.get("measured_rate")
+    return text + (f" (measured {measured:g})" if isinstance(measured, (int, float)) else "")
 
 
 def _note(entry: dict, damaged: dict[str, list[str]]) -> str:

@@ -5,7 +5,8 @@ The episodes are verified first: a damaged one (a file differing from its record
 in one line naming it, unless `--allow-damaged` (then a warning per damaged episode). `--episodes` is
 checked against the dataset's episodes before anything is read (a range is never expanded past them).
 A failed export leaves no partial output behind and ends in one line, and an output inside the dataset is
-refused (`rio.recording.format.export_dataset`)."""
+refused, and so is one that exists and is not empty unless `--overwrite` (the old output is kept until the
+new one has finished: `rio.recording.format.export_dataset`)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from typing import Annotated
 
 import typer
 
-from rio.cli.args import not_empty, output_dir
+from rio.cli.args import not_empty, writable_problem
 from rio.errors import ConfigError
 
 #: An episode index or a range of them; 18 digits at most (an int64, and no 10^5-digit number to parse).
@@ -80,6 +81,18 @@ def _ranges_text(indices: list[int]) -> str:
     return ", ".join(f"{a}-{b}" if b > a else f"{a}" for a, b in runs) or "none"
 
 
+def output_path(value: str) -> str:
+    """An export's output: a directory, or the one file some formats write (robomimic HDF5); one that
+    exists and is not empty is refused later, naming --overwrite (`export_dataset`). It must be somewhere
+    this user can create things (`writable_problem`), checked before any episode is read."""
+    from pathlib import Path
+
+    not_empty(value)
+    if (why := writable_problem(Path(value).parent if Path(value).is_file() else Path(value))):
+        raise typer.BadParameter(f"'{value}' cannot be written: {why}")
+    return value
+
+
 def run_with_progress(label: str, fn):
     """Call fn(progress) under a rich progress bar; returns fn's result."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -102,7 +115,7 @@ def run_with_progress(label: str, fn):
 
 def export(
     dataset: Annotated[str, typer.Argument(callback=not_empty, help="Native RIO dataset directory.")],
-    out: Annotated[str, typer.Argument(callback=output_dir, help="Where to write the exported dataset.")],
+    out: Annotated[str, typer.Argument(callback=output_path, help="Where to write the exported dataset.")],
     fmt: Annotated[str, typer.Option("--format", "-f", callback=not_empty,
                                      help="Dataset format (see `rio datasets formats`).")],
     episodes: Annotated[str | None, typer.Option("--episodes", "-e", help="Only these episodes: 0,2,5-7.")] = None,
@@ -110,17 +123,25 @@ def export(
                       typer.Option("--option", "-o", help="Format option key=value (repeat).")] = None,
     allow_damaged: Annotated[bool, typer.Option("--allow-damaged",
                                                 help="Export episodes whose files fail their sha256.")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite",
+                                            help="Replace an existing output (kept until the new export has "
+                                                 "finished).")] = False,
 ) -> None:
     """Export a recorded dataset (e.g. `rio export data/pick --format lerobot out/pick_lerobot`)."""
     from pathlib import Path
 
     from rio.cli.datasets_cmd import damaged_warnings
     from rio.cli.output import console
+    from rio.machine.confine import is_inside
     from rio.recording import Dataset
     from rio.recording.format import export_dataset, get_format
 
     ranges = parse_episodes(episodes)
     opts = parse_options(option)
+    target = Path(out)
+    occupied = target.is_file() or target.is_symlink() or (target.is_dir() and any(target.iterdir()))
+    if occupied and not overwrite and not is_inside(target, Path(dataset)):  # inside: export_dataset says so
+        raise ConfigError(f"{out} exists and is not empty; --overwrite replaces it")  # before any episode is read
     ds = Dataset(dataset, allow_damaged=allow_damaged)
     chosen = None if ranges is None else choose_episodes(str(episodes), ranges, [e["index"] for e in ds.episodes])
     f = get_format(fmt, opts)
@@ -128,8 +149,14 @@ def export(
         raise ConfigError(f"format '{fmt}' cannot export")
     with damaged_warnings():
         result = run_with_progress(f"export {fmt}", lambda p: export_dataset(f, ds, Path(out), episodes=chosen,
-                                                                             progress=p))
+                                                                             progress=p, overwrite=overwrite))
     console().print(f"exported {result.get('episodes')} episodes to {out} ({fmt})", markup=False)
     for key, value in result.items():
-        if key not in ("episodes", "path"):
+        if key not in ("episodes", "path", "warnings"):
             console().print(f"  {key}: {value}", markup=False)
+    from rich.markup import escape
+
+    from rio.cli.output import warn
+
+    for line in result.get("warnings") or []:
+        warn(escape(str(line)))

@@ -22,11 +22,12 @@ def list_stations(as_json: Annotated[bool, typer.Option("--json", help="Machine-
     reg = get_registry()
     specs = reg.specs("rio_stations")
     if as_json:
-        print_json([{"name": s.name, "plugin": s.plugin, "target": s.target, "description": s.description}
-                    for s in specs])
+        print_json([{"name": s.name, "plugin": s.plugin, "target": s.target, "description": s.description,
+                     "formerly": list(s.formerly)} for s in specs])
         return
     table("RIO stations", ("name", "plugin", "description", "file"),
-          [(s.name, s.plugin, s.description, s.target) for s in sorted(specs, key=lambda s: s.name)])
+          [(s.name, s.plugin, s.description + (f" (formerly {', '.join(s.formerly)})" if s.formerly else ""),
+            s.target) for s in sorted(specs, key=lambda s: s.name)])
     warn_problems(reg)
 
 

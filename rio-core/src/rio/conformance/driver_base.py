@@ -86,6 +86,8 @@ class DriverConformance:
     cycles: ClassVar[int] = 20
 
     kind: ClassVar[str] = "sensor"
+    #: The kind its spec is registered under, where it differs from `kind` (a wrench sensor is a "sensor").
+    registered_as: ClassVar[str | None] = None
     node_base: ClassVar[type[Node]] = Node
     #: The driver hook the close-after-error case makes fail mid-run.
     read_hook: ClassVar[str] = "read_state"
@@ -111,10 +113,10 @@ class DriverConformance:
         assert driver is not None
         dut = resolve_driver(driver)
         if kit.kind != "sensor" or selected:
-            registered = dut.registered_kind
-            if registered is not None and registered != kit.kind:
+            registered, expected = dut.registered_kind, kit.registered_as or kit.kind
+            if registered is not None and registered != expected:
                 if selected:
-                    pytest.skip(f"{dut.label} is a {registered} driver, not a {kit.kind}")
+                    pytest.skip(f"{dut.label} is a {registered} driver, not a {expected}")
                 pytest.fail(f"{dut.label} is registered as a {registered} driver; test it with "
                             f"{registered.capitalize()}Conformance, not {kit.kind.capitalize()}Conformance",
                             pytrace=False)

@@ -18,7 +18,8 @@
 
 Base classes (none named `Test*`, so importing one collects nothing): `ArmConformance`,
 `GripperConformance`, `HandConformance`, `HumanoidConformance`, `CameraConformance`,
-`TeleopConformance` and `SensorConformance` (any node: the cases every driver passes).
+`TeleopConformance`, `BaseConformance` (mobile bases, `rio.conformance.mobile`) and `SensorConformance` (any
+node: the cases every driver passes).
 
 The cases check public behaviour only. Most run the node in the test's thread with
 `rio.testing.lifecycle()` and tick `cycle()` at the node's rate, as the runtime does; the goals
@@ -37,10 +38,11 @@ from __future__ import annotations
 
 from rio.conformance.commandable import ArmConformance, GripperConformance, HandConformance, HumanoidConformance
 from rio.conformance.driver_base import DriverConformance, SensorConformance
-from rio.conformance.sensing import CameraConformance, TeleopConformance
+from rio.conformance.mobile import BaseConformance
+from rio.conformance.sensing import CameraConformance, TeleopConformance, WrenchConformance
 
 __all__ = ["DriverConformance", "SensorConformance", "ArmConformance", "GripperConformance", "HandConformance",
-           "HumanoidConformance", "CameraConformance", "TeleopConformance"]
+           "HumanoidConformance", "CameraConformance", "TeleopConformance", "BaseConformance", "WrenchConformance"]
 
 
 # -- `pytest --rio-driver NAME`: the kit of NAME's kind, collected where this module is ------------------
@@ -65,6 +67,10 @@ class TestSelectedCamera(CameraConformance):
 
 
 class TestSelectedTeleop(TeleopConformance):
+    driver = None
+
+
+class TestSelectedBase(BaseConformance):
     driver = None
 
 

@@ -7,7 +7,7 @@ It only adds options:
   the registered middleware NAME, without a test file;
 - `--rio-driver NAME` (with `--rio-driver-config JSON`, the station fields): run the driver conformance
   kit of NAME's kind (`rio.conformance.drivers`) against the registered driver NAME, e.g.
-  `pytest --rio-driver so100.follower --rio-driver-config '{"port": "virtual"}'`, or on real hardware.
+  `pytest --rio-driver so100.follower --rio-driver-config '{"port": "emulator"}'`, or on real hardware.
 
 With test paths given, those run as usual; add `--pyargs rio.conformance.middleware` (or
 `rio.conformance.drivers`) to run a kit with them. The kits' fixtures live on their test classes, so

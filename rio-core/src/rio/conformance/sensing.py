@@ -1,4 +1,5 @@
-"""Kits of the kinds that only publish: cameras and teleop devices. See `rio.conformance.drivers`."""
+"""Kits of the kinds that only publish: cameras, teleop devices and wrench (force/torque) sensors. See
+`rio.conformance.drivers`."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pytest
 
 from rio.conformance.driver_base import BOOL, BUTTONS, FLOAT, SI, DriverConformance, KeySpec
 from rio.conformance.driving import expect, fmt
-from rio.interfaces import CameraNode, TeleopNode
+from rio.interfaces import CameraNode, TeleopNode, WrenchNode
 from rio.runtime.node import Node
 from rio.schema import DISTORTION_MODELS
 from rio.testing import lifecycle
@@ -107,3 +108,49 @@ class TeleopConformance(DriverConformance):
                    f"sample {i}: leader joint_pos {fmt(q)} beyond +-{self.max_joint_abs:.3f} rad: degrees?")
 
 
+
+
+TARE = "tare: after tare() an unchanged load reads zero (within the kit's tare_tol_n / tare_tol_nm)"
+
+
+class WrenchConformance(DriverConformance):
+    """The wrench contract (`rio.interfaces.WrenchNode`): force (3) N and torque (3) N m in the sensor frame,
+    finite and within a cell's range, and `tare()` zeroing an unchanged load. Registered as a `sensor`."""
+
+    kind: ClassVar[str] = "wrench"
+    registered_as: ClassVar[str | None] = "sensor"
+    node_base: ClassVar[type[Node]] = WrenchNode
+    read_hook: ClassVar[str] = "read_wrench"
+    #: Largest plausible |force| (N) and |torque| (N m) component: beyond them, counts were not converted.
+    max_force_n: ClassVar[float] = 5000.0
+    max_torque_nm: ClassVar[float] = 500.0
+    #: What a tared, unchanged load may still read (the cell's noise): N, N m (mean over the samples).
+    tare_tol_n: ClassVar[float] = 0.5
+    tare_tol_nm: ClassVar[float] = 0.05
+
+    def kind_keys(self, node: Node) -> KeySpec:
+        return {"force": ((3,), FLOAT), "torque": ((3,), FLOAT), "timestamp": ((), FLOAT)}
+
+    def measured_keys(self, node: Node) -> tuple[str, ...]:
+        return ("force", "torque")
+
+    def check_units(self, node: Any, sample: Mapping[str, Any], i: int) -> None:
+        f, t = (np.asarray(sample[k], dtype=np.float64) for k in ("force", "torque"))
+        expect(np.abs(f).max() <= self.max_force_n, self.kind, SI,
+               f"sample {i}: force {fmt(f)} beyond +-{self.max_force_n:g} N: raw counts, not newtons?")
+        expect(np.abs(t).max() <= self.max_torque_nm, self.kind, SI,
+               f"sample {i}: torque {fmt(t)} beyond +-{self.max_torque_nm:g} N m: raw counts, or N mm?")
+
+    def test_tare_zeroes_an_unchanged_load(self, driver_under_test, driver_fields):
+        node: Any = self.make(driver_under_test, driver_fields)
+        with lifecycle(node):
+            self.loop(node).run(cycles=max(self.cycles, int(node.config.tare_samples)))
+            bias = np.asarray(node.tare(), dtype=np.float64)
+            expect(bias.shape == (6,), self.kind, TARE, f"tare() returned {fmt(bias)}, not the 6 bias values")
+            loop = self.loop(node)
+            loop.run(cycles=self.cycles)
+        expect(loop.samples, self.kind, TARE, f"no sample in {loop.ticks} ticks after tare()")
+        f = np.mean([np.asarray(s["force"], dtype=np.float64) for s in loop.samples], axis=0)
+        t = np.mean([np.asarray(s["torque"], dtype=np.float64) for s in loop.samples], axis=0)
+        expect(np.abs(f).max() <= self.tare_tol_n and np.abs(t).max() <= self.tare_tol_nm, self.kind, TARE,
+               f"after tare() the mean reading is force {fmt(f)} N, torque {fmt(t)} N m (bias {fmt(bias)})")

@@ -3,7 +3,10 @@
 - `rotations`, `se3`: quaternions (wxyz), rotation vectors, 7-vector poses, twists.
 - `filters`: low-pass, One Euro, pose filter.
 - `interpolators`: timed targets -> smooth values at the driver's rate.
-- `teleop`: teleop modes, speed limits, twist -> end-effector target, button handling.
+- `teleop`: teleop modes, speed limits, twist -> end-effector target (or a mobile base's twist), buttons.
+- `commander`, `twist_commander`: the safety between commands and hardware (joints and poses; a mobile
+  base's body twist: speed and acceleration limits, stop watchdog).
+- `omni`, `odometry`: omni-wheel kinematics (body twist <-> wheel speeds) and planar odometry (exact arcs).
 """
 
 from rio.control.filters import LowPassFilter, OneEuroFilter, PoseFilter

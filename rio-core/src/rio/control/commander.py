@@ -14,6 +14,12 @@ A commander turns sparse timed targets (`t_cmd_target`) into one goal per driver
   is and the robot holds it until the next command. A single deliberate move (`home(seconds=3)`, a
   script's `move_joints(q, now + 2)`) runs to its end, and a move that already ended stays at its
   target. `holding` says that no fresh command is being followed.
+- force limit (`guard`, where the device has a wrench source and the station sets `force_limit`): a
+  wrench crossing its limit holds the device where it measures itself to be (not at the goal, which may
+  lie inside what it pushes against), as the watchdog holds: until the next command. While the wrench
+  stays over the limit, a command is followed only as far as it backs the device off toward where it
+  last was within the limit (an operator can pull back; pushing on goes nowhere). Each crossing is
+  logged by node name and counted (`force_holds`).
 
 Every standard driver kind (`rio.interfaces`) owns one and feeds the hardware only what it returns.
 Time is passed in explicitly, which keeps them testable.
@@ -25,6 +31,7 @@ import logging
 
 import numpy as np
 
+from rio.control.force_limit import ForceLimit
 from rio.control.interpolators import LinearInterpolator, PoseInterpolator
 from rio.control.rotations import quat_angle, quat_slerp
 from rio.control.se3 import as_pose
@@ -41,6 +48,12 @@ class _Commander:
         self.watchdog_holds = 0
         #: Who this commander drives, for the log ("node 'arm'").
         self.owner = "a commander"
+        #: Force/torque limits checked by `guard()` (None: no limit).
+        self.force_limit: ForceLimit | None = None
+        #: Times a wrench crossed its limit and the force limit held.
+        self.force_holds = 0
+        self._over_limit = False
+        self._safe: np.ndarray | None = None  # where the device last was with its wrench within the limit
         self._interp_cls = interp_cls
         self.goal = self._clip(value)
         self._interp = interp_cls(self.goal, 0.0)
@@ -89,6 +102,32 @@ class _Commander:
         m = np.asarray(measured, dtype=np.float64).reshape(self.goal.shape)
         self.goal = self._clip(np.clip(m, np.minimum(self.goal, desired), np.maximum(self.goal, desired)))
 
+    def guard(self, wrench, measured, now: float) -> bool:
+        """Check this cycle's wrench (force N, torque N m) against `force_limit`; over it, hold at `measured`
+        (where the device is: a goal pressed into a table would keep pressing) and return True. A crossing
+        is logged and counted once; the hold is renewed every cycle the wrench stays over the limit, so
+        commands resume only once it is back under."""
+        why = self.force_limit.exceeded(wrench) if self.force_limit is not None else None
+        if why is None:
+            self._over_limit = False
+            self._safe = self._clip(measured)
+            return False
+        if not self._over_limit:
+            self.force_holds += 1
+            log.warning("%s: %s: force limit, holding where it is until the next command", self.owner, why)
+            self._over_limit = True
+            self.reset(measured, now)
+        return True
+
+    def _distance(self, a: np.ndarray, b: np.ndarray) -> float:
+        return float(np.linalg.norm(a - b))
+
+    def _backs_off(self, goal: np.ndarray) -> bool:
+        """Over the force limit: does `goal` bring the device closer to where it last was within it?"""
+        if self._safe is None:
+            return False
+        return self._distance(goal, self._safe) < self._distance(self.goal, self._safe) - 1e-12
+
     def hold(self, now: float) -> None:
         """Stop where the goal is now (also what the watchdog does)."""
         self._interp = self._interp_cls(self.goal, now)
@@ -108,7 +147,11 @@ class _Commander:
                         "its link is down)", self.owner, self.watchdog_s)
             if not (now >= self._interp.t_goal and self._arrived()):
                 self.hold(now)  # mid-move: stop here
-        self.goal = self._clip(self._toward(self.goal, self._interp.sample(now)))
+        goal = self._clip(self._toward(self.goal, self._interp.sample(now)))
+        if self._over_limit and not self._backs_off(goal):
+            goal = self.goal  # over the force limit: only a step back toward where it was within it
+            self.holding = True
+        self.goal = goal
         if quiet and now >= self._interp.t_goal and self._arrived():
             self.holding = True  # the move is over and nothing fresh is being followed
         return self.goal.copy()
@@ -156,6 +199,10 @@ class PoseCommander(_Commander):
         p = as_pose(pose)
         p[:3] = np.clip(p[:3], self.lower, self.upper)
         return p
+
+    def _distance(self, a: np.ndarray, b: np.ndarray) -> float:
+        """Tool travel (m) plus rotation at 0.1 m per rad."""
+        return float(np.linalg.norm(a[:3] - b[:3])) + 0.1 * quat_angle(a[3:], b[3:])
 
     def _arrived(self) -> bool:
         target = self._interp.goal

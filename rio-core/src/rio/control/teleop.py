@@ -64,6 +64,7 @@ class TeleopMode(enum.IntEnum):
     TRANSLATION_ROTATION = 1  # all six
     PLANAR = 2                # x, y only (2-D: tabletop pushing)
     ROTATION = 3              # orientation only, the tool point stays put
+    BASE = 4                  # the mobile base: x, y and yaw drive its body twist; the arm holds
 
     @classmethod
     def parse(cls, name: str | int | TeleopMode) -> TeleopMode:
@@ -72,7 +73,7 @@ class TeleopMode(enum.IntEnum):
         key = str(name).strip().upper().replace("-", "_").replace("+", "_").replace(" ", "_")
         aliases = {"2D": "PLANAR", "2_D": "PLANAR", "XYZ": "TRANSLATION", "POS": "TRANSLATION",
                    "POSE": "TRANSLATION_ROTATION", "FULL": "TRANSLATION_ROTATION", "ROT": "ROTATION",
-                   "TRANSLATION_AND_ROTATION": "TRANSLATION_ROTATION"}
+                   "TRANSLATION_AND_ROTATION": "TRANSLATION_ROTATION", "DRIVE": "BASE", "MOBILE": "BASE"}
         key = aliases.get(key, key)
         if key not in cls.__members__:
             raise ValueError(f"unknown teleop mode {name!r}; modes: {', '.join(m.name.lower() for m in cls)}")
@@ -88,7 +89,20 @@ MODE_MASKS: dict[TeleopMode, np.ndarray] = {
     TeleopMode.TRANSLATION_ROTATION: np.ones(6),
     TeleopMode.PLANAR: np.array([1, 1, 0, 0, 0, 0], dtype=np.float64),
     TeleopMode.ROTATION: np.array([0, 0, 0, 1, 1, 1], dtype=np.float64),
+    TeleopMode.BASE: np.zeros(6),  # the device drives the base (`base_twist`), not the tool
 }
+
+#: The modes of a station without a mobile base (BASE drives nothing there).
+ARM_MODES = tuple(m for m in TeleopMode if m != TeleopMode.BASE)
+
+
+def base_twist(twist, mode: TeleopMode, max_speed: float, max_rot_speed: float) -> np.ndarray:
+    """A mobile base's body twist `[vx, vy, wz]` from a device's twist in `mode`: its x, y (m/s) and yaw rate
+    (rad/s), speed-limited, in BASE mode; zero in every arm mode (the base stops while the arm is driven)."""
+    if TeleopMode(mode) != TeleopMode.BASE:
+        return np.zeros(3)
+    tw = limit_twist(np.asarray(twist, dtype=np.float64).reshape(6) * [1, 1, 0, 0, 0, 1], max_speed, max_rot_speed)
+    return tw[[0, 1, 5]]
 
 
 def mask_twist(twist, mode: TeleopMode) -> np.ndarray:
@@ -140,14 +154,18 @@ class ButtonEdges:
 
 
 class ModeSwitch:
-    """Cycles the teleop mode on presses of `BUTTON_MODE`, ignoring presses closer than `debounce_s`
-    to the last change (the paper's `t_last_mode_change`)."""
+    """Cycles the teleop mode on presses of `BUTTON_MODE` through `modes` (default: every arm mode; a
+    station with a mobile base adds BASE, so the same key switches the axes between the arm and the base),
+    ignoring presses closer than `debounce_s` to the last change (the paper's `t_last_mode_change`)."""
 
-    def __init__(self, mode: TeleopMode = TeleopMode.TRANSLATION, debounce_s: float = 0.3):
+    def __init__(self, mode: TeleopMode = TeleopMode.TRANSLATION, debounce_s: float = 0.3,
+                 modes: tuple[TeleopMode, ...] = ARM_MODES):
         self.mode, self.debounce_s = TeleopMode(mode), float(debounce_s)
+        self.modes = tuple(modes)
         self.t_last_change = -np.inf
 
     def update(self, pressed: bool, t: float) -> TeleopMode:
         if pressed and t - self.t_last_change >= self.debounce_s:
-            self.mode, self.t_last_change = self.mode.next(), float(t)
+            i = self.modes.index(self.mode) if self.mode in self.modes else -1
+            self.mode, self.t_last_change = self.modes[(i + 1) % len(self.modes)], float(t)
         return self.mode

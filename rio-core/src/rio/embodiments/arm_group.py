@@ -7,6 +7,8 @@ from typing import Any
 import numpy as np
 
 ACTION_SPACES = ("joint_pos", "eef_pose")
+#: The elements of an `eef_pose`: position (m), then the unit quaternion w, x, y, z.
+EEF_NAMES = ("x", "y", "z", "qw", "qx", "qy", "qz")
 
 
 class ArmGroup:
@@ -28,6 +30,24 @@ class ArmGroup:
             out.append((f"{p}hand", self.hand_dof))
         return out
 
+    def names(self) -> dict[str, list[str]]:
+        """Element names of this group's action parts and observation fields: the arm's joints as its
+        driver names them (`shoulder_pan`; numbered `joint_pos.0` when it names none), the pose's
+        `x` ... `qz`, `gripper`, the hand's joints (`hand.<joint>`), each prefixed like the action labels
+        (`arm1_shoulder_pan` in a Bimanual)."""
+        p, space = self.prefix, self.action_space
+        joints = self.emb.joint_names(self.arm, self.arm_dof) or [f"{space}.{i}" for i in range(self.arm_dof)]
+        joints = [f"{p}{j}" for j in joints]
+        eef = [f"{p}{e}" for e in EEF_NAMES]
+        out = {"action": list(joints if space == "joint_pos" else eef), "joints": joints, "eef": eef}
+        if self.gripper:
+            out["action"].append(f"{p}gripper")
+        if self.hand:
+            hand = self.emb.joint_names(self.hand, self.hand_dof) or [str(i) for i in range(self.hand_dof)]
+            out["hand"] = [f"{p}hand.{j}" for j in hand]
+            out["action"] += out["hand"]
+        return out
+
     def read(self) -> dict[str, Any]:
         """proprio part (in action space order) and the schema fields of this group."""
         s = self.emb._state(self.arm)
@@ -46,12 +66,12 @@ class ArmGroup:
 
     def apply(self, parts: dict[str, np.ndarray], t: float) -> None:
         p = self.prefix
-        arm = self.emb.clients[self.arm]
+        send = self.emb.send
         if self.action_space == "joint_pos":
-            arm.move_joints(parts[f"{p}joint_pos"], t)
+            send(self.arm, "move_joints", parts[f"{p}joint_pos"], t)
         else:
-            arm.move_eef(parts[f"{p}eef_pose"], t)
+            send(self.arm, "move_eef", parts[f"{p}eef_pose"], t)
         if self.gripper:
-            self.emb.clients[self.gripper].move(float(parts[f"{p}gripper"][0]), t)
+            send(self.gripper, "move", float(parts[f"{p}gripper"][0]), t)
         if self.hand:
-            self.emb.clients[self.hand].move_joints(parts[f"{p}hand"], t)
+            send(self.hand, "move_joints", parts[f"{p}hand"], t)

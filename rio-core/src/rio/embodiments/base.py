@@ -14,6 +14,7 @@ import numpy as np
 
 from rio import config as _config
 from rio.config import Configurable
+from rio.errors import NoCredits
 from rio.schema import Observation
 
 
@@ -30,9 +31,20 @@ class Embodiment(Configurable):
         self.clients = dict(clients)
         #: Sample timestamp of each role at the last `observe()`.
         self.timestamps: dict[str, float] = {}
+        #: Commands not sent per role because its node was behind on a network link (`send`).
+        self.behind: dict[str, int] = {}
         for role, client in self.clients.items():  # `env.robot.arm.get_state()`, as in the paper
             setattr(self, role, client)
         super().__init__(config, **fields)
+
+    def send(self, role: str, command: str, *args: Any) -> None:
+        """Call `command(*args)` on `role`'s client. A node behind on a network link (every request credit
+        in flight: `NoCredits`, nothing was sent) skips this command and it is counted in `behind`: the next
+        cycle's command supersedes it, and a control loop never waits on the network."""
+        try:
+            getattr(self.clients[role], command)(*args)
+        except NoCredits:
+            self.behind[role] = self.behind.get(role, 0) + 1
 
     @classmethod
     def roles(cls) -> frozenset[str]:
@@ -83,6 +95,36 @@ class Embodiment(Configurable):
                 raise ValueError(f"{self.name}: build_action needs '{label}' ({n}); parts: {self.describe_action()}")
             out.append(np.asarray(parts[label], dtype=np.float64).reshape(-1))
         return np.concatenate(out) if out else np.zeros(0)
+
+    # -- names (recorded with every episode, carried to every export's `names`) ----------------------
+    def action_names(self) -> list[str]:
+        """One name per element of the flat action, in order. Subclasses name them from their drivers
+        (`joint_names()`: `shoulder_pan`, ..., `gripper`); this default numbers them (`joint_pos.0`)."""
+        return [f"{label}.{i}" if n > 1 else label for label, n in self.action_parts() for i in range(n)]
+
+    def named_or_numbered(self, names: list[str]) -> list[str]:
+        """`names` when they are one distinct name per action element, else the numbered default (two
+        drivers that name a joint alike must not give one column two meanings)."""
+        if len(names) == self.action_dim and len(set(names)) == len(names):
+            return list(names)
+        return Embodiment.action_names(self)
+
+    def observation_names(self) -> dict[str, list[str]]:
+        """{observation field: one name per element} for the fields whose elements the drivers name
+        (`proprio` is laid out as the action)."""
+        return {"proprio": self.action_names()}
+
+    def joint_names(self, role: str, n: int) -> list[str] | None:
+        """The joint names the driver of `role` reports, None if it reports none or not `n` of them (a
+        client without `joint_names()`, a test double): the caller then numbers the elements."""
+        fn = getattr(self.clients.get(role), "joint_names", None)
+        if fn is None:
+            return None
+        try:
+            names = [str(x) for x in fn()]
+        except Exception:  # a driver that cannot say: numbered names, never a failed recording
+            return None
+        return names if len(names) == n and len(set(names)) == n else None
 
     def _state(self, role: str) -> dict[str, Any]:
         state = self.clients[role].get_state()

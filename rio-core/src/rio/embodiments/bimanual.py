@@ -28,6 +28,17 @@ class Bimanual(Embodiment):
     def action_parts(self) -> list[tuple[str, int]]:
         return self.left.layout() + self.right.layout()
 
+    def action_names(self) -> list[str]:
+        return self.named_or_numbered(self.left.names()["action"] + self.right.names()["action"])
+
+    def observation_names(self) -> dict[str, list[str]]:
+        out = {"proprio": self.action_names()}
+        for k, g in (("1", self.left.names()), ("2", self.right.names())):
+            out[f"arm{k}_proprio_joints"], out[f"arm{k}_proprio_eef"] = g["joints"], g["eef"]
+            if "hand" in g:
+                out[f"hand{k}_joints"] = g["hand"]
+        return out
+
     def observe(self) -> BimanualObs:
         a, b = self.left.read(), self.right.read()
         return BimanualObs(

@@ -23,6 +23,24 @@ class Humanoid(Embodiment):
     def action_parts(self) -> list[tuple[str, int]]:
         return [("joint_pos", self.dofs["humanoid"])] + [(r, self.dofs[r]) for r in self.hands]
 
+    def _joints(self, role: str) -> list[str]:
+        n = self.dofs[role]
+        named = self.joint_names(role, n)
+        if role == "humanoid":
+            return named or [f"joint_pos.{i}" for i in range(n)]
+        return [f"{role}.{j}" for j in (named or [str(i) for i in range(n)])]
+
+    def action_names(self) -> list[str]:
+        return self.named_or_numbered([n for r in ("humanoid", *self.hands) for n in self._joints(r)])
+
+    def observation_names(self) -> dict[str, list[str]]:
+        body = self._joints("humanoid")
+        out = {"proprio": self.action_names(), "joint_pos": body, "joint_vel": body}
+        for r, field in (("hand", "hand1_joints"), ("hand2", "hand2_joints")):
+            if r in self.hands:
+                out[field] = self._joints(r)
+        return out
+
     def observe(self) -> HumanoidObs:
         s = self._state("humanoid")
         hands = {r: np.asarray(self._state(r)["joint_pos"]) for r in self.hands}
@@ -34,6 +52,6 @@ class Humanoid(Embodiment):
         )
 
     def apply(self, parts: dict[str, np.ndarray], t_cmd_target: float) -> None:
-        self.clients["humanoid"].move_joints(parts["joint_pos"], t_cmd_target)
+        self.send("humanoid", "move_joints", parts["joint_pos"], t_cmd_target)
         for r in self.hands:
-            self.clients[r].move_joints(parts[r], t_cmd_target)
+            self.send(r, "move_joints", parts[r], t_cmd_target)

@@ -30,6 +30,16 @@ class SingleArm(Embodiment):
     def action_parts(self) -> list[tuple[str, int]]:
         return self.group.layout()
 
+    def action_names(self) -> list[str]:
+        return self.named_or_numbered(self.group.names()["action"])
+
+    def observation_names(self) -> dict[str, list[str]]:
+        g = self.group.names()
+        out = {"proprio": self.action_names(), "proprio_joints": g["joints"], "proprio_eef": g["eef"]}
+        if "hand" in g:
+            out["hand_joints"] = g["hand"]
+        return out
+
     def observe(self) -> SingleArmObs:
         g = self.group.read()
         return SingleArmObs(proprio=g["proprio"], proprio_eef=g["eef"], proprio_joints=g["joints"],

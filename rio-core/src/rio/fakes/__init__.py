@@ -10,11 +10,12 @@ from tables, for retargeting and IK tests. Test *nodes* that are no device kind 
 """
 
 from rio.fakes.arms import SIX_DOF_MJCF, FakeArm, FakeGripper, FakeModelArm
+from rio.fakes.base import FakeBase
 from rio.fakes.hands import FIVE_FINGER_HAND_MJCF, FakeHand, FakeModelHand
 from rio.fakes.humanoid import UPPER_BODY_MJCF, FakeHumanoid, FakeModelHumanoid
 from rio.fakes.sensors import FakeCamera, FakeSensor
 from rio.fakes.teleop import FakeHandTracker, FakeTeleop, synthetic_hand_keypoints
 
-__all__ = ["FakeArm", "FakeModelArm", "FakeGripper", "FakeCamera", "FakeSensor", "FakeTeleop", "FakeHandTracker",
-           "FakeHand", "FakeModelHand", "FakeHumanoid", "FakeModelHumanoid", "SIX_DOF_MJCF", "FIVE_FINGER_HAND_MJCF",
-           "UPPER_BODY_MJCF", "synthetic_hand_keypoints"]
+__all__ = ["FakeArm", "FakeBase", "FakeModelArm", "FakeGripper", "FakeCamera", "FakeSensor", "FakeTeleop",
+           "FakeHandTracker", "FakeHand", "FakeModelHand", "FakeHumanoid", "FakeModelHumanoid", "SIX_DOF_MJCF",
+           "FIVE_FINGER_HAND_MJCF", "UPPER_BODY_MJCF", "synthetic_hand_keypoints"]

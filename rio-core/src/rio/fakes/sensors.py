@@ -1,4 +1,4 @@
-"""A fake camera and a fake sensor: the `rio.fake_camera` and `rio.fake_sensor` drivers."""
+"""A fake camera and fake sensors: the `rio.fake_camera`, `rio.fake_sensor` and `rio.fake_wrench` drivers."""
 
 from __future__ import annotations
 
@@ -46,3 +46,20 @@ class FakeSensor(Node):
 
     def read_state(self) -> dict[str, Any]:
         return {"value": np.asarray(self.config.value, dtype=np.float64)}
+
+
+class FakeWrench(ifc.WrenchNode):
+    """A force/torque cell under a constant `load` (Fx, Fy, Fz N, Tx, Ty, Tz N m) with seeded noise."""
+
+    class Config(ifc.WrenchNode.Config):
+        load: list[float] = Field(default_factory=lambda: [0.0, 0.0, -4.9, 0.0, 0.0, 0.0], min_length=6,
+                                  max_length=6, description="the constant wrench applied (N, N m)")
+        noise: float = Field(0.01, ge=0, description="standard deviation of each reading's noise (N, N m)")
+
+    def setup(self) -> None:
+        super().setup()
+        self._rng = np.random.default_rng(0)
+
+    def read_wrench(self) -> dict[str, Any]:
+        w = np.asarray(self.config.load, dtype=np.float64) + self._rng.normal(0.0, self.config.noise, 6)
+        return {"force": w[:3], "torque": w[3:]}

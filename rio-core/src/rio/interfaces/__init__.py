@@ -1,6 +1,6 @@
 """Standard node kinds: the state keys, request keys, client methods and safety every driver of a kind
 shares, so an embodiment (and a user's main loop) can drive any arm, gripper, camera, hand or humanoid
-without knowing which vendor is behind it.
+without knowing which vendor is behind it (and a mobile base: `BaseNode`, commanded by its body twist).
 
 A driver subclasses one of these, extends its `Config`, and writes only hardware logic: for the
 joint kinds `read_joints()` / `write_joints(q)` (plus `set_enabled`, `hardware_limits`,
@@ -21,6 +21,10 @@ at which the target should be reached; None means "as soon as possible" (sent as
 | humanoid | joint_pos (n), joint_vel (n), base_quat (4, wxyz), base_ang_vel (3) rad/s | move_joints(q, t) |
 | camera   | rgb (H,W,3) uint8, intrinsics (3,3); depth (H,W) uint16, depth_scale m | - |
 | teleop   | twist (6: m/s, rad/s), gripper (0 closed .. 1 open), buttons (n)     | - |
+| wrench   | force (3) N, torque (3) N m in the sensor frame (a `sensor` role)    | tare, untare |
+| base     | wheel_pos (n) rad, wheel_vel (n) rad/s, body_twist (3), odom_pose (3)  | move_twist(twist, t) |
+
+A base's `body_twist` is `[vx, vy, wz]` (m/s, rad/s, its own frame), `odom_pose` `[x, y, theta]` (m, rad).
 
 A camera may also publish its lens distortion (`CameraNode.declare_distortion()`): `distortion_model`
 (index into `rio.schema.DISTORTION_MODELS`) and `distortion` (5 coefficients).
@@ -38,6 +42,7 @@ published as NaN, never as a made-up number.
 """
 
 from rio.interfaces.arm import EEF, IDENTITY_POSE, JOINT, ArmNode
+from rio.interfaces.base import BaseNode
 from rio.interfaces.camera import CameraNode
 from rio.interfaces.damping import BodyDampingConfig, DampingConfig, DampingGuard, MotorGainsConfig, motor_gains
 from rio.interfaces.devices import IPv4, NetworkDevice, ServoBus
@@ -49,8 +54,10 @@ from rio.interfaces.joints import JointNode
 from rio.interfaces.link import LinkSupervisor
 from rio.interfaces.model_table import ModelTable
 from rio.interfaces.teleop import TeleopNode
+from rio.interfaces.wrench import WrenchNode
 
-__all__ = ["ArmNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "JointNode",
+__all__ = ["ArmNode", "BaseNode", "GripperNode", "HandNode", "HumanoidNode", "CameraNode", "TeleopNode", "WrenchNode",
+           "JointNode",
            "JOINT", "EEF", "IDENTITY_POSE", "Fault", "FaultHolder", "FAULT_KEYS", "LinkSupervisor", "ModelTable",
            "NetworkDevice", "ServoBus", "IPv4", "Grabber", "CameraError", "SourceLost", "SourceFinished",
            "DampingGuard", "DampingConfig", "BodyDampingConfig", "MotorGainsConfig", "motor_gains"]

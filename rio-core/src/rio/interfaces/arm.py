@@ -9,6 +9,11 @@ End-effector targets reach the hardware one of two ways:
 - otherwise the kind solves IK on the driver's `robot_description()` (shared IK, `rio.kinematics`),
   warm-started from the last joint target, and the joint commander takes it from there.
 
+With `force_limit` set in the station, a driver's `read_wrench()` (the external wrench at the tool: a wrist
+force/torque cell it reads, or its controller's estimate) is checked every cycle before the commander steps;
+over the limit the arm holds where it is (`rio.interfaces.force`, `rio.control.force_limit`), and every
+sample carries `ext_wrench` (6: N, N m, zeroed at enable) and `force_holds` (how many times it held).
+
 `eef_pose` is what the driver measured when it reports one; else forward kinematics of the measured
 joints on `robot_description()`; else NaN. So an arm that ships a model can be teleoperated, recorded
 and deployed in end-effector space without any Cartesian code of its own (docs/drivers.md).
@@ -25,6 +30,7 @@ from pydantic import Field
 from rio import clock
 from rio.control.commander import PoseCommander
 from rio.errors import InvalidRequest
+from rio.interfaces.force import ForceLimitConfig, WrenchSource
 from rio.interfaces.joints import JointConfig, JointNode, as_vector, t_target
 from rio.runtime.node import client_side, remote
 
@@ -50,6 +56,9 @@ class ArmNode(JointNode):
                                                                 "streaming poses")
         max_tool_step_rad: float = Field(0.05, gt=0, description="largest tool rotation per cycle (rad), for "
                                                                  "drivers streaming poses")
+        force_limit: ForceLimitConfig | None = Field(
+            None, description="hold the arm where it is when the external wrench at the tool exceeds these "
+                              "limits (needs a driver with a wrench source: read_wrench())")
 
     #: The vendor's table of arm models (`rio.interfaces.ModelTable`), for a driver serving a family of arms:
     #: joints, home, limits and robot description are then those of the station's `model`.
@@ -58,6 +67,12 @@ class ArmNode(JointNode):
     # -- driver hooks (besides JointNode's) ---------------------------------------------------------
     def write_pose(self, eef_pose: np.ndarray) -> None:
         """Stream this cycle's end-effector goal. Define it only where the hardware has Cartesian control."""
+        raise NotImplementedError
+
+    def read_wrench(self) -> Any:
+        """The external wrench at the tool now: 6 values, force (N) then torque (N m), as a wrist force/torque
+        sensor or the controller's estimate gives it; None when there is no reading this cycle. Define it
+        where the hardware has one: `force_limit` needs it."""
         raise NotImplementedError
 
     @remote
@@ -98,6 +113,12 @@ class ArmNode(JointNode):
         self.poses: PoseCommander | None = None
         self.mode = JOINT
         self._eef = _NAN_POSE
+        self.wrench: WrenchSource | None = None
+        if self.config.force_limit is not None:
+            if type(self).read_wrench is ArmNode.read_wrench:
+                raise ValueError(f"force_limit is set but {type(self).__name__} has no wrench source (read_wrench())")
+            self.wrench = WrenchSource(self, self.config.force_limit)
+            self.example_data.update(ext_wrench=np.zeros(6), force_holds=0)
 
     def opened(self) -> None:
         self.kinematics = self._load_kinematics()
@@ -107,6 +128,11 @@ class ArmNode(JointNode):
             self.poses = PoseCommander(ws[0], ws[1], self.config.max_tool_step_m, self.config.max_tool_step_rad,
                                        self.config.watchdog_s, start=self._eef_of(self.read_joints()))
             self.poses.owner = f"node '{self.name}' (end-effector poses)"
+        if self.wrench is not None:
+            limit = self.wrench.config.limit()
+            for commander in (self.commander, self.poses):
+                if commander is not None:
+                    commander.force_limit = limit
 
     def _load_kinematics(self) -> Any:
         desc = self.robot_description()
@@ -136,6 +162,8 @@ class ArmNode(JointNode):
         """One tick at `rate_hz` (the runtime calls it): read the hardware, step the commander of the mode the
         arm is in (joint targets, or end-effector poses the driver streams), write the goal it allows."""
         sample = self.read_arm()
+        if self.wrench is not None and self.enabled:
+            self._guard(sample)
         if self.enabled and self.mode == EEF:
             assert self.poses is not None  # EEF mode is entered only where opened() made the pose commander
             self.write_pose(self.poses.step(clock.now()))
@@ -144,6 +172,15 @@ class ArmNode(JointNode):
         else:
             self.write_disabled()
         return self.complete(sample)
+
+    def _guard(self, sample: dict[str, Any]) -> None:
+        """The force limit, before the commander of the arm's mode steps (it holds there when over)."""
+        assert self.wrench is not None
+        w, now = self.wrench.read(), clock.now()
+        if self.mode == EEF and self.poses is not None:
+            self.poses.guard(w, self._eef, now)
+        else:
+            self.commander.guard(w, sample["joint_pos"], now)
 
     def read_state(self) -> dict[str, Any]:
         """The arm now with the kind's keys: a read only, nothing is written (see `cycle()`)."""
@@ -157,6 +194,9 @@ class ArmNode(JointNode):
 
     def complete(self, sample: dict[str, Any]) -> dict[str, Any]:
         sample = super().complete(sample)
+        if self.wrench is not None:
+            sample["ext_wrench"] = self.wrench.last
+            sample["force_holds"] = self.commander.force_holds + (self.poses.force_holds if self.poses else 0)
         if self.mode == EEF and self.enabled:
             assert self.poses is not None  # EEF mode is entered only where opened() made the pose commander
             sample["holding"] = self.poses.holding
@@ -199,7 +239,10 @@ class ArmNode(JointNode):
     @remote
     def enable(self) -> bool:
         self.mode = JOINT
-        return super().enable()
+        enabled = super().enable()
+        if self.wrench is not None:
+            self.wrench.tare()  # holding still, nothing touched yet: the tool's own weight is the zero
+        return enabled
 
     @remote
     def hold(self) -> None:

@@ -8,12 +8,16 @@ could not grab are not published.
 A driver that grabs in a thread of its own makes a `rio.interfaces.Grabber` in `open()` as `self.grabber`:
 the kind then publishes each frame as it lands (the grabber's arrival event) rather than at `rate_hz`, and
 stops the grab thread before the driver's `close()`.
+
+Across a network link frames are compressed once on the camera's side and decoded once by each reader
+(`codec`, `jpeg_quality`, `depth_codec`; see docs/concepts/middlewares.md); capture timestamps travel
+unchanged, and readers on the camera's machine over shm still read the original frames.
 """
 
 from __future__ import annotations
 
 import threading
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -29,6 +33,14 @@ class CameraNode(Node):
         width: int = Field(640, ge=1, le=8192, description="image width (pixels)")
         height: int = Field(480, ge=1, le=8192, description="image height (pixels)")
         depth: bool = Field(False, description="also publish metric depth")
+        codec: Literal["auto", "raw", "jpeg", "png", "zstd"] = Field(
+            "auto", description="how colour frames cross a network link (zmq, zenoh, portal): encoded once on "
+            "the camera's side, decoded once by each reader; auto: raw while the node serves this machine only, "
+            "jpeg once it serves others (shm and thread never encode)")
+        jpeg_quality: int = Field(90, ge=1, le=100, description="JPEG quality (codec jpeg, or auto on a link)")
+        depth_codec: Literal["auto", "raw", "png", "zstd"] = Field(
+            "auto", description="how depth frames cross a network link, always lossless; auto: raw on "
+            "loopback, zstd across machines")
 
     #: The grab thread, where the driver grabs in one (made in `open()`).
     grabber: Grabber | None = None
@@ -41,6 +53,11 @@ class CameraNode(Node):
         if self.has_depth:
             self.example_data["depth"] = np.zeros((self.height, self.width), np.uint16)
             self.example_data["depth_scale"] = 0.001
+
+    def link_codecs(self) -> dict[str, dict[str, Any]]:
+        """What a network middleware may compress, and how (`rio.middleware.protocol.codecs`)."""
+        c = self.config
+        return {"rgb": {"codec": c.codec, "quality": c.jpeg_quality}, "depth": {"codec": c.depth_codec}}
 
     def arrival_event(self) -> threading.Event | None:
         return self.grabber.arrived if self.grabber is not None else None

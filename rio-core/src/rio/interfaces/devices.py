@@ -47,7 +47,9 @@ class NetworkDevice(Config):
 class ServoBus(Config):
     """Station fields of a device on a serial bus."""
 
+    #: "virtual" was the emulator's port value until the stand-ins got one word each (fake, emulator, sim).
+    renamed_values = {"port": {"virtual": "emulator"}}
     port: str = Field(description='the bus\'s serial port (e.g. /dev/ttyUSB0; a /dev/serial/by-id/ path survives '
-                                  're-plugging), or "virtual" for an emulated device')
+                                  're-plugging), or "emulator" for an emulated device inside the driver')
     baudrate: int = Field(1_000_000, gt=0, description="baud rate (the devices' setting)")
     retries: int = Field(2, ge=0, le=10, description="retries of a failed exchange before it is an error")

@@ -251,6 +251,9 @@ class ControlLoop:
         finish = getattr(self.controller, "finish", None)
         if finish is not None:
             finish(s)
+        for role, skipped in getattr(self.env.robot, "behind", {}).items():
+            s.warnings.append(f"{role}: {skipped} command(s) not sent: its node was behind on the network link "
+                              "(every request credit in flight); each was superseded by the next cycle's")
         for a in s.arms:
             if not a.followed:
                 s.warnings.append(f"{a.role} was commanded over {a.commanded_path_m:.3f} m / "

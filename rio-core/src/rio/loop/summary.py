@@ -9,6 +9,7 @@ means the same thing everywhere:
   that time (joints in rad, tool position in m; max / mean / final), and the path the tool travelled
   next to the path it was commanded to travel. Comparing only the final pose with the final target
   reports success for an arm that never moved, when the target never moved either;
+- per arm with a force limit, how many times it held the arm (`force_holds`);
 - per-node publishing rates over the run, and ground-truth object motion where a simulator tells it;
 - the task's verdict where a sensor runs one (a sim world with a task): `success` (None without a task)
   and `task` (the episode's seed and start, its task time, when success was first seen), from
@@ -51,6 +52,8 @@ class ArmTracking:
     gripper: float | None = None
     #: the measured joints at the end
     final_q: np.ndarray | None = None
+    #: times the arm's force limit held it during the run (None: the arm has no force limit)
+    force_holds: int | None = None
 
     @property
     def followed(self) -> bool:
@@ -157,6 +160,8 @@ def _arm_line(a: ArmTracking) -> str:
         parts.append(f"joint error max {mx:.3f} / mean {mean:.3f} / final {final:.3f} rad;")
     if a.gripper is not None:
         parts.append(f"gripper {a.gripper * 1000:.0f} mm;")
+    if a.force_holds:
+        parts.append(f"force limit held it {a.force_holds} time{'s' if a.force_holds != 1 else ''};")
     if not a.followed:
         parts.append("DID NOT FOLLOW its commands;")
     return " ".join(parts).rstrip(";")

@@ -51,6 +51,8 @@ class _Arm:
         #: measured path counts the arm's move to it)
         self.from_cmd = self.start.copy() if space == "eef_pose" else self.last_q.copy()
         self.errors = Reservoir()  # only max and mean are reported; both exact
+        holds = s.get("force_holds")  # an arm with a force limit: counted from here
+        self.holds0 = None if holds is None else int(holds)
         self.path = self.cmd_path = self.joint_path = self.cmd_joint_path = 0.0
 
     def command(self, part: np.ndarray, t_target: float) -> None:
@@ -88,11 +90,13 @@ class _Arm:
         final = self._error(self.last_cmd, tool, q) if self.last_cmd is not None else float("nan")
         stats = (errs.max, errs.mean, final) if errs.mean is not None else None
         g = None if self.gripper is None else float(self.gripper.get_state()["position"])
+        holds = None if self.holds0 is None else int(s["force_holds"]) - self.holds0
         return ArmTracking(self.role, self.space, self.start, tool,
                            self.last_cmd.copy() if self.space == "eef_pose" and self.last_cmd is not None else None,
                            self.path, self.cmd_path, self.joint_path, self.cmd_joint_path,
                            joint_err_rad=stats if self.space == "joint_pos" else None,
-                           eef_err_m=stats if self.space == "eef_pose" else None, gripper=g, final_q=q.copy())
+                           eef_err_m=stats if self.space == "eef_pose" else None, gripper=g, final_q=q.copy(),
+                           force_holds=holds)
 
 
 class ArmTracker:

@@ -19,6 +19,8 @@ from rio.machine.system_needs import SystemNeed
 
 #: The `ip` command that makes the namespaces (not in a minimal Debian, such as a container image).
 IPROUTE2 = SystemNeed("iproute2", program="ip")
+#: `tc`, which shapes the link (`TwoMachines.shape`); iproute2 ships it too.
+TC = SystemNeed("iproute2", program="tc")
 
 
 def available() -> str | None:
@@ -91,6 +93,38 @@ class TwoMachines:
             self.__exit__()
             raise
         return self
+
+    def shape(self, rate: str | None = None, delay_ms: float = 0.0, loss_pct: float = 0.0) -> str:
+        """Make the link a slower one, both ways, with `tc`: `rate` ("1gbit", "100mbit"), one-way `delay_ms`,
+        random `loss_pct` (netem). A kernel without netem (some containers) gets the rate alone (tbf), and
+        the answer says so: it describes what was applied. `shape()` alone restores the bare veth."""
+        applied = "bare veth"
+        for s in (self.a, self.b):
+            subprocess.run(["ip", "netns", "exec", s.ns, "tc", "qdisc", "del", "dev", s.dev, "root"],
+                           capture_output=True)
+            if rate is None and not delay_ms and not loss_pct:
+                continue
+            netem = ["delay", f"{delay_ms}ms"] + (["rate", rate] if rate else []) + \
+                (["loss", f"{loss_pct}%"] if loss_pct else [])
+            # a queue of ~0.2 s at the rate (netem's default, 1000 packets, is 12 ms at 1 Gbit/s)
+            r = self._tc(s, "netem", *netem, "limit", "20000")
+            applied = f"netem {' '.join(netem)}"
+            if r.returncode != 0 and "unknown" in r.stderr and rate:
+                r = self._tc(s, "tbf", "rate", rate, "burst", "256kb", "latency", "200ms")
+                applied = f"tbf rate {rate} (no netem in this kernel: no delay, no loss)"
+            if r.returncode != 0:
+                raise RuntimeError(f"tc on {s.dev}: {r.stderr.strip()}")
+        return applied
+
+    @staticmethod
+    def _tc(side: Side, kind: str, *args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(["ip", "netns", "exec", side.ns, "tc", "qdisc", "add", "dev", side.dev, "root", kind,
+                               *args], capture_output=True, text=True)
+
+    def tx_bytes(self, side: Side) -> int:
+        """Bytes `side` has sent on its end of the link (its interface's counter)."""
+        r = side.run(["cat", f"/sys/class/net/{side.dev}/statistics/tx_bytes"], capture_output=True, text=True)
+        return int(r.stdout.strip() or 0)
 
     def cut(self) -> None:
         """Unplug the cable (both ends down: nothing gets through either way)."""

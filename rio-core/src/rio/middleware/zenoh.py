@@ -370,6 +370,12 @@ class ZenohClient(NetworkClient):
         except queue.Empty:
             return None
 
+    def _recv_now(self, kind: bytes) -> bytes | None:
+        try:
+            return self._answers[kind].get_nowait().payload.to_bytes()
+        except queue.Empty:
+            return None
+
     def close(self) -> None:
         _undeclare(*self._entities)
         self._entities.clear()

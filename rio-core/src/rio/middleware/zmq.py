@@ -295,6 +295,16 @@ class ZmqClient(NetworkClient):
             if clock.now() > t_end:  # only strays arrive (answers to a handshake of long ago)
                 return None
 
+    def _recv_now(self, kind: bytes) -> memoryview | None:
+        sock = self._req_sock if kind == ACK else self._call_sock
+        while True:
+            try:
+                msg = sock.recv(zmq.NOBLOCK)
+            except zmq.Again:
+                return None
+            if msg[:1] == kind:  # else a stray (an answer to a handshake of long ago)
+                return memoryview(msg)[1:]
+
     def _auth_failed(self, monitor: zmq.Socket, keyed: bool) -> None:
         """Raise ConfigError when the call socket's monitor reports a failed handshake (a refused key,
         a wrong server key, or one side with keys and the other without)."""

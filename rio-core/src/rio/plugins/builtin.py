@@ -46,6 +46,8 @@ def rio_embodiments() -> list[Spec]:
              "arm + arm2, each [+ gripper] [+ hand] -> BimanualObs"),
         Spec("humanoid", "embodiment", "rio.embodiments.humanoid:Humanoid",
              "humanoid [+ hand, hand2] -> HumanoidObs"),
+        Spec("mobile_manipulator", "embodiment", "rio.embodiments.mobile:MobileManipulator",
+             "base + arm [+ gripper] [+ hand] -> MobileManipulatorObs"),
     ]
 
 
@@ -60,6 +62,7 @@ def rio_drivers() -> list[Spec]:
         Spec("rio.fake_model_arm", "arm", f"{f}.arms:FakeModelArm",
              "6-joint arm with a robot model and no Cartesian control (end-effector poses by FK/IK); tests"),
         Spec("rio.fake_gripper", "gripper", f"{f}.arms:FakeGripper", f"gripper: {_FAKE}"),
+        Spec("rio.fake_base", "base", f"{f}.base:FakeBase", f"three-wheel omni base: {_FAKE}"),
         Spec("rio.fake_camera", "camera", f"{f}.sensors:FakeCamera", f"camera: {_FAKE}"),
         Spec("rio.fake_teleop", "teleop", f"{f}.teleop:FakeTeleop", f"teleop: {_FAKE}"),
         Spec("rio.fake_hand_tracker", "teleop", f"{f}.teleop:FakeHandTracker",
@@ -71,6 +74,8 @@ def rio_drivers() -> list[Spec]:
         Spec("rio.fake_model_humanoid", "humanoid", f"{f}.humanoid:FakeModelHumanoid",
              "21-joint humanoid upper body with a robot model (wrist IK, legs left alone); tests"),
         Spec("rio.fake_sensor", "sensor", f"{f}.sensors:FakeSensor", f"sensor (a constant reading): {_FAKE}"),
+        Spec("rio.fake_wrench", "sensor", f"{f}.sensors:FakeWrench",
+             f"force/torque sensor (wrench kind; a constant load with noise): {_FAKE}"),
         # Teleop devices that need no hardware
         Spec("teleop.scripted", "teleop", "rio.teleop.scripted:ScriptedTeleop",
              "scripted end-effector moves (pick and place); headless demos and tests"),

@@ -29,7 +29,7 @@ def rio_middlewares() -> list[Spec]:
 
 @hookspec
 def rio_drivers() -> list[Spec]:
-    """Device drivers: arm, gripper, hand, humanoid, camera, teleop, sensor. Target is a Node class;
+    """Device drivers: arm, gripper, hand, humanoid, camera, teleop, sensor, base. Target is a Node class;
     config is a pydantic model whose fields are the node's constructor keyword arguments."""
 
 
@@ -52,7 +52,8 @@ def rio_embodiments() -> list[Spec]:
 @hookspec
 def rio_stations() -> list[Spec]:
     """Packaged station files (kind 'station'); target is an absolute path of a .toml file or a
-    package resource 'package:relative/path.toml' (read with importlib.resources)."""
+    package resource 'package:relative/path.toml' (read with importlib.resources). A renamed station
+    keeps its old names in `formerly` for one release (`rio.station.load.find_station` resolves them)."""
 
 
 @hookspec

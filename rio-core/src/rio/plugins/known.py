@@ -28,6 +28,7 @@ KNOWN: dict[str, dict[str, tuple[str, ...]]] = {
     "rio-datasets": {"dataset_format": ("lerobot", "zarr", "hdf5")},
     "rio-ufactory": {"driver": ("ufactory.*",), "station": ("xarm*", "lite6*")},
     "rio-robotiq": {"driver": ("robotiq.*", "dh.*"), "station": ("robotiq-*",)},
+    "rio-ati": {"driver": ("ati.*",), "station": ("ati-*",)},
     "rio-ur": {"driver": ("ur.*",), "station": ("ur3e*", "ur5e*", "ur7e*", "ur10e*", "ur12e*", "ur16e*")},
     "rio-franka": {"driver": ("franka.*",), "station": ("fr3*", "panda*")},
     "rio-kinova": {"driver": ("kinova.*",), "station": ("gen3*",)},

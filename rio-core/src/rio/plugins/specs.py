@@ -13,7 +13,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
-DRIVER_KINDS = ("arm", "gripper", "hand", "humanoid", "camera", "teleop", "sensor")
+DRIVER_KINDS = ("arm", "gripper", "hand", "humanoid", "camera", "teleop", "sensor", "base")
 KINDS = (
     *DRIVER_KINDS, "policy",
     "middleware", "dataset_format", "embodiment", "station", "command", "workflow",
@@ -55,6 +55,9 @@ class Spec:
     #: Config values this name fixes: a model variant is the same class with a preset
     #: (`Spec("so101.follower", "arm", ".../driver:So100Follower", preset={"model": "so101"})`).
     preset: dict[str, Any] = field(default_factory=dict, hash=False)
+    #: Names this spec had before a rename (stations: `rio.station.load.find_station` still loads it by
+    #: them, with a notice, for one release; `rio stations list` shows them).
+    formerly: tuple[str, ...] = ()
     #: Filled in by the loader: the distribution that registered this spec.
     plugin: str = field(default="", compare=False)
 
@@ -94,4 +97,12 @@ def check_spec(spec: Any, allowed_kinds: tuple[str, ...]) -> str | None:
         return f"spec '{spec.name}' preset must be a dict of config field values, got {spec.preset!r:.60}"
     if not isinstance(spec.description, str):
         return f"spec '{spec.name}' description must be a string"
+    if not isinstance(spec.formerly, tuple):
+        return f"spec '{spec.name}' formerly must be a tuple of old names, got {spec.formerly!r:.60}"
+    for old in spec.formerly:
+        if not isinstance(old, str) or not _NAME.match(old):
+            return (f"spec '{spec.name}' formerly: {old!r:.60} is not a valid name "
+                    "(letters, digits, '.', '_', '-')")
+        if old == spec.name:
+            return f"spec '{spec.name}' formerly: '{old}' is its current name"
     return None

@@ -16,6 +16,7 @@ ends as one `ExportError` line saying what failed and that the partial output is
 from __future__ import annotations
 
 import errno
+import os
 import shutil
 import time
 from collections.abc import Callable
@@ -24,6 +25,7 @@ from typing import Any, ClassVar
 
 from rio.config import Config, Configurable
 from rio.machine.confine import is_inside
+from rio.recording import paths as L
 from rio.recording import recorder as R
 from rio.recording.dataset import Dataset, DatasetError
 
@@ -77,19 +79,45 @@ def get_format(name: str, options: dict[str, Any] | None = None, registry: Any =
 
 
 def export_dataset(fmt: DatasetFormat, dataset: Dataset, out: str | Path, *, episodes: list[int] | None = None,
-                   progress: Progress | None = None, min_free_bytes: int = MIN_FREE_BYTES) -> dict[str, Any]:
+                   progress: Progress | None = None, min_free_bytes: int = MIN_FREE_BYTES,
+                   overwrite: bool = False) -> dict[str, Any]:
     """`fmt.export` after verifying the episodes it will read (see the module docstring); if it fails,
     whatever it created at `out` is removed (what was there before is left alone). `min_free_bytes`: the
-    free space on `out`'s disk below which it does not start, and stops."""
+    free space on `out`'s disk below which it does not start, and stops.
+
+    An `out` that exists and is not empty (a directory with entries, a file) is refused unless `overwrite`;
+    then it is moved aside first and deleted only once the new export has finished: a failed export puts
+    it back. Never the dataset itself, a folder holding it, or another native dataset."""
     out = Path(out)
     if is_inside(out, dataset.root):
         raise ExportError(f"{out}: inside the dataset it would be exported from ({dataset.root}); "
                           "write the export somewhere else")
+    occupied = _occupied(out)
+    if occupied and not overwrite:
+        raise ExportError(f"{out} exists and is not empty; --overwrite (overwrite=True) replaces it")
+    if occupied and (is_inside(dataset.root, out) or (out / L.INDEX).exists()):
+        raise ExportError(f"{out}: holds a RIO dataset{' (the one exported)' if is_inside(dataset.root, out) else ''}"
+                          "; --overwrite replaces only exports: choose another output")
     chosen = episodes if episodes is not None else [e["index"] for e in dataset.episodes]
     for k in chosen:
         dataset.episode(k).check()
-    space = _SpaceWatch(out, min_free_bytes)
-    space.check("not starting the export")
+    _SpaceWatch(out, min_free_bytes).check("not starting the export")
+    aside = _move_aside(out) if occupied else None
+    try:
+        result = _export(fmt, dataset, out, episodes, progress, _SpaceWatch(out, min_free_bytes))
+    except BaseException:
+        if aside is not None:
+            _remove_new(out, None)
+            aside.rename(out)
+        raise
+    if aside is not None:
+        _remove_new(aside, None)
+    return result
+
+
+def _export(fmt: DatasetFormat, dataset: Dataset, out: Path, episodes: list[int] | None,
+            progress: Progress | None, space: _SpaceWatch) -> dict[str, Any]:
+    """`fmt.export` with free-space checks at its progress calls; a failure removes what it created."""
     before = _entries(out)
 
     def advance(done: int, total: int, what: str) -> None:
@@ -128,6 +156,23 @@ class _SpaceWatch:
             raise ExportError(f"{self.out}: {doing}: {free / 1e6:.1f} MB free on its disk, an export needs "
                               f"{self.min_free / 1e6:.0f} MB; free some space" +
                               ("; its partial output was removed" if doing != "not starting the export" else ""))
+
+
+def _occupied(out: Path) -> bool:
+    """Whether `out` holds something an export would have to replace (a file, or a non-empty directory)."""
+    if out.is_symlink() or out.is_file():
+        return True
+    return out.is_dir() and any(out.iterdir())
+
+
+def _move_aside(out: Path) -> Path:
+    """Rename `out` to a hidden sibling (same disk: a rename, nothing copied) and return where it went."""
+    for k in range(1000):
+        aside = out.with_name(f".{out.name}.rio-replaced-{os.getpid()}-{k}")
+        if not aside.exists() and not aside.is_symlink():
+            out.rename(aside)
+            return aside
+    raise ExportError(f"{out}: cannot move it aside to replace it (too many .{out.name}.rio-replaced-* beside it)")
 
 
 def _os_error(e: BaseException | None) -> OSError | None:

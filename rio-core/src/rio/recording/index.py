@@ -23,7 +23,8 @@ def summary(meta: dict[str, Any]) -> dict[str, Any]:
     """The index entry of an episode, from its episode.json."""
     keys = ("index", "dir", "length", "fps", "duration_s", "instruction", "t_start", "finished_at", "repaired")
     out = {k: meta[k] for k in keys if k in meta}
-    out["cameras"] = {k: {f: v[f] for f in ("frames", "height", "width", "rate") if f in v}
+    out["cameras"] = {k: {f: v[f] for f in ("frames", "height", "width", "rate", "measured_rate")
+                          if f in v}
                       for k, v in meta.get("streams", {}).items()}
     return out
 

@@ -87,6 +87,29 @@ def _disk_full(err: BaseException) -> bool:
     return isinstance(err, OSError) and err.errno in DISK_FULL_ERRNOS
 
 
+#: The roles whose drivers say what robot a dataset was recorded on (LeRobot's `robot_type`).
+ROBOT_ROLES = ("arm", "arm2", "humanoid")
+
+
+def robot_type_of(drivers: dict[str, str]) -> str | None:
+    """The station's arm (or humanoid) driver name (`so101.follower`), two different arms joined with
+    `+`; None for a station without one."""
+    names = list(dict.fromkeys(drivers[r] for r in ROBOT_ROLES if drivers.get(r)))
+    return "+".join(names) or None
+
+
+def configured_camera_rates(env: Any) -> dict[str, float]:
+    """{camera: the rate its driver is configured to publish at (`rate_hz`)}: what a stream's video is
+    encoded at, rather than a rate guessed from its first frames' timestamps (the measured rate is
+    recorded beside it, `measured_rate`)."""
+    out = {}
+    for name, factory in (getattr(env, "camera_clients", None) or {}).items():
+        rate = getattr(getattr(factory, "config", None), "rate_hz", None)
+        if isinstance(rate, (int, float)) and rate > 0:
+            out[name] = float(rate)
+    return out
+
+
 class Recorder:
     def __init__(self, root: str | os.PathLike, *, fps: float | None = None, env: Any = None,
                  video: VideoOptions | dict | str | None = None, camera_fps: float | dict[str, float] | None = None,
@@ -99,7 +122,8 @@ class Recorder:
         fps:         the control rate the steps arrive at (default: `env.rate_hz`)
         env:         optional `rio.env.Env`: supplies fps, station, embodiment and action names
         video:       VideoOptions, a dict of them, or a codec name ("h264", "av1")
-        camera_fps:  nominal camera rate(s) (default: estimated from the frames' timestamps)
+        camera_fps:  nominal camera rate(s) (default: each camera's configured `rate_hz` when `env` is a
+                     station's, else estimated from the frames' timestamps)
         episodes:    how many episodes to keep this session (`done`/`remaining` count towards it)
         on_exit:     what leaving the `with` block does to an episode in progress: "keep" or "discard"
         cameras:     whether camera streams will be recorded (default: whether `env` has cameras); when
@@ -153,12 +177,21 @@ class Recorder:
                  for name, names in environment_names(getattr(env, "sensors", None) or {}).items()}
         if state:
             self.info["environment_state"] = state
+        robot_type = robot_type_of(getattr(env, "drivers", None) or {})
+        if robot_type:
+            self.info["robot_type"] = robot_type
+        if self.camera_fps is None and (rates := configured_camera_rates(env)):
+            self.camera_fps = rates
         robot = getattr(env, "robot", None)
         if robot is not None:
             self.info["embodiment"] = robot.name
             layout = robot.action_parts()
             self.info["action_parts"] = [[label, n] for label, n in layout]
-            self.info["action_names"] = [f"{label}.{i}" if n > 1 else label for label, n in layout for i in range(n)]
+            # an embodiment names them from its drivers; a stand-in robot without the methods: numbered
+            numbered = [f"{label}.{i}" if n > 1 else label for label, n in layout for i in range(n)]
+            self.info["action_names"] = list(robot.action_names()) if hasattr(robot, "action_names") else numbered
+            if hasattr(robot, "observation_names"):
+                self.info["observation_names"] = {k: list(v) for k, v in robot.observation_names().items()}
             self.action_dim = sum(n for _, n in layout)
         elif getattr(env, "embodiment_cls", None) is not None:
             self.info["embodiment"] = env.embodiment_cls.name

@@ -8,6 +8,7 @@ looked up in the plugin registry by name; validating imports the driver's module
 
 from __future__ import annotations
 
+import logging
 import os
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,8 @@ from rio.station.model import Component, Station, StationFile
 from rio.suggest import closest, unknown
 from rio.toml import parse_toml, read_text
 
+log = logging.getLogger("rio.station")
+
 
 def _looks_like_path(ref: str) -> bool:
     return ref.endswith(".toml") or os.sep in ref or "/" in ref or os.path.exists(ref)
@@ -29,18 +32,44 @@ def _looks_like_path(ref: str) -> bool:
 
 def find_station(ref: str | os.PathLike, registry: Registry | None = None) -> Path | str:
     """Where a station given as a path or as a name registered by a plugin is: the file's path, or the
-    plugin's target ('package:relative/path.toml' or an absolute path). Nothing is read."""
+    plugin's target ('package:relative/path.toml' or an absolute path). Nothing is read.
+
+    The one place old station names resolve (`Spec.formerly`): a name that is no station's current name
+    but some station's former one finds that station, with one log line naming the new name. A current
+    name wins over a former one (xarm7-emulator, formerly the name of xarm7-sim, names the emulator without
+    physics now), and using it logs one line saying which station it named before."""
     if isinstance(ref, os.PathLike) or _looks_like_path(str(ref)):
         path = Path(ref)
         if not path.is_file():
             raise ConfigError(f"station file not found: {path}")
         return path
     reg = registry or get_registry()
-    stations = {s.name: s for s in reg.specs("rio_stations")}
-    if ref not in stations:
-        raise ConfigError(unknown("station", str(ref), stations) + reg.plugin_hint("station", str(ref))
-                          + " (or give the path of a .toml file)")
-    return stations[ref].target
+    specs = reg.specs("rio_stations")
+    stations = {s.name: s for s in specs}
+    former = {old: s for s in specs for old in s.formerly}
+    if ref in stations:
+        if ref in former:  # a current name that was another station's: the current one wins, and says so
+            _notice_once(ref, f"station '{ref}' now names {stations[ref].description or stations[ref].target}; "
+                              f"the station it named until this release is '{former[ref].name}' "
+                              f"({former[ref].description or former[ref].target})")
+        return stations[ref].target
+    if ref in former:
+        new = former[ref].name
+        _notice_once(ref, f"station '{ref}' is now '{new}'; the old name works until the next release")
+        return former[ref].target
+    raise ConfigError(unknown("station", str(ref), stations) + reg.plugin_hint("station", str(ref))
+                      + " (or give the path of a .toml file)")
+
+
+_noticed: set[str] = set()
+
+
+def _notice_once(name: str, line: str) -> None:
+    """One log line per process and renamed station: a command finds its station several times (argument
+    check, load, the workflow), and says it once."""
+    if name not in _noticed:
+        _noticed.add(name)
+        log.warning("%s", line)
 
 
 def read_station_text(ref: str | os.PathLike, registry: Registry | None = None) -> tuple[str, str]:

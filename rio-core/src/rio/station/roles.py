@@ -1,8 +1,8 @@
 """Station roles: the names under `[components]` and which kind of component each one takes.
 
 Roles are fixed names (not free labels) because embodiments are inferred from them: `arm` alone is
-a single arm, `arm` + `arm2` a bimanual pair, `humanoid` a humanoid. Cameras and extra sensors are
-open-ended: any `<name>_camera` / `<name>_sensor`.
+a single arm, `arm` + `arm2` a bimanual pair, `humanoid` a humanoid, `base` + `arm` a mobile
+manipulator. Cameras and extra sensors are open-ended: any `<name>_camera` / `<name>_sensor`.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ FIXED = {
     "gripper": "gripper", "gripper2": "gripper",
     "hand": "hand", "hand2": "hand",
     "humanoid": "humanoid",
+    "base": "base",
     "teleop": "teleop", "teleop2": "teleop",
     "policy": "policy",
 }

@@ -2,7 +2,8 @@
 arm's part of the action.
 
 An embodiment's action layout names its parts: `joint_pos` or `eef_pose` per arm (prefixed
-`arm1_`/`arm2_` when there are two), then `gripper` and `hand` parts with the same prefix. Arms are
+`arm1_`/`arm2_` when there are two), then `gripper` and `hand` parts with the same prefix, and on a mobile
+manipulator `base_twist`, which the controller fills. Arms are
 matched to their station roles in order (`arm`, `arm2`). For an `eef_pose` part the target goes out
 as is (the driver does Cartesian control); for `joint_pos` the loop solves IK itself with the arm's
 `robot_description()` (shared IK, `rio.kinematics`), warm-started from the previous solution.
@@ -16,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from rio.embodiments.arm_group import ACTION_SPACES
+from rio.embodiments.mobile import BASE_TWIST
 from rio.errors import RioError
 from rio.loop.tracking import arm_labels, arm_roles
 
@@ -104,15 +106,19 @@ def bind_arms(robot: Any) -> list[ArmBinding]:
         if space == "joint_pos":
             b.ik = _ik_for(role, b.client)
         out.append(b)
-    known = {f"{b.prefix}{x}" for b in out for x in (*ACTION_SPACES, "gripper", "hand")}
+    known = {f"{b.prefix}{x}" for b in out for x in (*ACTION_SPACES, "gripper", "hand")} | {BASE_TWIST}
     unknown = [label for label, _ in layout if label not in known]
     if unknown:
         raise RioError(f"teleop does not know how to fill action parts {unknown} of '{robot.name}'")
     return out
 
 
-def build_action(robot: Any, arms: list[ArmBinding]) -> np.ndarray:
+def build_action(robot: Any, arms: list[ArmBinding], base_twist: Any = None) -> np.ndarray:
+    """The embodiment's action from the arms' targets; a mobile base's part is `base_twist` (zero: stand
+    still, when not given)."""
     parts: dict[str, Any] = {}
+    if BASE_TWIST in dict(robot.action_parts()):
+        parts[BASE_TWIST] = np.zeros(3) if base_twist is None else base_twist
     for b in arms:
         parts[b.arm_label] = b.arm_command()
         if b.gripper is not None:

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from rio.embodiments.mobile import BASE_TWIST
 from rio.errors import RioError
 from rio.loop.tracking import arm_labels, arm_roles
 
@@ -133,6 +134,8 @@ class LeaderFollower:
             parts[p.arm_label] = p.q_cmd
             if p.gripper_label:
                 parts[p.gripper_label] = [p.grip_cmd * p.max_width]
+        if BASE_TWIST in dict(tick.env.robot.action_parts()):  # a mobile manipulator: the leader drives the arm,
+            parts[BASE_TWIST] = np.zeros(3)                    # the base stands still
         tick.info.update(pairs=self.pairs, leaders=leaders)
         return tick.env.robot.build_action(**parts)
 

@@ -7,6 +7,10 @@ target and builds the embodiment's action (IK for joint-space arms). It is done 
 a known length (a script) has run its course. One device (`teleop`) drives every
 arm, each in its own base frame; a `teleop2` device, when the station has one, drives `arm2`.
 
+On a mobile manipulator (a `base` role) the mode key also reaches BASE: there the device's x, y and yaw
+drive the base's body twist (speed-limited like the tool, then by the base kind's own limits) and the arm
+holds; in every arm mode the base is commanded to stand still. A run can start in BASE (`mode = "base"`).
+
 A device that moves several arms apart (the sim's scripted expert) also publishes `twists` (n, 6) and
 `grippers` (n,): row i drives the i-th arm the device drives, in role order (arm, arm2), integrated and
 filtered exactly as `twist`; `twist` and `gripper` stay its first row, for controllers that read one.
@@ -19,7 +23,17 @@ from typing import Any
 import numpy as np
 
 from rio.control.filters import LowPassFilter
-from rio.control.teleop import BUTTON_MODE, ButtonEdges, EpisodeEnd, ModeSwitch, TeleopMode, make_teleop_eef_cmd
+from rio.control.teleop import (
+    ARM_MODES,
+    BUTTON_MODE,
+    ButtonEdges,
+    EpisodeEnd,
+    ModeSwitch,
+    TeleopMode,
+    base_twist,
+    make_teleop_eef_cmd,
+)
+from rio.errors import RioError
 from rio.teleop.bindings import ArmBinding, bind_arms, build_action
 from rio.teleop.feedback import DeviceFeedback
 from rio.teleop.travel import Travel, travel_line
@@ -133,7 +147,7 @@ class TwistTeleop:
         self.max_pos_speed, self.max_rot_speed = max_pos_speed, max_rot_speed
         self.filters = {(r, key): LowPassFilter(filter_hz) for r in devices for key in _RATES} if filter_hz else {}
         self.edges = {r: ButtonEdges() for r in devices}
-        self.switch = ModeSwitch(TeleopMode.parse(mode))
+        self.switch = ModeSwitch(TeleopMode.parse(mode), modes=tuple(TeleopMode))
         self.end = EpisodeEnd()
         self.arms: list[Any] = []
         self.expected_s = 0.0  # how long the device says its run lasts (a script), 0 when open-ended
@@ -150,6 +164,13 @@ class TwistTeleop:
             self.arms = bind_arms(robot)
             for b in self.arms:
                 b.reset_target()
+        self.has_base = "base" in robot.clients
+        if not self.has_base:
+            self.switch.modes = ARM_MODES
+            if self.switch.mode == TeleopMode.BASE:
+                raise RioError(f"teleop mode 'base' drives a mobile base; embodiment '{robot.name}' has none")
+        self.base_twist = None if not self.has_base else np.zeros(3)
+        self.base = robot.clients.get("base")
         self.drive = {b.role: ("teleop2" if b.role == "arm2" and "teleop2" in self.devices else "teleop")
                       for b in self.arms}
         self.row = {b.role: [b2.role for b2 in self.arms if self.drive[b2.role] == self.drive[b.role]].index(b.role)
@@ -196,9 +217,12 @@ class TwistTeleop:
             if b.gripper is not None:
                 grip = grippers[i] if grippers is not None and i < len(grippers) else p["gripper"]
                 b.gripper_cmd = float(grip) * b.max_width
+        if self.has_base:  # the main device drives the base in BASE mode, else the base stands still
+            self.base_twist = base_twist(polled["teleop"]["twist"], self.switch.mode, self.max_pos_speed,
+                                         self.max_rot_speed)
         tick.info.update(devices={r: p["raw"] for r, p in polled.items()}, arms=self.arms, mode=self.switch.mode)
-        action = self.body.action(tick.env.robot) if self.body is not None else build_action(tick.env.robot,
-                                                                                             self.arms)
+        action = self.body.action(tick.env.robot) if self.body is not None else build_action(
+            tick.env.robot, self.arms, base_twist=self.base_twist)
         for b in self.arms:  # after the action: IK may have pulled an unreachable target back
             self.travel[f"{b.role} target"].add(np.asarray(b.target[:3]) - before[b.role])
         return action
@@ -217,6 +241,10 @@ class TwistTeleop:
         summary.details["mode"] = self.switch.mode.name.lower()
         summary.details["travel"] = {name: t.report() for name, t in self.travel.items()}
         summary.lines.append(travel_line(self.travel))
+        if self.base is not None:  # where the base went, by its odometry
+            x, y, th = (float(v) for v in self.base.get_state()["odom_pose"])
+            summary.details["base_odometry"] = [round(x, 4), round(y, 4), round(th, 4)]
+            summary.lines.append(f"base: odometry ({x:+.3f}, {y:+.3f}) m, heading {np.degrees(th):+.1f} deg")
         self.end.report(summary)
         if self.visual is not None:
             summary.details["viz"] = self.visual.where

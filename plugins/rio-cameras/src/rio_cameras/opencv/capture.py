@@ -70,7 +70,7 @@ def to_rgb(img: np.ndarray) -> np.ndarray:
 
 class CaptureSource:
     """Reads an opened capture. `paced_hz`: deliver at most this many frames per second (files, pattern).
-    `loop`: at the end of a finite source seek back to its first frame (a video file as a virtual camera);
+    `loop`: at the end of a finite source seek back to its first frame (a video file standing in for a camera);
     without it the end is `SourceFinished`. `max_failed_reads`: failed reads in a row that mean the source
     is lost (1 for network streams, whose read has already waited out its timeout)."""
 

@@ -4,7 +4,7 @@
   (`timeout_s`) so a dead stream is noticed and reopened instead of hanging the grab thread.
 - GStreamer pipelines (`... ! appsink`), when this OpenCV was built with GStreamer (the PyPI wheels are
   not: a clear error says so).
-- Video files and image sequences: a "virtual camera" for demos and tests, played at `rate_hz` and
+- Video files and image sequences: a camera stand-in for demos and tests, played at `rate_hz` and
   looped (`loop = true`) by seeking back to the first frame.
 - `url = "test:pattern"`: a moving synthetic picture made in-process (`rio_cameras.opencv.pattern`) that
   goes through the same capture path after the capture object; no device, file or codec involved.

@@ -26,7 +26,7 @@ from rio import clock
 from rio.interfaces import GripperNode, ServoBus
 from rio.runtime.node import remote
 
-from .. import virtual
+from ..emulator import private
 from ..errors import ActivationError, GripperFault
 from ..linked import close_device, model_width, open_device
 from ..models import DH_MODELS, dh_force_pct, dh_permille, dh_speed_pct, dh_width
@@ -74,15 +74,15 @@ class DhGripper(GripperNode):
         self.spec = DH_MODELS[self.config.model]
         self.example_data = {**(self.example_data or {}), "object_detected": False, "object_dropped": False}
         self.device: RtuClient | None = None  # the open Modbus client, None while closed
-        self._virtual: Any = None  # the private emulator behind a "virtual" port
+        self._emulator: Any = None  # the private emulator behind an "emulator" port
         self._sent: dict[int, int] = {}  # register -> last value written
 
     # -- lifecycle --------------------------------------------------------------------------------------
     def connect(self) -> RtuClient:
         c, path = self.config, self.config.port
-        if virtual.is_virtual(path):
-            self._virtual = virtual.dh_rtu(c.model, c.slave_id)
-            path = self._virtual.port
+        if private.is_emulator(path):
+            self._emulator = private.dh_rtu(c.model, c.slave_id)
+            path = self._emulator.port
         return RtuClient(path, c.slave_id, baudrate=c.baudrate, timeout_s=c.timeout_s, retries=c.retries,
                          label=self.spec.label).open()
 

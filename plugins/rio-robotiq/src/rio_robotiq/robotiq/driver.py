@@ -33,7 +33,7 @@ from rio import clock
 from rio.interfaces import GripperNode, NetworkDevice, ServoBus
 from rio.runtime.node import remote
 
-from .. import virtual
+from ..emulator import private
 from ..errors import ActivationError, CommunicationError, RobotiqFault
 from ..faults import MAJOR, MINOR, fault_class, fault_meaning, is_major
 from ..linked import close_device, model_width, open_device
@@ -82,7 +82,7 @@ class RobotiqBase(GripperNode):
     def setup(self) -> None:
         super().setup()
         self.device: Any = None  # the open link, None while closed
-        self._virtual: Any = None  # the private emulator behind a "virtual" address
+        self._emulator: Any = None  # the private emulator behind an "emulator" address
         self.spec = ROBOTIQ_MODELS[self.config.model]
         self.example_data = {**(self.example_data or {}), "object_detected": False, "fault": 0, "current": 0.0}
         c = self.config
@@ -200,9 +200,9 @@ class RobotiqGripper(RobotiqBase):
         from .rtu_link import RobotiqRtuLink
 
         c, path = self.config, self.config.port
-        if virtual.is_virtual(path):
-            self._virtual = virtual.robotiq_rtu(c.model, c.slave_id)
-            path = self._virtual.port
+        if private.is_emulator(path):
+            self._emulator = private.robotiq_rtu(c.model, c.slave_id)
+            path = self._emulator.port
         return RobotiqRtuLink(path, c.slave_id, baudrate=c.baudrate, timeout_s=c.timeout_s, retries=c.retries,
                               label=self.spec.label).open()
 
@@ -212,7 +212,8 @@ class RobotiqUrcapGripper(RobotiqBase):
 
     class Config(NetworkDevice, RobotiqBase.Config):
         renamed = {"host": "ip"}
-        ip: str = Field(description='the UR controller\'s address (an IPv4 address or a host name), or "virtual" '
+        renamed_values = {"ip": {"virtual": "emulator"}}  # "virtual" before the stand-ins had one word each
+        ip: str = Field(description='the UR controller\'s address (an IPv4 address or a host name), or "emulator" '
                                     "for an emulated URCap")  # a socket's address: host names too
         port: int = Field(63352, ge=1, le=65535, description="the URCap's gripper socket")
         timeout_s: float = Field(1.0, gt=0, description="how long to wait for a reply (s)")
@@ -221,8 +222,8 @@ class RobotiqUrcapGripper(RobotiqBase):
         from .urcap_link import RobotiqUrcapLink
 
         c, host, port = self.config, self.config.ip, self.config.port
-        if virtual.is_virtual(host):
-            self._virtual = virtual.robotiq_urcap(c.model)
-            host, port = self._virtual.host, self._virtual.port
+        if private.is_emulator(host):
+            self._emulator = private.robotiq_urcap(c.model)
+            host, port = self._emulator.host, self._emulator.port
         return RobotiqUrcapLink(host, port, timeout_s=c.timeout_s, label=self.spec.label,
                                 connect_timeout_s=c.connect_timeout_s).open()

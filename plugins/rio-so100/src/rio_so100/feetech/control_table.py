@@ -28,7 +28,7 @@ P_GAIN = (21, 1)
 D_GAIN = (22, 1)
 I_GAIN = (23, 1)
 HOMING_OFFSET = (31, 2)          # sign-magnitude, sign in bit 11
-OPERATING_MODE = (33, 1)         # 0: position servo
+OPERATING_MODE = (33, 1)         # 0: position servo, 1: wheel (constant speed: GOAL_VELOCITY, signed)
 PROTECTIVE_TORQUE = (34, 1)      # % of max torque kept after an overload
 PROTECTION_TIME = (35, 1)        # 10 ms units a load above OVERLOAD_TORQUE may last
 OVERLOAD_TORQUE = (36, 1)        # %
@@ -39,7 +39,8 @@ TORQUE_ENABLE = (40, 1)
 ACCELERATION = (41, 1)
 GOAL_POSITION = (42, 2)
 GOAL_TIME = (44, 2)
-GOAL_VELOCITY = (46, 2)          # steps/s, 0 = the servo's maximum
+GOAL_VELOCITY = (46, 2)          # position mode: speed cap, steps/s (0 = the servo's maximum); wheel mode:
+                                 # the speed to turn at, steps/s, sign-magnitude with the sign in bit 15
 TORQUE_LIMIT = (48, 2)           # 0.1 %
 LOCK = (55, 1)
 PRESENT_POSITION = (56, 2)
@@ -50,6 +51,9 @@ PRESENT_TEMPERATURE = (63, 1)    # deg C
 STATUS = (65, 1)                 # the same error bits as a status packet's error byte
 MOVING = (66, 1)
 PRESENT_CURRENT = (69, 2)
+
+#: OPERATING_MODE values.
+POSITION_MODE, VELOCITY_MODE = 0, 1
 
 #: Sign bit of the sign-magnitude registers.
 SIGN_BITS = {HOMING_OFFSET: 11, PRESENT_VELOCITY: 15, GOAL_VELOCITY: 15, PRESENT_LOAD: 10}

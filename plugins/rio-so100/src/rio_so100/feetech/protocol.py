@@ -1,4 +1,4 @@
-"""Feetech (SCS/STS) wire protocol facts, shared by the driver side and the virtual bus.
+"""Feetech (SCS/STS) wire protocol facts, shared by the driver side and the emulated bus.
 
 Instruction packet: `FF FF id len inst params.. chk`; status packet: `FF FF id len error params.. chk`;
 `len` counts the bytes after itself, `chk = ~(id + len + inst|error + sum(params)) & 0xFF`. Broadcast

@@ -28,10 +28,11 @@ class So100Leader(TeleopNode):
 
     class Config(ServoConfig, TeleopNode.Config):
         defaults = {"rate_hz": Field(100.0, le=500)}
+        renamed = {"virtual_motion": "emulator_motion"}
         joints: list[str] = Field(default_factory=lambda: list(ARM_JOINTS), description="arm joints, in order")
         gripper: str | None = Field(GRIPPER, description="the jaw joint (its opening is published as `gripper`), "
                                                          "or none")
-        virtual_motion: Literal["none", "wave"] = Field("none", description='with port = "virtual": a scripted '
+        emulator_motion: Literal["none", "wave"] = Field("none", description='with port = "emulator": a scripted '
                                                                            'hand moving the arm ("wave")')
 
     leader_arm = True  # `rio teleop` mirrors it joint by joint
@@ -47,7 +48,7 @@ class So100Leader(TeleopNode):
 
     def open(self) -> None:
         names = self.joint_list + ([self.gripper_joint] if self.gripper_joint else [])
-        self.servos.open(names, virtual_motion=self.config.virtual_motion).set_torque(False)
+        self.servos.open(names, emulator_motion=self.config.emulator_motion).set_torque(False)
 
     def close(self) -> None:
         self.servos.close()

@@ -5,6 +5,6 @@ follower's joint angles through a per-leader calibration (offsets that are multi
 - `calibration`: offsets (and signs) from the leader held in a known pose; files;
 - `bus`: opening the U2D2 through dynamixel-sdk, presence checks, Sync Read;
 - `driver`: the `gello.*` teleop nodes (leader arms for `rio teleop`);
-- `virtual`: a Protocol 2.0 bus on a pseudo-terminal (`port = "virtual"`);
+- `emulator`: a Protocol 2.0 bus on a pseudo-terminal (`port = "emulator"`);
 - `specs`: what the plugin registers (no SDK import).
 """

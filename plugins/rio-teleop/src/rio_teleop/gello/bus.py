@@ -39,7 +39,7 @@ def _sdk():
 class DynamixelBus:
     def __init__(self, port: str, *, baudrate: int = 57600, retries: int = 2, names: Mapping[int, str] | None = None,
                  label: str | None = None, min_timeout_ms: float = 0.0):
-        """`label`: how errors name the port (the station's "virtual" rather than a pty path)."""
+        """`label`: how errors name the port (the station's "emulator" rather than a pty path)."""
         self.port, self.baudrate, self.retries = port, int(baudrate), int(retries)
         self.label = label or port
         self.names = dict(names or {})

@@ -60,7 +60,7 @@ class GelloCalibration:
         return np.asarray(self.signs, float) * (np.asarray(raw, float) - np.asarray(self.offsets, float))
 
     def raw(self, q: np.ndarray) -> np.ndarray:
-        """Follower joint angles -> the raw angles the leader reads in that pose (tests, virtual arms)."""
+        """Follower joint angles -> the raw angles the leader reads in that pose (tests, emulated arms)."""
         return np.asarray(q, float) * np.asarray(self.signs, float) + np.asarray(self.offsets, float)
 
     def gripper(self, raw: float) -> float:

@@ -8,14 +8,15 @@ from typing import Annotated
 
 import typer
 
-from rio.cli.args import positive
+from rio.cli.args import positive, servo_port
 
 from .layouts import LAYOUTS
 
 app = typer.Typer(help="GELLO leader arms (Dynamixel XL330): calibrate, read. Teleop: `rio teleop STATION`.",
                   no_args_is_help=True)
 
-Port = Annotated[str, typer.Option("--port", "-p", help='the U2D2 (/dev/serial/by-id/usb-FTDI_...), or "virtual"')]
+Port = Annotated[str, typer.Option("--port", "-p", callback=servo_port,
+                                   help='the U2D2 (/dev/serial/by-id/usb-FTDI_...), or "emulator"')]
 LayoutOpt = Annotated[str, typer.Option("--layout", "-l", help="GELLO design: " + ", ".join(LAYOUTS))]
 Baud = Annotated[int, typer.Option("--baudrate", callback=positive, help="the servos' baud rate")]
 
@@ -40,32 +41,32 @@ def calibrate(port: Port, layout: LayoutOpt, name: Annotated[str, typer.Option(
     from .calibration import save_calibration
 
     lay = _check_layout(layout)
-    virtual = None
+    emu = None
     path = port
-    if port == "virtual":
-        from .virtual import VirtualGello
+    if port == "emulator":
+        from .emulator import GelloEmulator
 
-        virtual = VirtualGello(lay)
-        path = virtual.port
-        typer.echo(f"virtual GELLO on {path}: a scripted hand holds it in the pose")
+        emu = GelloEmulator(lay)
+        path = emu.port
+        typer.echo(f"emulated GELLO on {path}: a scripted hand holds it in the pose")
     pose = ", ".join(f"{q:+.3f}" for q in lay.known_pose)
     prompts = {"known pose": f"Hold the leader in the known pose ({pose}) rad, trigger released; press Enter.",
                "squeeze": "Keep the pose and squeeze the trigger fully; press Enter."}
 
     def wait(step: str) -> None:
         typer.echo(prompts[step])
-        if virtual is None:
+        if emu is None:
             input()
         elif step == "squeeze":
-            virtual.pose(lay.known_pose, gripper=0.0)
+            emu.pose(lay.known_pose, gripper=0.0)
             time.sleep(0.05)
 
     try:
         cal = calibrate_leader(path, lay, name=name, baudrate=baudrate, wait=wait, squeeze=squeeze, label=port,
-                               emulated=virtual is not None)
+                               emulated=emu is not None)
     finally:
-        if virtual is not None:
-            virtual.close()
+        if emu is not None:
+            emu.close()
     saved = save_calibration(cal)
     typer.echo(f"saved {saved}")
     for k, (off, sign, res) in enumerate(zip(cal.offsets, cal.signs, cal.residual, strict=True)):

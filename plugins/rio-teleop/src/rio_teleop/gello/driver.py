@@ -8,8 +8,8 @@ every `TeleopNode` has (`twist` zero, `buttons`). Servos are torque-off (moved b
 trigger when `trigger_current_ma` > 0: current-based position mode holding the released position,
 so the trigger springs back like GELLO's newer builds.
 
-`port = "virtual"` starts a `VirtualGello` inside the node (held in the layout's known pose, or
-waving with `virtual_motion = "wave"`), read through the same SDK path.
+`port = "emulator"` starts a `GelloEmulator` inside the node (held in the layout's known pose, or
+waving with `emulator_motion = "wave"`), read through the same SDK path.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from .bus import EMULATED_TIMEOUT_MS, DynamixelBus
 from .calibration import GelloCalibration, load_calibration
 from .layouts import LAYOUTS, get_layout
 
-VIRTUAL = "virtual"
+EMULATOR = "emulator"
 _ZERO_TWIST = np.zeros(6)
 
 
@@ -37,13 +37,14 @@ class GelloLeader(TeleopNode):
     class Config(ServoBus, TeleopNode.Config):
         # the XL330s' factory baud rate (1000000 reads 8 servos in ~2 ms); the port is the U2D2's
         defaults = {"baudrate": 57600, "rate_hz": Field(100.0, le=1000)}
+        renamed = {"virtual_motion": "emulator_motion"}
         layout: Literal[tuple(LAYOUTS)] = Field(description="which GELLO design: " + ", ".join(LAYOUTS))  # type: ignore[valid-type]
         calibration: str = Field("default", description="calibration name (in $XDG_CONFIG_HOME/rio/calibration/"
                                                         "gello-<layout>/) or a .json path")
         gripper: bool = Field(True, description="read the trigger and publish it as `gripper`")
         trigger_current_ma: float = Field(0.0, ge=0, le=1750, description="> 0: the trigger servo holds its "
                                           "released position with this current (a spring); 0: torque off")
-        virtual_motion: Literal["none", "wave"] = Field("none", description='with port = "virtual": a scripted '
+        emulator_motion: Literal["none", "wave"] = Field("none", description='with port = "emulator": a scripted '
                                                                            'hand moving the leader ("wave")')
 
     leader_arm = True  # `rio teleop` mirrors it joint by joint
@@ -55,26 +56,26 @@ class GelloLeader(TeleopNode):
         n = self.layout.dof
         self.example_data = {**self.example_data, "joint_pos": np.zeros(n), "joint_vel": np.zeros(n)}
         self._no_buttons = np.zeros(self.config.buttons, bool)
-        self.virtual = None
+        self.emulator = None
         self.bus: DynamixelBus | None = None
 
     def _calibration(self) -> GelloCalibration:
-        if self.virtual is not None and self.config.calibration == "default":
-            return self.virtual.mounting
+        if self.emulator is not None and self.config.calibration == "default":
+            return self.emulator.mounting
         return load_calibration(self.config.calibration, self.layout, port=self.config.port)
 
     def open(self) -> None:
         c, lay = self.config, self.layout
         path = c.port
-        if c.port == VIRTUAL:
-            from .virtual.gello import VirtualGello, attach_motion
+        if c.port == EMULATOR:
+            from .emulator.gello import GelloEmulator, attach_motion
 
-            self.virtual = VirtualGello(lay, baudrate=c.baudrate)
-            attach_motion(self.virtual, c.virtual_motion)
-            path = self.virtual.port
+            self.emulator = GelloEmulator(lay, baudrate=c.baudrate)
+            attach_motion(self.emulator, c.emulator_motion)
+            path = self.emulator.port
         self.ids = lay.joint_ids + ((lay.gripper_id,) if c.gripper and lay.gripper_id is not None else ())
         self.bus = DynamixelBus(path, baudrate=c.baudrate, retries=c.retries, names=lay.servo_names(), label=c.port,
-                                min_timeout_ms=EMULATED_TIMEOUT_MS if self.virtual is not None else 0.0).open()
+                                min_timeout_ms=EMULATED_TIMEOUT_MS if self.emulator is not None else 0.0).open()
         self.models = self.bus.check_present(self.ids)
         self.cal = self._calibration()
         for sid in lay.joint_ids:
@@ -107,9 +108,9 @@ class GelloLeader(TeleopNode):
                 pass
             self.bus.close()
             self.bus = None
-        if self.virtual is not None:
-            self.virtual.close()
-            self.virtual = None
+        if self.emulator is not None:
+            self.emulator.close()
+            self.emulator = None
 
     @client_side
     def joint_names(self) -> list[str]:

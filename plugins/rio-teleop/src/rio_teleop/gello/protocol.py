@@ -1,5 +1,5 @@
 """Dynamixel Protocol 2.0 framing, written from the protocol's description (the servo side of it: the
-virtual bus parses instruction packets and builds status packets; the driver side is dynamixel-sdk).
+emulated bus parses instruction packets and builds status packets; the driver side is dynamixel-sdk).
 
     FF FF FD 00 | id | len_lo len_hi | instruction | params... | crc_lo crc_hi
 

@@ -171,8 +171,8 @@ class Bridge:
             raise
         self._stop.clear()
         self._latest = None
-        self._thread = threading.Thread(target=self._run, name="g1-bridge", daemon=True)
-        self._publisher = threading.Thread(target=self._publish_loop, name="g1-bridge-state", daemon=True)
+        self._thread = threading.Thread(target=self._run, name="g1-sim", daemon=True)
+        self._publisher = threading.Thread(target=self._publish_loop, name="g1-sim-state", daemon=True)
         self._thread.start()
         self._publisher.start()
         hands = "Inspire (emulated)" if self.inspire is not None else sorted(self.sim.hands) or "none"

@@ -51,7 +51,7 @@ class URArm(ArmNode):
         model: str = MODELS.field()
         control: Literal["rtde", "emulator"] = Field(
             "rtde", description='"rtde": ur-rtde\'s control interface (the real arm); "emulator": the emulator\'s '
-                                "servo port (`rio ur emulator`, the virtual stations)")
+                                "servo port (`rio ur emulator`, the emulator stations)")
         lookahead_time: float = Field(0.1, ge=0.03, le=0.2, description="servoJ/servoL smoothing (s)")
         gain: float = Field(300.0, ge=100, le=2000, description="servoJ/servoL proportional gain")
         eef_control: Literal["native", "ik"] = Field(

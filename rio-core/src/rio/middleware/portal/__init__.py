@@ -29,7 +29,8 @@ from rio.middleware.portal import wire as pw
 from rio.middleware.portal.server import TAKEN, PortalServer
 from rio.middleware.protocol import NetworkClient, NetworkConfig
 from rio.middleware.protocol.client import POLL_S
-from rio.middleware.protocol.messages import ACK, OK, REPLY, REQUEST, REQUEST_ID, STATE, STREAM_HEAD, pack_ack
+from rio.middleware.protocol.codecs import CODED_HEAD
+from rio.middleware.protocol.messages import ACK, CODED, OK, REPLY, REQUEST, REQUEST_ID, STATE, STREAM_HEAD, pack_ack
 from rio.runtime import wire
 from rio.runtime.node import Node
 from rio.runtime.transport import Middleware, NodeLayouts
@@ -131,9 +132,9 @@ class PortalClient(NetworkClient):
 
         return self._ask(b"req", memoryview(body)[REQUEST_ID.size:], ack)
 
-    def _recv(self, kind: bytes) -> Any:
+    def _recv(self, kind: bytes, wait_s: float | None = POLL_S) -> Any:
         try:
-            error, data = self._answers[kind].get(timeout=POLL_S)
+            error, data = self._answers[kind].get(timeout=wait_s) if wait_s else self._answers[kind].get_nowait()
         except queue.Empty:
             return None
         if error is None:
@@ -141,6 +142,9 @@ class PortalClient(NetworkClient):
         if self._link.closed:
             raise NodeDiedError(self.name, self._gone or error)
         raise NodeError(self.name, "PortalError", error)
+
+    def _recv_now(self, kind: bytes) -> Any:
+        return self._recv(kind, 0.0)
 
     def _poll_loop(self) -> None:
         """The state stream: one long poll at a time, each answered with the messages after our newest."""
@@ -155,7 +159,8 @@ class PortalClient(NetworkClient):
                 pos = 0
                 while pos + STREAM_HEAD.size <= len(data):
                     head, pos = data[pos:pos + STREAM_HEAD.size], pos + STREAM_HEAD.size
-                    n = size if head[:1] == STATE else 0
+                    kind = head[:1]
+                    n = size if kind == STATE else (CODED_HEAD.unpack_from(data, pos)[0] if kind == CODED else 0)
                     self._on_stream(head, data[pos:pos + n] if n else None)
                     pos += n
         except NodeDiedError:

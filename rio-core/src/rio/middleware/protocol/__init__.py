@@ -3,7 +3,9 @@ authenticate.
 
 - `messages`: what travels (kinds, the state stream's header, handshake, acknowledgements, calls).
 - `server` / `client`: the two ends (`NetworkServer`, `NetworkClient`), which adapters subclass.
-- `requests`: request flow control, both ends. `fair`: round-robin queues with per-peer and global bounds.
+- `requests`: the server's request intake. `credits`: the client's end (a send and no wait; credits granted
+  by the handshake, given back by acknowledgements). `fair`: round-robin queues with per-peer and global bounds.
+- `codecs`: camera frames compressed once by the server, decoded once by each client.
 - `config`: the settings every network middleware shares (`NetworkConfig`), and who may reach a node.
 
 docs/concepts/middlewares.md describes the protocol for users.

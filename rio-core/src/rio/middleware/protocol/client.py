@@ -11,7 +11,7 @@ state-stream message to `_on_stream`. This class does the rest:
   machine (exact, cheap); elsewhere any message counts, and `heartbeat_timeout` of silence reports the node
   dead by name, until the same server speaks again. BYE, an exit, another epoch or a lost link are final.
 - calls, one at a time per client, each with a new id: answers of other ids (late replies of calls that
-  timed out) are dropped. Requests: `RequestFlow` (`requests`).
+  timed out) are dropped. Requests: `CreditFlow` (`credits`): a send and no wait.
 """
 
 from __future__ import annotations
@@ -26,8 +26,10 @@ from typing import Any, ClassVar
 from rio import clock
 from rio.errors import ConfigError, NodeDiedError, NodeError, NodeTimeout, RioError
 from rio.middleware.protocol import messages as m
+from rio.middleware.protocol.codecs import RecordDecoder
 from rio.middleware.protocol.config import NetworkConfig
-from rio.middleware.protocol.requests import RequestFlow
+from rio.middleware.protocol.credits import CreditFlow, RequestStats
+from rio.middleware.protocol.requests import ANSWER_TIMEOUT_S
 from rio.runtime import wire
 from rio.runtime.buffers import RequestSender, RingBuffer
 from rio.runtime.node import Node
@@ -64,16 +66,24 @@ class NetworkClient(ClientTransport):
         self._stream_lock = threading.Lock()
         self._call_lock = threading.Lock()
         self._call_ids = itertools.count(1)  # next() is atomic under the GIL
+        #: Decodes the samples a server sends compressed (`codecs`), made on the first one.
+        self.decoder: RecordDecoder | None = None
         self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity) if layouts.data else None
         self.request_queue = RequestSender(layouts.request, self._send_request) if layouts.request else None
-        self._requests = RequestFlow(self.name, config.call_timeout, partial(self._send, m.REQUEST),
-                                     partial(self._recv, m.ACK), self.check_alive)
+        self._requests = CreditFlow(self.name, max(config.call_timeout, ANSWER_TIMEOUT_S),
+                                    partial(self._send, m.REQUEST), partial(self._recv_now, m.ACK), self.check_alive,
+                                    recv_wait=partial(self._recv, m.ACK))
 
     # -- the adapter's part --------------------------------------------------------------------------
     def _send(self, kind: bytes, body: bytes) -> None:
         raise NotImplementedError
 
     def _recv(self, kind: bytes) -> bytes | memoryview | None:
+        raise NotImplementedError
+
+    def _recv_now(self, kind: bytes) -> bytes | memoryview | None:
+        """The next answer of that kind if one has arrived, else None at once (request acknowledgements are
+        taken in this way: `send_request` never waits for the network)."""
         raise NotImplementedError
 
     # -- liveness ------------------------------------------------------------------------------------
@@ -121,9 +131,11 @@ class NetworkClient(ClientTransport):
                               "must build the node with the same class and config")
         with self._stream_lock:
             if self.ring_buffer is not None and hello["newest"] is not None:
-                self.ring_buffer.put_bytes(hello["newest"])
+                newest = hello["newest"]
+                self.ring_buffer.put_bytes(self._decoded(newest) if hello.get("coded") else newest)
                 self._seq = int(hello["count"])
             self._epoch = int(hello["epoch"])
+        self._requests.grant(hello.get("credits"))
         self._heard()
 
     def _on_stream(self, head: bytes | memoryview, record: bytes | memoryview | None) -> None:
@@ -137,7 +149,7 @@ class NetworkClient(ClientTransport):
         self._heard()
         if kind == m.BYE:
             self._lose("server closed")
-        elif kind == m.STATE and self.ring_buffer is not None and record is not None:
+        elif kind in (m.STATE, m.CODED) and self.ring_buffer is not None and record is not None:
             if fp != self._fp:
                 if not self._foreign_warned:
                     self._foreign_warned = True
@@ -147,11 +159,18 @@ class NetworkClient(ClientTransport):
                 if seq <= self._seq:  # already seeded by the handshake, or out of order
                     return
                 try:
-                    self.ring_buffer.put_bytes(record)
-                except RioError as e:
-                    log.warning("%s", e)
+                    self.ring_buffer.put_bytes(self._decoded(record) if kind == m.CODED else record)
+                except (RioError, ValueError) as e:
+                    log.warning("node '%s': dropped a sample: %s", self.name, e)
                     return
                 self._seq = seq
+
+    def _decoded(self, body: bytes | memoryview) -> bytearray:
+        """A CODED sample's record (`codecs`), decoded once here, in the receiving thread."""
+        if self.decoder is None:
+            assert self.layouts.data is not None
+            self.decoder = RecordDecoder(self.layouts.data)
+        return self.decoder.decode(body)
 
     # -- calls and requests --------------------------------------------------------------------------
     def call(self, method: str, args: tuple, kwargs: dict) -> Any:
@@ -178,6 +197,21 @@ class NetworkClient(ClientTransport):
 
     def _send_request(self, record: bytes) -> None:
         self._requests.send(record)
+
+    def send_request_acknowledged(self, record: bytes, wait_s: float = ANSWER_TIMEOUT_S) -> None:
+        """Send a request record and wait (up to `wait_s`) for the node's acknowledgement of it and of every
+        earlier one: raises its refusal (InvalidRequest, QueueFull naming the node) as the blocking sends
+        of protocol 3 did. For scripts and tests; a control loop uses `send_request`."""
+        self._requests.send(record)
+        self._requests.drain(wait_s)
+        error = self._requests.take_error()
+        if error is not None:
+            raise error
+
+    def request_stats(self, wait_s: float = 0.0) -> RequestStats:
+        """This client's request counts (sent, acknowledged, refused, no credits), after taking in the
+        acknowledgements that arrived (waiting up to `wait_s` for those in flight)."""
+        return self._requests.drain(wait_s)
 
     def close(self) -> None:
         if self._watch is not None:

@@ -3,14 +3,16 @@ the first byte of the frame, zenoh in the key expression, portal in the method n
 same everywhere. Nothing here is pickled: fixed binary headers, raw layout records, msgpack (`rio.runtime.wire`).
 
 Client -> server, each answered to that client only:
-- HELLO (empty) -> HELLO: msgpack map {protocol, node, fingerprint, epoch, count, newest, heartbeat_s}.
+- HELLO (empty) -> HELLO: msgpack map {protocol, node, fingerprint, epoch, count, newest, heartbeat_s,
+  credits} (credits: the requests a client may have unacknowledged, `credits`).
 - REQUEST: request id (u64) + one raw record of the node's request layout -> ACK: msgpack
   [id, status, a, b]: OK (a: free slots left), FULL (a, b: capacity, seconds waited), INVALID (a, b:
   field or None, problem). Nothing is dropped without its sender hearing why.
 - CALL: `wire.pack_call` (call id first) -> REPLY: `wire.pack_reply` with the same id.
 
-Server -> every client (the state stream): a 20-byte header (kind STATE / BEAT / BYE, data-layout
-fingerprint u32, epoch u32, sequence number u64), then for STATE the record. The epoch is random per
+Server -> every client (the state stream): a 20-byte header (kind STATE / CODED / BEAT / BYE, data-layout
+fingerprint u32, epoch u32, sequence number u64), then for STATE the record, for CODED the record with its
+image fields compressed (`codecs`). The epoch is random per
 server start, so a restarted server is a new server; sequence numbers only grow within one epoch.
 """
 
@@ -27,9 +29,11 @@ from rio.errors import InvalidRequest, QueueFull
 from rio.runtime import wire
 
 #: Checked at the handshake: a server of another version answers differently, or not at all.
-VERSION = 3
+VERSION = 4
 HELLO, REQUEST, ACK, CALL, REPLY = b"h", b"r", b"a", b"c", b"y"
 STATE, BEAT, BYE = b"S", b"H", b"B"
+#: A state-stream sample whose image fields are compressed (`codecs`: one self-delimiting body).
+CODED = b"Z"
 STREAM_HEAD = struct.Struct("<c3xIIQ")
 REQUEST_ID = struct.Struct("<Q")
 OK, FULL, INVALID = 0, 1, 2

@@ -6,7 +6,8 @@ This class answers handshakes, takes requests (`RequestIntake`) and queues API c
 beyond `max_pending_per_peer` per peer or `max_pending` in all a call is answered TooManyCalls at once) for
 one API thread. That thread runs no call whose caller has given up (it waited past `call_timeout`: running
 it would only delay the calls behind it) nor those of a peer that has left. Samples are published with the
-server's epoch and their sequence number; heartbeats go out every `heartbeat_s` from a thread of their own,
+server's epoch and their sequence number, image fields compressed once when the node serves other machines
+(`codecs`); heartbeats go out every `heartbeat_s` from a thread of their own,
 so a client hears from a live server while the node publishes nothing or runs a slow call; a clean close
 says BYE. An error reply carries the exception's type and message only (`wire.remote_error_payload`).
 """
@@ -22,6 +23,7 @@ from typing import Any, ClassVar
 
 from rio import clock
 from rio.middleware.protocol import messages as m
+from rio.middleware.protocol.codecs import encoder_for
 from rio.middleware.protocol.config import NetworkConfig, warn_if_exposed
 from rio.middleware.protocol.fair import FairQueue
 from rio.middleware.protocol.requests import RequestIntake
@@ -56,6 +58,8 @@ class NetworkServer(ServerTransport):
         self._intake = RequestIntake(self.name, self.request_queue, self._ack, FairQueue(per, total, self._knows),
                                      self._wake.set)
         self._warn = m.Throttled(log)
+        #: Compresses image fields once per sample when the node serves other machines (`codecs`).
+        self.encoder = encoder_for(node, layouts.data, linked=bool(config.exposed()))
         self._threads: list[threading.Thread] = []
         self._dispatch: Callable[[str, list, dict], Any] | None = None
         self.closed = False
@@ -147,7 +151,8 @@ class NetworkServer(ServerTransport):
         last = self._last
         return wire.pack({"protocol": m.VERSION, "node": self.name, "fingerprint": self.layouts.fingerprint(),
                           "epoch": self._epoch, "count": last[0] if last else 0, "newest": last[1] if last else None,
-                          "heartbeat_s": self.config.heartbeat_s})
+                          "heartbeat_s": self.config.heartbeat_s, "credits": self.config.max_pending_per_peer,
+                          "coded": self.encoder is not None})
 
     def _ack(self, peer: Hashable, rid: int, status: int, a: Any, b: Any, tag: Any) -> None:
         if status == m.OK:
@@ -212,12 +217,12 @@ class NetworkServer(ServerTransport):
     # -- the state stream ----------------------------------------------------------------------------
     def _publish(self, rec: Any) -> None:
         """RingBuffer.on_put: send the new record right after it is stored (the node loop's thread)."""
-        data = rec.tobytes()
+        kind, data = (m.STATE, rec.tobytes()) if self.encoder is None else (m.CODED, self.encoder.encode(rec))
         with self._stream_lock:
             if not self.closed:
                 seq = self.ring_buffer.count
                 self._last = (seq, data)
-                self._broadcast(m.STREAM_HEAD.pack(m.STATE, self._fp, self._epoch, seq), data)
+                self._broadcast(m.STREAM_HEAD.pack(kind, self._fp, self._epoch, seq), data)
 
     def _send_control(self, kind: bytes) -> None:
         """A heartbeat (BEAT) or a goodbye (BYE) on the state stream."""
