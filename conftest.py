@@ -62,7 +62,8 @@ def pytest_runtest_teardown(item: Any) -> None:
     """A test that leaves the test process's main thread on another scheduling policy (SCHED_FIFO) fails here,
     naming itself, and the policy is put back: every thread the process starts later inherits it, and a
     real-time thread that busy-waits on a normal one starves the whole machine (seen in a full xdist run: both
-    workers' main threads at SCHED_FIFO 99, their realsense tests spinning for 45 min at a load of 60)."""
+    workers' main threads at SCHED_FIFO 99 after an AV1 recording test (SVT-AV1 as root; rio.recording.video now
+    keeps its caller's scheduling), their realsense tests spinning for 45 min at a load of 60)."""
     import os
 
     policy, priority = item.config.stash[_SCHEDULING]
