@@ -66,6 +66,8 @@ def pytest_runtest_teardown(item: Any) -> None:
     keeps its caller's scheduling), their realsense tests spinning for 45 min at a load of 60)."""
     import os
 
+    if _SCHEDULING not in item.config.stash:  # a nested pytest session (a kit's) that did not start here
+        return
     policy, priority = item.config.stash[_SCHEDULING]
     now = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
     if now != (policy, priority):
