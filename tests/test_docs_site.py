@@ -39,12 +39,14 @@ def _text(page: Path) -> str:
     return page.read_text(encoding="utf-8")
 
 
+@pytest.mark.slow
 def test_build_prints_no_warning(site: tuple[Path, str]) -> None:
     _, log = site
     problems = [line for line in log.splitlines() if re.search(r"\b(WARNING|ERROR)\b", line)]
     assert not problems, "\n".join(problems)
 
 
+@pytest.mark.slow
 def test_hook_reference_has_every_hook(site: tuple[Path, str]) -> None:
     out, _ = site
     html = _text(out / "hooks" / "index.html")
@@ -57,6 +59,7 @@ def test_hook_reference_has_every_hook(site: tuple[Path, str]) -> None:
     assert "rio_drivers() -&gt; list[Spec]" in text or "rio_drivers() -> list[Spec]" in text
 
 
+@pytest.mark.slow
 def test_api_reference_renders_docstrings(site: tuple[Path, str]) -> None:
     out, _ = site
     top = _text(out / "api" / "rio" / "index.html")
@@ -68,6 +71,7 @@ def test_api_reference_renders_docstrings(site: tuple[Path, str]) -> None:
     assert 'id="rio.interfaces.ArmNode"' in interfaces
 
 
+@pytest.mark.slow
 def test_the_command_reference_is_made_from_the_command(site: tuple[Path, str]) -> None:
     out, _ = site
     text = re.sub(r"<[^>]+>", "", _text(out / "cli-reference" / "index.html"))
@@ -76,6 +80,7 @@ def test_the_command_reference_is_made_from_the_command(site: tuple[Path, str]) 
     assert "--ready-timeout" in text and "Seconds the station's nodes may take to start" in text
 
 
+@pytest.mark.slow
 def test_plugin_pages_come_from_readmes(site: tuple[Path, str]) -> None:
     out, _ = site
     readme = (ROOT / "plugins" / "rio-so100" / "README.md").read_text(encoding="utf-8")

@@ -37,6 +37,9 @@ pytest.importorskip("onnxruntime")
 onnx = pytest.importorskip("onnx")
 zarr = pytest.importorskip("zarr")
 
+#: one test of minutes: 30 demonstrations, an export, then 6 evaluation trials of up to 10 s each in real time
+pytestmark = pytest.mark.slow
+
 from rio_sim.expert import HOLD_S  # noqa: E402
 
 from rio.station.load import load_station  # noqa: E402

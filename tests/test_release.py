@@ -25,6 +25,8 @@ from urllib.parse import urlparse
 
 import pytest
 
+pytestmark = pytest.mark.slow  # every test here runs for tens of seconds (a module fixture builds, installs or records)
+
 try:
     import tomllib
 except ImportError:  # Python 3.10

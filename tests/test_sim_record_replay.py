@@ -19,6 +19,8 @@ from rio.recording.dataset import Dataset  # noqa: E402
 from rio.testing import skip_tests_without  # noqa: E402
 from rio.workflows.replay import replay_episode  # noqa: E402
 
+pytestmark = pytest.mark.slow  # every test here runs for tens of seconds (a module fixture builds, installs or records)
+
 
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):

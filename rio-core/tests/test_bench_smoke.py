@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from rio.benchmarks.middleware_latency import IMAGE_KEYS, RESULT_KEYS, main, summarize
 
@@ -77,6 +78,7 @@ def test_summarize_is_one_way_and_trims_percentiles():
     assert math.isclose(s["mean_us"], kept.mean()) and math.isclose(s["std_us"], kept.std())
 
 
+@pytest.mark.slow
 def test_loop_jitter_runs_every_setup_and_repeat():
     """The control-loop jitter benchmark, tiny: every setup and variant is there, each with one p99 per
     repeat and the median of them reported (the timings themselves are not checked)."""

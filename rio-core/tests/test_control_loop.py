@@ -189,6 +189,7 @@ def test_a_signal_ends_the_workflow_through_its_normal_end(tmp_path, workflow, s
     tmp.rmdir()
 
 
+@pytest.mark.slow
 def test_a_deploy_profile_has_a_track_per_node_and_loop_phase_and_a_row_per_process(tmp_path):
     pytest.importorskip("matplotlib")
     pytest.importorskip("psutil")

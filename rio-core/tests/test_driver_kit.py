@@ -133,6 +133,7 @@ def kit_loaded() -> None:
         arm.cycle()
 
 
+@pytest.mark.slow
 def test_kit_catches_broken_drivers_and_passes_the_sound_fakes(kit_loaded: None, pytester: pytest.Pytester):
     pytester.makepyfile(broken_drivers=BROKEN_DRIVERS, test_broken_drivers=KIT_RUN)
     pytester.syspathinsert()  # the broken drivers are importable by name, like a plugin's
@@ -185,6 +186,7 @@ def test_kit_catches_broken_drivers_and_passes_the_sound_fakes(kit_loaded: None,
             in wrong["test_samples_match_the_declared_layout text"])
 
 
+@pytest.mark.slow
 def test_rio_driver_option_runs_the_kit_of_its_kind_without_a_file(pytester: pytest.Pytester):
     result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "--rio-driver", "rio.fake_gripper",
                                            "--rio-driver-config", '{"max_width": 0.06, "max_step_m": 0.02}')

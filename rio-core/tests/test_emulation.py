@@ -220,3 +220,26 @@ def test_free_loopback_skips_addresses_whose_ports_are_taken():
     finally:
         taken.close()
     assert can_listen(47003)  # unprivileged ports are open to everyone
+
+
+def test_parallel_test_workers_draw_from_disjoint_shares(monkeypatch):
+    """Two pytest-xdist workers probing for a free address (or DDS domain) at the same moment would find
+    the same one: each draws from its own share of the range instead, and one process from all of it."""
+    from rio.emulation import free_loopback
+    from rio.machine.parallel import worker_share
+
+    for var in ("PYTEST_XDIST_WORKER", "PYTEST_XDIST_WORKER_COUNT"):
+        monkeypatch.delenv(var, raising=False)
+    assert worker_share(32, 254) == range(32, 255)
+    monkeypatch.setenv("PYTEST_XDIST_WORKER_COUNT", "3")
+    shares = []
+    for n in range(3):
+        monkeypatch.setenv("PYTEST_XDIST_WORKER", f"gw{n}")
+        shares.append(worker_share(32, 254))
+        drawn = {int(free_loopback([47001]).rsplit(".", 1)[1]) for _ in range(200)}
+        assert drawn <= set(shares[-1]) and len(drawn) > 1, (n, sorted(drawn))
+    assert [len(s) for s in shares] == [74, 74, 74]
+    assert not set(shares[0]) & set(shares[1]) and not set(shares[1]) & set(shares[2])
+    assert worker_share(100, 101) == range(100, 102)  # too small to split: shared, probing tells them apart
+    monkeypatch.setenv("PYTEST_XDIST_WORKER", "master")  # not a worker's name: the whole range
+    assert worker_share(32, 254) == range(32, 255)

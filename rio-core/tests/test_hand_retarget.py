@@ -11,21 +11,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-pytest.importorskip("mink")
-
-import mujoco  # noqa: E402
-
-from rio.conformance.drivers import HandConformance  # noqa: E402
-from rio.control import euler_to_quat, quat_to_matrix  # noqa: E402
+from rio.conformance.drivers import HandConformance
+from rio.control import euler_to_quat, quat_to_matrix
 from rio.fakes.hands import (
     FakeModelHand,
     five_finger_hand_description,
     five_finger_hand_joints,
     five_finger_hand_limits,
 )
-from rio.interfaces.teleop import HAND_JOINTS  # noqa: E402
-from rio.kinematics import HandRetargeter, palm_pose  # noqa: E402
-from rio.testing import lifecycle
+from rio.interfaces.teleop import HAND_JOINTS
+from rio.kinematics import HandRetargeter, palm_pose
+from rio.testing import lifecycle, skip_tests_without
+
+skip_tests_without("mink")  # found, not imported: its import costs every test process 0.5 s
+
+import mujoco  # noqa: E402
 
 J = {name: i for i, name in enumerate(HAND_JOINTS)}
 LOWER, UPPER = (np.array(v) for v in five_finger_hand_limits())

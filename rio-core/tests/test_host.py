@@ -114,6 +114,7 @@ def test_file_lock_is_exclusive_across_descriptors(tmp_path):
     os.close(b)
 
 
+@pytest.mark.slow
 def test_shared_memory_suites_pass_on_the_portable_paths():
     """The whole middleware conformance kit (every middleware watches its node processes through
     rio.machine.host), the shm middleware and call-channel tests, crash-safe recording and the sim world bus,
@@ -122,7 +123,7 @@ def test_shared_memory_suites_pass_on_the_portable_paths():
               "rio-core/tests/test_shm_calls.py", "rio-core/tests/test_recording_crash.py",
               "plugins/rio-sim/tests/test_bus.py"]
     env = {**os.environ, "RIO_HOST_FALLBACK": "1"}
-    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *suites],
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", *suites],
                          cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
     assert " passed" in run.stdout and "failed" not in run.stdout

@@ -15,9 +15,9 @@ import pytest
 from rio.kinematics.pin_solver import LIBGOMP
 from rio.testing import skip_tests_without
 
-pytest.importorskip("mink")
+skip_tests_without("mink")  # found, not imported: its import costs every test process 0.5 s
 skip_tests_without(LIBGOMP)  # first: without libgomp, importing pinocchio raises ImportError (not a skip)
-pytest.importorskip("pinocchio")
+skip_tests_without("pinocchio")
 
 from rio.control import euler_to_quat, pose_error  # noqa: E402
 from rio.kinematics import MinkSolver, PinocchioSolver, solver_from_description  # noqa: E402

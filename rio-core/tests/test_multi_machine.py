@@ -20,6 +20,8 @@ import pytest
 
 from rio.machine import keys, netns
 
+pytestmark = pytest.mark.slow  # every test here runs for tens of seconds (a module fixture builds, installs or records)
+
 STATION = """
 name = "two-{mw}"
 rate_hz = 30

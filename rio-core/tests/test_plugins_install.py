@@ -231,6 +231,7 @@ def _listed(python, env, cwd) -> dict[str, dict]:
     return {p["distribution"]: p for p in json.loads(r.stdout)["plugins"]}
 
 
+@pytest.mark.slow
 def test_install_and_uninstall_a_local_plugin_for_real(venv):
     python, env, root = venv
     plugin = root / "rio-tinytest"

@@ -133,6 +133,7 @@ def test_ring_find_returns_only_a_checked_sample():
     assert ring.find(4.0) is None
 
 
+@pytest.mark.slow
 def test_a_frame_overwritten_during_the_forward_pass_is_a_counted_miss():
     """The policy reads the frames in place: a camera that comes round to their slot before the forward pass
     ends (a 64-frame ring at 100 Hz, a 3 s forward pass) may have changed the pixels it saw, so the chunk is

@@ -4,6 +4,7 @@ fps, fast episode close, keep/discard/re-record bookkeeping, one writer per data
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -130,3 +131,20 @@ def test_the_encoder_check_passes_with_pyav():
     pytest.importorskip("av")
     assert video_problem(VideoOptions()) is None
     assert video_problem(VideoOptions(codec="av1")) is None
+
+
+@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() != 0,
+                    reason="SVT-AV1 changes its caller's scheduling only when run as root")
+def test_an_av1_stream_leaves_the_writers_thread_on_its_own_scheduling(tmp_path):
+    """SVT-AV1 as root puts the thread that opens and feeds its encoder at SCHED_FIFO 99 and leaves it there
+    (seen: every thread a test process started afterwards real-time, busy-waiting ones starving the machine)."""
+    pytest.importorskip("av")
+    from rio.recording.video import StreamWriter, VideoOptions
+
+    before = (os.sched_getscheduler(0), os.sched_getparam(0))
+    writer = StreamWriter(tmp_path / "rgb.mp4", "rgb", 48, 64, 30, VideoOptions(codec="av1", preset="12"))
+    for _ in range(3):
+        writer.write(np.zeros((48, 64, 3), np.uint8))
+        assert (os.sched_getscheduler(0), os.sched_getparam(0)) == before
+    assert writer.close() == 3
+    assert (os.sched_getscheduler(0), os.sched_getparam(0)) == before

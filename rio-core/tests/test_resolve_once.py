@@ -61,6 +61,7 @@ def test_teleop_recording_three_episodes_loads_the_station_once_and_builds_each_
     assert counts == {"station": 1, "FakeArm": 1, "FakeGripper": 1, "ScriptedTeleop": 1}, counts
 
 
+@pytest.mark.slow
 def test_a_process_middleware_builds_no_node_in_the_callers_process(tmp_path, counts, capsys):
     rc = main(["teleop", str(_station(tmp_path, "shm")), "--teleop", "scripted", "--duration", "0.5", "--json"])
     assert rc == 0, capsys.readouterr().err

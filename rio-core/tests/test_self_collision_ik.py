@@ -7,13 +7,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-pytest.importorskip("mink")
-mujoco = pytest.importorskip("mujoco")
+from rio.control import pose_error
+from rio.fakes.humanoid import UPPER_BODY_MJCF, upper_body_description
+from rio.kinematics import MultiFrameIK
+from rio.kinematics.self_collision import SLIP, collision_geoms
+from rio.testing import skip_tests_without
 
-from rio.control import pose_error  # noqa: E402
-from rio.fakes.humanoid import UPPER_BODY_MJCF, upper_body_description  # noqa: E402
-from rio.kinematics import MultiFrameIK  # noqa: E402
-from rio.kinematics.self_collision import SLIP, collision_geoms  # noqa: E402
+skip_tests_without("mink")  # found, not imported: its import costs every test process 0.5 s
+mujoco = pytest.importorskip("mujoco")
 
 DESC = upper_body_description()
 NAMES = DESC["joints"]

@@ -66,6 +66,7 @@ def test_request_queue_consumer_takes_only_complete_requests_in_order():
     assert [r["x"] for r in q.get_all()] == [2.0] and len(q) == 0
 
 
+@pytest.mark.slow
 def test_stress_accepts_no_torn_stale_lost_or_reordered_sample():
     samples = int(os.environ.get("RIO_STRESS_SAMPLES", "1000000"))
     report = stress(samples=samples, rings=2, readers=2, producers=3, payload=64, timeout_s=240)

@@ -12,10 +12,10 @@ import pytest
 
 from rio.control.rotations import quat_angle, quat_conj, quat_mul, quat_to_rotvec
 from rio.fakes.hands import five_finger_hand_joints
-from rio.testing import fake_eef_station
+from rio.testing import fake_eef_station, skip_tests_without
 from rio.workflows.teleop import run_teleop
 
-pytest.importorskip("mink")
+skip_tests_without("mink")  # found, not imported: its import costs every test process 0.5 s
 
 HEAD = """
 name = "hands-test"

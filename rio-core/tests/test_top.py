@@ -26,6 +26,7 @@ def _top(*args: str) -> subprocess.CompletedProcess:
                           stdin=subprocess.DEVNULL)
 
 
+@pytest.mark.slow
 def test_top_reads_a_shm_stations_rates_ages_and_processes():
     pytest.importorskip("psutil")
     name, data = _station("shm")

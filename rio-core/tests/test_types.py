@@ -31,6 +31,7 @@ def test_py_typed_is_shipped():
     assert (Path(rio.__file__).parent / "py.typed").is_file()
 
 
+@pytest.mark.slow
 @needs_mypy
 def test_mypy_is_clean_on_rio_core():
     if not (ROOT / PACKAGE).is_dir():

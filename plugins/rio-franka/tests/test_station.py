@@ -14,6 +14,7 @@ def test_fake_station_traces_the_scripted_square():
     run_scripted_square("fr3-fake")
 
 
+@pytest.mark.slow
 def test_sim_station_picks_the_cube_and_places_it_on_the_pad():
     pytest.importorskip("rio_sim")
     pytest.importorskip("mujoco")
@@ -34,18 +35,21 @@ def recorded(tmp_path_factory):
     return record_pick_and_place("panda-sim", tmp_path_factory.mktemp("data") / "pick")
 
 
+@pytest.mark.slow
 def test_the_sim_station_records_the_pick_and_place(recorded):
     from rio_sim.testing import check_recorded_pick_and_place
 
     check_recorded_pick_and_place(recorded)
 
 
+@pytest.mark.slow
 def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
     from rio_sim.testing import check_replay_repeats_the_task
 
     check_replay_repeats_the_task("panda-sim", recorded, tmp_path / "rollout")
 
 
+@pytest.mark.slow
 def test_sim_station_over_shm_each_node_in_its_own_process():
     """Over shm the arm's and the hand's nodes are separate processes, each with its own fake control
     box on the one simulated robot: neither may hold the other's joints (the box that was sent arm

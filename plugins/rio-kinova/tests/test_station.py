@@ -62,6 +62,7 @@ def test_the_sim_gen3_is_the_drivers_arm_with_the_stations_tool():
             np.testing.assert_allclose(span, (low, high), atol=1e-6)
 
 
+@pytest.mark.slow
 def test_sim_station_picks_the_cube_and_places_it_on_the_pad():
     needs_sim()
     from rio_sim.scenes import CUBE
@@ -86,12 +87,14 @@ def recorded(tmp_path_factory):
     return record_pick_and_place(SIM, tmp_path_factory.mktemp("data") / "pick")
 
 
+@pytest.mark.slow
 def test_the_recording_holds_the_pick_arm_gripper_and_cameras(recorded):
     from rio_sim.testing import check_recorded_pick_and_place
 
     check_recorded_pick_and_place(recorded)
 
 
+@pytest.mark.slow
 def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
     from rio_sim.testing import check_replay_repeats_the_task
 

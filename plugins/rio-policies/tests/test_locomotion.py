@@ -124,6 +124,7 @@ def test_recurrent_state_and_start_ramp(tmp_path):
     np.testing.assert_allclose(pol(obs, None, t_obs=20.0).actions[0][:12], default[:12] + 1.0, rtol=1e-6)
 
 
+@pytest.mark.slow
 def test_deploy_on_the_free_floating_g1_stands_for_10_s(tmp_path):
     """`rio deploy sim-g1-floating --policy <policy.toml>` (its code, the station's shm middleware), a model
     whose output is 1e-4 x obs[0:12] (below 3e-5 rad on any target: it holds the default pose) so the

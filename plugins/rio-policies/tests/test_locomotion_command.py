@@ -89,6 +89,7 @@ def test_a_missing_device_is_named(tmp_path):
         pol.load(ObsLayout.of(obs()))
 
 
+@pytest.mark.slow
 def test_deploy_on_sim_g1_floating_passes_the_teleop_twist_to_the_model(tmp_path):
     """`rio deploy sim-g1-floating --teleop rio.fake_teleop` (a constant twist, vx > 0): the command term the
     model was given (read back off the echo model's actions) is the device's scaled twist, every step."""

@@ -16,6 +16,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from rio_realsense.doctor import LIBUSB
 
 from rio.machine.hide_libraries import C_COMPILER, hide_libraries_env
@@ -38,6 +39,7 @@ def _bare_env(tmp_path: Path) -> dict[str, str]:
     return hide_libraries_env([LIBUSB.library], tmp_path)
 
 
+@pytest.mark.slow
 def test_without_libusb_every_test_that_needs_it_skips_naming_the_package(tmp_path):
     env = _bare_env(tmp_path)
     probe = subprocess.run([sys.executable, "-c", "import pyrealsense2"], env=env, capture_output=True, text=True,
@@ -45,7 +47,7 @@ def test_without_libusb_every_test_that_needs_it_skips_naming_the_package(tmp_pa
     assert probe.returncode == 1 and LOADER_ERROR in probe.stderr, probe.stderr[-2000:]  # as on a bare machine
 
     run = subprocess.run([sys.executable, "-m", "pytest", str(HERE), f"--ignore={__file__}", "-p", "no:cacheprovider",
-                          "-rs", "-q"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+                          "-n", "0", "-rs", "-q"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     out = run.stdout + run.stderr
     assert run.returncode in (0, 5), out[-4000:]
     reason = "needs Debian package libusb-1.0-0 (apt install libusb-1.0-0)"

@@ -69,6 +69,7 @@ def _check_pick_place(summary, rec, scene: str, arms: dict[str, str]) -> None:
         assert np.linalg.norm(report.end[:3] - report.start[:3]) < 0.006, report
 
 
+@pytest.mark.slow
 def test_scripted_teleop_moves_the_arm_to_its_targets_and_picks_the_cube():
     summary, rec = _run("sim-so100")
     # At the end of every move the measured tool is where the script put it (start + planned offset).
@@ -80,16 +81,19 @@ def test_scripted_teleop_moves_the_arm_to_its_targets_and_picks_the_cube():
     _check_pick_place(summary, rec, "so100", {"arm": "arm"})
 
 
+@pytest.mark.slow
 def test_same_script_on_bimanual():
     summary, rec = _run("sim-bimanual")
     _check_pick_place(summary, rec, "so100_bimanual", {"arm": "left", "arm2": "right"})
 
 
+@pytest.mark.slow
 def test_same_script_on_xarm7_with_eef_actions():
     summary, rec = _run("sim-xarm7")
     _check_pick_place(summary, rec, "xarm7", {"arm": "arm"})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("station", ["sim-so100"])
 def test_scripted_teleop_over_shared_memory_processes(station):
     """The default middleware: world, arm, gripper, cameras and device each in their own process."""

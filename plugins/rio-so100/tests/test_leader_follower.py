@@ -83,6 +83,7 @@ def test_a_station_without_leader_arms_is_refused():
         run(st, duration=0.1, log=None)
 
 
+@pytest.mark.slow
 def test_rio_teleop_command_mirrors_with_a_leader_device(tmp_path):
     """`rio teleop STATION --teleop so100.leader --record DIR` (the core command) runs leader-follower,
     ALOHA-style with two pairs, over emulated buses, and records the run as an episode."""

@@ -26,14 +26,13 @@ from rio.control.rotations import quat_to_matrix, rotvec_to_quat
 from rio.emulation import free_loopback
 from rio.errors import RioError
 from rio.interfaces.teleop import HAND_JOINTS, LEFT, RIGHT
-from rio.testing import block_import, lifecycle, wait_until
+from rio.testing import block_import, fake_eef_station, lifecycle, skip_tests_without, wait_until
 
-pytest.importorskip("avp_stream")
+# found, not imported: avp_stream imports scipy.spatial (0.8 s in every test process) and sets signal handlers
+skip_tests_without("avp_stream")
 
 from rio_teleop.avp import emulator as em  # noqa: E402
 from rio_teleop.avp.node import SDK_TO_ROBOT, VISIONOS_JOINTS, VisionProTeleop  # noqa: E402
-
-from rio.testing import fake_eef_station
 
 #: visionOS world (x right, y up, z toward the wearer) -> robot (x forward, y left, z up), written out:
 #: forward is -z, left is -x, up is +y.

@@ -108,5 +108,10 @@ def test_emulator_command_serves_a_controller_until_interrupted():
         ctl.release()
     finally:
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=30)
+        try:
+            out, _ = proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()  # else it outlives the test, serving on its address (seen: 13 min after a failed run)
+            proc.communicate()
+            raise
     assert proc.returncode == 0, out

@@ -35,6 +35,7 @@ def recorded(tmp_path_factory):
     return root, out.stdout
 
 
+@pytest.mark.slow
 def test_scripted_pick_and_place_through_the_sdk_moves_the_cube_to_the_pad_and_records_it(recorded):
     from rio_sim.testing import check_recorded_pick_and_place
 
@@ -42,6 +43,7 @@ def test_scripted_pick_and_place_through_the_sdk_moves_the_cube_to_the_pad_and_r
     check_recorded_pick_and_place(root)
 
 
+@pytest.mark.slow
 def test_the_recording_holds_the_emulator_truth(recorded):
     root, _ = recorded
     ep = Dataset(root).episode(0)
@@ -52,6 +54,7 @@ def test_the_recording_holds_the_emulator_truth(recorded):
     assert np.ptp(truth, axis=0).max() > 0.2 and measured.shape[0] == truth.shape[0]  # the arm really moved
 
 
+@pytest.mark.slow
 def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
     from rio_sim.testing import cube_path
 

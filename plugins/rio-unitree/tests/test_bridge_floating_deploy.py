@@ -38,6 +38,7 @@ def tilt_deg(quat_wxyz) -> float:
     return math.degrees(math.acos(max(-1.0, min(1.0, 1 - 2 * (x * x + y * y)))))
 
 
+@pytest.mark.slow
 def test_a_zero_policy_stands_the_free_g1_after_the_gantry_lowers_it(domain_id, tmp_path):
     pytest.importorskip("rio_sim")  # the G1 model that stands with these gains (the fallback is only G1-like)
     from rio_policies.locomotion import G1_DEFAULT_POSE, G1_JOINTS

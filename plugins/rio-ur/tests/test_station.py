@@ -15,6 +15,7 @@ from rio.testing import run_scripted_square
 from rio.workflows.teleop import run_teleop
 
 
+@pytest.mark.slow
 def test_the_emulator_station_traces_the_scripted_square():
     run_scripted_square("ur5e-emulator")
 
@@ -40,6 +41,7 @@ def test_an_emulator_that_does_not_come_up_is_stopped_not_left_holding_its_addre
     assert emu.proc.poll() is not None
 
 
+@pytest.mark.slow
 def test_scripted_pick_and_place_on_the_sim_station_carries_the_cube_to_the_pad():
     pytest.importorskip("mujoco")
     pytest.importorskip("rio_sim")
@@ -62,12 +64,14 @@ def recorded(tmp_path_factory):
     return record_pick_and_place("ur5e-sim", tmp_path_factory.mktemp("data") / "pick", cli=True)
 
 
+@pytest.mark.slow
 def test_the_sim_station_records_the_pick_and_place(recorded):
     from rio_sim.testing import check_recorded_pick_and_place
 
     check_recorded_pick_and_place(recorded)
 
 
+@pytest.mark.slow
 def test_deploy_replaying_the_episode_does_the_task_again(recorded, tmp_path):
     from rio_sim.testing import check_replay_repeats_the_task
 

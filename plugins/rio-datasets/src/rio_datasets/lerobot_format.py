@@ -28,7 +28,7 @@ from rio.config import Config
 from rio.machine.confine import inside
 from rio.recording import Dataset
 from rio.recording.format import DatasetFormat, Progress
-from rio.recording.video import quiet_svt
+from rio.recording.video import quiet_svt, scheduling_kept
 
 from . import lerobot_paths as LL
 from .common import (
@@ -73,12 +73,16 @@ class _VideoFile:
         vf = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
         vf.pts = self.frames
         self.frames += 1
-        for p in self.stream.encode(vf):
+        with scheduling_kept():  # SVT-AV1 as root leaves its caller at SCHED_FIFO 99
+            packets = self.stream.encode(vf)
+        for p in packets:
             self.bytes += p.size
             self.container.mux(p)
 
     def close(self) -> None:
-        for p in self.stream.encode():
+        with scheduling_kept():
+            packets = self.stream.encode()
+        for p in packets:
             self.container.mux(p)
         self.container.close()
 

@@ -4,6 +4,7 @@ side by side must never hear each other's robots), and a tap that records what g
 from __future__ import annotations
 
 import contextlib
+import itertools
 import random
 import threading
 import time
@@ -13,16 +14,28 @@ from typing import Any
 from .dds import Participant
 from .wire import LowCmd, LowState, cmd_crc_ok
 
-_handed_out: set[int] = set()
+#: Domains this process handed out, with the order it did: a domain is handed out again only when every
+#: other one of the range was (the longest ago first), and only if its probe still finds nobody on it.
+_handed_out: dict[int, int] = {}
+_order = itertools.count()
 
 
 def free_domain_id(interface: str = "lo", lo: int = 100, hi: int = 200, listen_s: float = 0.15) -> int:
-    """A DDS domain in [lo, hi] with no participant but ours after `listen_s` of discovery, not handed
-    out before in this process."""
+    """A DDS domain in [lo, hi] with no participant but ours after `listen_s` of discovery, preferring one
+    this process has not handed out before; a pytest-xdist worker draws from its own share of the range
+    (`rio.machine.parallel`: two workers probing at once would both find the same domain free).
+
+    A test process can ask more often than the range is long (a worker holds half of it): never reusing a
+    domain ran a worker out of domains in the middle of the G1 tests ("no free DDS domain"), so the ones
+    handed out longest ago are probed again last."""
     from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
 
-    candidates = [d for d in range(lo, hi + 1) if d not in _handed_out]
+    from rio.machine.parallel import worker_share
+
+    share = worker_share(lo, hi)
+    candidates = list(share)
     random.shuffle(candidates)
+    candidates.sort(key=lambda d: _handed_out.get(d, -1))  # never handed out first, in random order
     for domain in candidates[:20]:
         with Participant(domain, interface) as p:
             reader = BuiltinDataReader(p.participant, BuiltinTopicDcpsParticipant)
@@ -30,9 +43,9 @@ def free_domain_id(interface: str = "lo", lo: int = 100, hi: int = 200, listen_s
             time.sleep(listen_s)
             others = [s for s in reader.take(N=64) if s.key != p.participant.guid]
         if not others:
-            _handed_out.add(domain)
+            _handed_out[domain] = next(_order)
             return domain
-    raise RuntimeError(f"no free DDS domain in {lo}..{hi} on {interface}")
+    raise RuntimeError(f"no free DDS domain in {share.start}..{share.stop - 1} on {interface}: 20 probed, each in use")
 
 
 @contextlib.contextmanager

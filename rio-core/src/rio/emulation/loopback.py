@@ -14,6 +14,8 @@ import os
 import socket
 from collections.abc import Iterable
 
+from rio.machine.parallel import worker_share
+
 _counter = itertools.count()
 #: 127.0.0.2 up to this one are left to station files.
 STATION_ADDRESSES_END = 31
@@ -35,15 +37,17 @@ def is_free(host: str, ports: Iterable[int]) -> bool:
 
 
 def free_loopback(ports: Iterable[int]) -> str:
-    """A 127.0.0.N address (N from 32: see the module's docstring) where all of `ports` are free;
-    spread by process id so parallel test processes rarely race for one."""
+    """A 127.0.0.N address (N from 32: see the module's docstring) where all of `ports` are free. A
+    pytest-xdist worker draws from its own share of them (`rio.machine.parallel`), so two workers never
+    race for one; other processes are spread by process id, so that they rarely do."""
     ports = tuple(ports)
-    base, span = os.getpid() * 7, _LAST - _FIRST + 1
-    for _ in range(span):
-        host = f"127.0.0.{_FIRST + (base + next(_counter)) % span}"
+    share = worker_share(_FIRST, _LAST)
+    base = os.getpid() * 7
+    for _ in range(len(share)):
+        host = f"127.0.0.{share[(base + next(_counter)) % len(share)]}"
         if is_free(host, ports):
             return host
-    raise RuntimeError(f"no loopback address 127.0.0.{_FIRST}-{_LAST} has ports {list(ports)} free for an "
+    raise RuntimeError(f"no loopback address 127.0.0.{share[0]}-{share[-1]} has ports {list(ports)} free for an "
                        "emulator")
 
 

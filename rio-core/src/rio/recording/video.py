@@ -10,7 +10,9 @@ timing information depends on the container.
 
 from __future__ import annotations
 
+import contextlib
 import os
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -103,6 +105,25 @@ def _rate(rate: float) -> Fraction:
     return Fraction(rate).limit_denominator(1001)
 
 
+@contextlib.contextmanager
+def scheduling_kept() -> Iterator[None]:
+    """The calling thread's scheduling policy as it was before the block: SVT-AV1 (libsvtav1), run as root,
+    puts the thread that opens and feeds its encoder at SCHED_FIFO 99 and leaves it there, so every thread that
+    thread starts afterwards is real-time too (in a test process: a later test's busy-waiting thread at FIFO 99
+    starved the machine). The encoder's own threads stay at SVT-AV1's FIFO 99 while it is open."""
+    try:
+        old = (os.sched_getscheduler(0), os.sched_getparam(0))
+    except (AttributeError, OSError):  # no POSIX scheduling here
+        yield
+        return
+    try:
+        yield
+    finally:
+        if (os.sched_getscheduler(0), os.sched_getparam(0)) != old:
+            with contextlib.suppress(OSError):
+                os.sched_setscheduler(0, old[0], old[1])
+
+
 class StreamWriter:
     """Encodes one camera stream into one file (runs in the encoder process)."""
 
@@ -157,11 +178,15 @@ class StreamWriter:
         vf = av.VideoFrame.from_ndarray(self._prepare(frame, depth_scale), format=fmt)
         vf.pts = self.frames
         self.frames += 1
-        for packet in self.stream.encode(vf):
+        with scheduling_kept():  # the first frame opens the encoder
+            packets = self.stream.encode(vf)
+        for packet in packets:
             self.container.mux(packet)
 
     def close(self) -> int:
-        for packet in self.stream.encode():
+        with scheduling_kept():
+            packets = self.stream.encode()
+        for packet in packets:
             self.container.mux(packet)
         self.container.close()
         return self.frames

@@ -1,0 +1,97 @@
+"""The suite's own rules, for every `uv run pytest` from the repository's root.
+
+Hardware tests (marker `hardware`) are deselected unless `-m` names them (`-m hardware`): a `-m` given on the
+command line replaces pyproject's, so a `-m 'not hardware'` there would be lost from `-m "not slow"`.
+
+How the suite is split over pytest-xdist workers (`-n auto` in pyproject's addopts; `-n 0` runs it in one
+process): which tests must run on one worker, one after another.
+
+The unit of work is a test file: its module- and class-scoped fixtures (an emulator, a recorded episode)
+are made once, on one worker. Files that use one fixed machine resource are one unit together
+(`SHARED_RESOURCE`). Everything else a test starts is private to its worker already: shared memory and run
+directories carry a run id, rio-sim worlds a session id per process tree, emulators draw loopback addresses
+and the G1 tests DDS domains from their worker's own share (`rio.machine.parallel`), ports are chosen by the
+system (port 0), and `rio new plugin`'s tests install what they generate into an environment of their own.
+
+xdist's own grouping (`--dist loadgroup` with `xdist_group` marks) would say this on the tests, but under
+pytest 9.2 it silently does nothing: xdist names a group by rewriting each test's node id (`item._nodeid`),
+which pytest 9.2 no longer reads (pytest-dev/pytest-xdist#1386). The scheduler below sees only node ids,
+so the shared resources are named here, by file.
+
+Units are handed out in the order the workers collected them, and a worker collects the units holding the
+most `slow` tests first: a unit of several minutes started last would leave the other workers idle.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import Any
+
+import pytest
+
+#: the main thread's scheduling policy and priority when the session started
+_SCHEDULING = pytest.StashKey[tuple[int, int]]()
+
+#: Files whose tests use one fixed machine resource, by resource: each group runs on one worker.
+SHARED_RESOURCE = {
+    # the packaged UR and xArm stations serve their emulators on 127.0.0.2 (both on ports 30001-30003)
+    "plugins/rio-ur/tests/test_station.py": "127.0.0.2",
+    "plugins/rio-ufactory/tests/test_station.py": "127.0.0.2",
+}
+
+
+def pytest_collection_modifyitems(config: Any, items: list[Any]) -> None:
+    if "hardware" not in (config.option.markexpr or ""):  # else -m decides
+        hardware = [item for item in items if item.get_closest_marker("hardware") is not None]
+        if hardware:
+            config.hook.pytest_deselected(items=hardware)
+            items[:] = [item for item in items if item.get_closest_marker("hardware") is None]
+    if hasattr(config, "workerinput"):  # an xdist worker: the units with the most slow tests first
+        slow = Counter(unit_of(item.nodeid) for item in items if item.get_closest_marker("slow") is not None)
+        items.sort(key=lambda item: -slow[unit_of(item.nodeid)])  # stable: a unit's tests keep their order
+
+
+def pytest_sessionstart(session: Any) -> None:
+    import os
+
+    session.config.stash[_SCHEDULING] = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+
+
+@pytest.hookimpl(trylast=True)  # after the test's fixtures are torn down: one may undo what it set
+def pytest_runtest_teardown(item: Any) -> None:
+    """A test that leaves the test process's main thread on another scheduling policy (SCHED_FIFO) fails here,
+    naming itself, and the policy is put back: every thread the process starts later inherits it, and a
+    real-time thread that busy-waits on a normal one starves the whole machine (seen in a full xdist run: both
+    workers' main threads at SCHED_FIFO 99 after an AV1 recording test (SVT-AV1 as root; rio.recording.video now
+    keeps its caller's scheduling), their realsense tests spinning for 45 min at a load of 60)."""
+    import os
+
+    if _SCHEDULING not in item.config.stash:  # a nested pytest session (a kit's) that did not start here
+        return
+    policy, priority = item.config.stash[_SCHEDULING]
+    now = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+    if now != (policy, priority):
+        os.sched_setscheduler(0, policy, os.sched_param(priority))
+        raise AssertionError(f"{item.nodeid} left the test process's main thread at scheduling policy {now[0]}, "
+                             f"priority {now[1]} (was {policy}, {priority}); put back")
+
+
+def unit_of(nodeid: str) -> str:
+    """The unit of work a test belongs to: its file, or the resource its file shares with others."""
+    path = nodeid.split("::", 1)[0]
+    return SHARED_RESOURCE.get(path, path)
+
+
+def pytest_xdist_make_scheduler(config: Any, log: Any) -> Any:
+    from xdist.scheduler import LoadScopeScheduling
+
+    missing = [path for path in SHARED_RESOURCE if not (config.rootpath / path).is_file()]
+    if missing:
+        raise pytest.UsageError(f"conftest.py's SHARED_RESOURCE names files that do not exist: {missing}")
+    config.option.loadscopereorder = False  # keep the workers' order (slow units first), not the largest first
+
+    class ByUnit(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return unit_of(nodeid)
+
+    return ByUnit(config, log)
