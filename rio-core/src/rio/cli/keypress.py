@@ -24,7 +24,7 @@ def read_key(choices: Iterable[str], *, tty: str | int = "/dev/tty", stopped: Ca
 
     wanted = {c.lower() for c in choices}
     own = isinstance(tty, str)
-    fd = os.open(tty, os.O_RDONLY | os.O_NOCTTY) if own else tty
+    fd: int = os.open(tty, os.O_RDONLY | os.O_NOCTTY) if isinstance(tty, str) else tty
     saved = None
     try:
         with contextlib.suppress(termios.error):

@@ -93,11 +93,12 @@ def teleop(
 
     st = prepare_station(station, device, key_values(teleop_set, "--teleop-set"))  # the one load of the run
     speed = confirm_homing(st, home_speed, yes) if home else None
-    common = dict(viz=viz, mode=mode, hand=hand, scale=scale, max_pos_speed=max_pos_speed,
-                  max_rot_speed=max_rot_speed, align_speed=align_speed)
-    session = dict(duration=duration, middleware=middleware, rate_hz=rate, instruction=instruction, profile=profile,
-                   log=lambda m: typer.echo(m, err=True), seed=seed, ready_timeout=ready_timeout,
-                   status=shows_status(quiet, json_out), home_speed=speed)
+    common: dict[str, Any] = dict(viz=viz, mode=mode, hand=hand, scale=scale, max_pos_speed=max_pos_speed,
+                                  max_rot_speed=max_rot_speed, align_speed=align_speed)
+    session: dict[str, Any] = dict(duration=duration, middleware=middleware, rate_hz=rate, instruction=instruction,
+                                   profile=profile, log=lambda m: typer.echo(m, err=True), seed=seed,
+                                   ready_timeout=ready_timeout, status=shows_status(quiet, json_out),
+                                   home_speed=speed)
     if record is None:
         finish(run_teleop(st, **common, **session), json_out)
         return

@@ -52,7 +52,7 @@ class BaseConformance(DriverConformance):
 
     # -- kind accessors ------------------------------------------------------------------------------
     def kind_keys(self, node: Node) -> KeySpec:
-        n = node.n_wheels
+        n = node.n_wheels  # type: ignore[attr-defined]  # (a BaseNode, typed as the node)
         return {"wheel_pos": ((n,), FLOAT), "wheel_vel": ((n,), FLOAT), "body_twist": ((3,), FLOAT),
                 "odom_pose": ((3,), FLOAT), "enabled": ((), BOOL), "holding": ((), BOOL)}
 

@@ -228,6 +228,7 @@ class JointCommander(_Commander):
         q = self._clip(goal + np.clip(desired - goal, -self.max_step, self.max_step))
         if self.tool is None or np.array_equal(q, goal):
             return q
+        assert self._tool_at is not None  # set with the tool bound at reset
         q, self._tool_at = self.tool.step(goal, self._tool_at, q)
         return q
 

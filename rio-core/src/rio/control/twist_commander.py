@@ -58,6 +58,7 @@ class TwistCommander:
         self.watchdog_holds = 0
         #: Who this commander drives, for the log ("node 'base'").
         self.owner = "a twist commander"
+        self._interp: LinearInterpolator  # set by reset() (a hold) and by every command
         self.reset(ZERO_TWIST if start is None else start, 0.0)
 
     def _clip(self, twist) -> np.ndarray:

@@ -155,7 +155,8 @@ class ArmNode(JointNode):
         Cartesian speed limit over one cycle)."""
         step = self.config.max_tool_speed_m_s / self.rate_hz
         if self.config.workspace is not None:
-            return Workspace(*self.config.workspace, step)
+            lower, upper = self.config.workspace
+            return Workspace(lower, upper, step)
         if self.kinematics is not None:
             from rio.kinematics.reach import reach_box
 
