@@ -17,6 +17,7 @@ zenoh = pytest.importorskip("zenoh")
 
 import rio  # noqa: E402
 from rio import ServerManager, connect, serve  # noqa: E402
+from rio.conformance.middleware import send_in_turn  # noqa: E402
 from rio.errors import ConfigError  # noqa: E402
 from rio.machine import keys  # noqa: E402
 from rio.middleware.protocol.messages import REQUEST_ID as _REQ_ID  # noqa: E402
@@ -63,8 +64,8 @@ def test_keyed_node_and_client_end_to_end_over_tls(robot, station_keys):
         assert all(k.startswith("tls/") for k in c._transport._session_key[:1]), c._transport._session_key
         s1 = c.get_state()
         assert wait_until(lambda: c.get_state()["tick"] > s1["tick"] + 5), "no state over TLS"
-        for i in range(20):
-            c.send_request(q=np.full(6, float(i)), client=1, seq=i)
+        for i in range(20):  # back to back: a sender within its credits, waiting for one when it has none
+            send_in_turn(c, 5.0, q=np.full(6, float(i)), client=1, seq=i)
         assert wait_until(lambda: np.allclose(c.get_state()["last"], 19.0)), "requests not applied"
         assert [tuple(x) for x in c.handled()][-20:] == [(1, i) for i in range(20)]
         payload = np.arange(256.0)
