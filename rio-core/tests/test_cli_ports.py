@@ -34,6 +34,8 @@ class Usb:
         (self.dev / "serial" / "by-id").mkdir(parents=True)
         (self.sys / "class" / "tty").mkdir(parents=True)
         self.ptys: dict[str, PtyDevice] = {}
+        #: set when the command first lists the ports: the user acts after the command has looked
+        self.listed = threading.Event()
 
     def by_id(self, name: str, serial: str) -> Path:
         return self.dev / "serial" / "by-id" / f"usb-1a86_USB_Single_Serial_{serial}-if00"
@@ -60,7 +62,9 @@ class Usb:
             link.unlink()
 
     def lister(self) -> list[ports.SerialPort]:
-        return ports.scan(self.dev, self.sys)
+        found = ports.scan(self.dev, self.sys)
+        self.listed.set()
+        return found
 
     def close(self) -> None:
         for pty in self.ptys.values():
@@ -75,10 +79,12 @@ def usb(tmp_path, monkeypatch):
     u.close()
 
 
-def later(seconds: float, *actions) -> threading.Thread:
-    """The user, `seconds` from now: unplugging, plugging in."""
+def later(usb: Usb, seconds: float, *actions) -> threading.Thread:
+    """The user, `seconds` after the command first listed the ports (a loaded machine may take longer than
+    that to get there): unplugging, plugging in."""
 
     def act() -> None:
+        usb.listed.wait(60.0)
         time.sleep(seconds)
         for a in actions:
             a()
@@ -169,7 +175,7 @@ def test_rio_ports_table_and_json(usb):
 def test_find_port_watches_for_the_port_that_disappears(usb):
     usb.plug("ttyACM0")
     usb.plug("ttyACM1", bus="1-2", serial="OTHER")
-    later(0.3, lambda: usb.unplug("ttyACM1"))
+    later(usb, 0.3, lambda: usb.unplug("ttyACM1"))
     r = invoke("find-port", "--timeout", "10")
     assert r.exit_code == 0, r.output
     assert f"the device's port is {usb.dev / 'ttyACM1'}" in r.stdout
@@ -178,7 +184,7 @@ def test_find_port_watches_for_the_port_that_disappears(usb):
 
 
 def test_find_port_json_and_a_device_plugged_in(usb):
-    later(0.3, lambda: usb.plug("ttyACM0"))
+    later(usb, 0.3, lambda: usb.plug("ttyACM0"))
     r = invoke("find-port", "--timeout", "10", "--json")
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout)
@@ -190,7 +196,7 @@ def test_find_port_replug_reports_where_the_device_came_back(usb):
     """Unplugged, then back in, on another name (ttyACM0 -> ttyACM1, as Linux does when the old name is
     still held): the by-id path, which does not change, is what to write."""
     usb.plug("ttyACM0")
-    later(0.3, lambda: usb.unplug("ttyACM0"), lambda: time.sleep(0.5), lambda: usb.plug("ttyACM1", bus="1-3"))
+    later(usb, 0.3, lambda: usb.unplug("ttyACM0"), lambda: time.sleep(0.5), lambda: usb.plug("ttyACM1", bus="1-3"))
     r = invoke("find-port", "--timeout", "10", "--replug", "--json")
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout)
@@ -209,7 +215,7 @@ def test_find_port_times_out_in_one_line(usb):
 
 def test_find_port_replug_that_never_comes_back(usb):
     usb.plug("ttyACM0")
-    later(0.2, lambda: usb.unplug("ttyACM0"))
+    later(usb, 0.2, lambda: usb.unplug("ttyACM0"))
     r = invoke("find-port", "--timeout", "1", "--replug")
     assert r.exit_code == 1 and r.stderr.splitlines()[-1] == "error: the device did not come back within 1 s"
 
@@ -217,7 +223,7 @@ def test_find_port_replug_that_never_comes_back(usb):
 def test_find_port_two_ports_gone_is_ambiguous(usb):
     usb.plug("ttyACM0")
     usb.plug("ttyACM1", bus="1-2", serial="OTHER")
-    later(0.2, lambda: usb.unplug("ttyACM0"), lambda: usb.unplug("ttyACM1"))
+    later(usb, 0.2, lambda: usb.unplug("ttyACM0"), lambda: usb.unplug("ttyACM1"))
     r = invoke("find-port", "--timeout", "5")
     assert r.exit_code == 1 and "several ports disappeared" in r.stderr.splitlines()[-1]
 
