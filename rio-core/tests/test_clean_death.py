@@ -151,7 +151,11 @@ def test_a_sigkilled_stations_leftovers_are_swept_and_a_live_ones_are_not(script
         assert wait_until(lambda: not any(host.pid_alive(p) for p in dead_info["pids"].values()), timeout=15), \
             "node processes outlived their SIGKILLed manager"
         left = _leftovers(dead_info)
-        assert len([n for n in left if n.endswith(("_d", "_r"))]) == 3 and os.path.isdir(dead_info["run_dir"])
+        segments = {n for n in left if n.endswith(("_d", "_r"))}
+        # a SIGKILLed manager leaves its segments and run directory; any manager start on this machine (another
+        # test worker's, another test run's) sweeps them at once, possibly before this line: then all are gone
+        swept_elsewhere = not segments and not os.path.isdir(dead_info["run_dir"])
+        assert swept_elsewhere or (len(segments) == 3 and os.path.isdir(dead_info["run_dir"])), (left, dead_info)
 
         if sweeper == "function":
             # Other dead runs of this machine may be swept with it; and on a machine shared with other
@@ -159,7 +163,6 @@ def test_a_sigkilled_stations_leftovers_are_swept_and_a_live_ones_are_not(script
             swept = sweep_dead_runs()
             assert live_info["run_id"] not in swept.runs
             if dead_info["run_id"] in swept.runs:
-                segments = {n for n in left if n.endswith(("_d", "_r"))}
                 assert {n for n in swept.segments if dead_info["run_id"] in n} == segments
                 assert dead_info["run_dir"] in swept.dirs and swept.nbytes > 0
         else:
