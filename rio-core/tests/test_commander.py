@@ -197,16 +197,24 @@ def test_a_stream_after_a_single_move_is_still_watched():
     assert c.holding and held < 0.1 and c.step(2.5)[0] == held
 
 
-def test_a_stream_that_ended_at_its_target_is_not_a_warning(caplog):
-    """The end of every clean run: the loop's last move is over when the watchdog notices the silence, which
-    is logged at debug level; a stream silent mid-move is a warning."""
+def test_a_stream_that_ended_unannounced_is_a_warning_and_an_announced_end_is_quiet(caplog):
+    """A stream that goes silent is a warning even when its last move is over (a pulled cable mid-run looks
+    exactly like that at the node); a control loop's end is announced with hold() and logs nothing."""
     c = _cmd(max_step=10.0, watchdog=0.5)
     t = _stream_then_stop(c)
     with caplog.at_level("DEBUG", logger="rio.control"):
         for k in range(1, 100):
             c.step(t + 0.01 * k)
     assert c.holding and c.watchdog_holds == 1
-    assert [r.levelname for r in caplog.records] == ["DEBUG"]
+    assert [r.levelname for r in caplog.records] == ["WARNING"] and "at its last target" in caplog.text
+    caplog.clear()
+    c = _cmd(max_step=10.0, watchdog=0.5)
+    t = _stream_then_stop(c)
+    c.hold(t)  # the loop's end, announced
+    with caplog.at_level("DEBUG", logger="rio.control"):
+        for k in range(1, 100):
+            c.step(t + 0.01 * k)
+    assert c.holding and c.watchdog_holds == 0 and not caplog.records
     caplog.clear()
     c = _cmd(max_step=10.0, watchdog=0.2)
     c.command([0.0, 0.0], t_target=0.0, now=-0.1)

@@ -169,9 +169,11 @@ class _Commander:
         quiet = not self.holding and now - self._t_cmd > self.watchdog_s
         if quiet and self._streamed:
             self.watchdog_holds += 1  # a stream went silent (counted once: it holds from here on)
-            if now >= self._interp.t_goal and self._arrived():  # it ended where it was heading: a loop ended
-                log.debug("%s: its stream of commands stopped %.2f s ago at its last target: holding there",
-                          self.owner, self.watchdog_s)
+            if now >= self._interp.t_goal and self._arrived():  # it ended where it was heading
+                # (a control loop that ends says so with hold(): this silence was not announced — a stalled
+                # controller, a pulled cable — and at the target it looks the same as mid-stream)
+                log.warning("%s: its stream of commands stopped %.2f s ago at its last target: holding there "
+                            "(the controller stalled or its link is down)", self.owner, self.watchdog_s)
             else:  # mid-move: stop here
                 log.warning("%s: its stream of commands stopped %.2f s ago mid-move: holding where it is (the "
                             "controller stalled or its link is down)", self.owner, self.watchdog_s)

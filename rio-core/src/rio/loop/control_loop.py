@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import logging
 import os
 import sys
 from collections.abc import Callable, Iterator
@@ -42,6 +43,8 @@ from rio.loop.health import NodeHealth
 from rio.loop.signals import StopSignals
 from rio.loop.summary import ERROR, RunSummary
 from rio.loop.tracking import ArmTracker, ObjectWatch
+
+log = logging.getLogger("rio.loop")
 
 #: At the end of a run, the longest wait for the arms' last motion to end before the summary measures them.
 SETTLE_MAX_S = 2.0
@@ -158,8 +161,21 @@ class ControlLoop:
         if self.settle:  # let the arms arrive at their last targets before measuring
             clock.precise_wait(clock.now() + self.lead_s + 2 * dt)
             _unless_gone(lambda: tracker.wait_still(SETTLE_MAX_S))
+        self._hold_robot()
         self._finish(tracker, objects, published, lateness)
         return s
+
+    def _hold_robot(self) -> None:
+        """Tell every commanded node that its stream of commands ends here (`hold()`): the end of a run is
+        announced, so a node's stale-command watchdog keeps its warning for a silence nobody announced (a
+        stalled controller, a pulled cable). A node that stopped cannot answer; it is reported elsewhere."""
+        for client in self.env.robot.clients.values():
+            try:
+                hold = getattr(client, "hold", None)
+                if callable(hold):
+                    hold()
+            except Exception as e:  # a dead node, a lost link: the summary's events say so
+                log.debug("hold at the end of the run: %s", e)
 
     def _loop(self, stop: StopSignals, wait: Callable[[float], Any], t_start: float, tracker: ArmTracker,
               objects: ObjectWatch, lateness: Reservoir) -> None:
