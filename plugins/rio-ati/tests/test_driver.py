@@ -40,12 +40,15 @@ def next_sample(node: NetFTSensor, timeout: float = 5.0) -> dict:
 
 def test_publishes_si_units_from_a_box_in_lbf_and_lbf_in():
     with NetFTBox(LOAD, counts_per_force=1000.0, counts_per_torque=1000.0, force_unit="lbf",
-                  torque_unit="lbf-in") as box, lifecycle(NetFTSensor(**fields(box))) as ft:
-        s = next_sample(ft)
+                  torque_unit="lbf-in") as box:
+        with lifecycle(NetFTSensor(**fields(box))) as ft:
+            s = next_sample(ft)
+        # close() stops the stream: wait for the box (still serving) to have taken the datagram
+        assert wait_until(lambda: [c for c, _ in box.requests][-1:] == [rdt.STOP], timeout=5.0), box.requests
     assert s["force"] == pytest.approx(LOAD[:3], abs=0.005) and s["torque"] == pytest.approx(LOAD[3:], abs=1e-3)
     assert s["status"] == 0 and s["rdt_sequence"] >= 1 and s["lost"] == 0
     asked = [c for c, _ in box.requests]  # start (again, if the first record was slow to come), then stop
-    assert set(asked[:-1]) == {rdt.START_REALTIME} and asked[-1] == rdt.STOP  # close() stops the stream
+    assert set(asked[:-1]) == {rdt.START_REALTIME} and asked[-1] == rdt.STOP
 
 
 def test_tare_biases_the_box_itself():
