@@ -11,13 +11,14 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 import numpy as np
 import pytest
 from rio_unitree.cli import app
-from rio_unitree.dds import LOWSTATE, Participant
-from rio_unitree.testing import publishing
+from rio_unitree.dds import LOWCMD, LOWSTATE, Participant
+from rio_unitree.testing import Tap, publishing
 from rio_unitree.tools import check
 from rio_unitree.wire import LowState
 from typer.testing import CliRunner
@@ -115,6 +116,30 @@ def test_debug_mode_without_a_robot_says_so(domain_id):
     assert out.exit_code == 1 and "no answer from the motion switcher" in out.output and "L2+R2" in out.output
 
 
+def test_stand_stops_with_damping_when_the_robot_goes_silent(domain_id):
+    """A robot whose rt/lowstate stops mid-ramp (a pulled cable): stand stops within its state timeout and
+    ends on damping, naming the silence. (A peer that only publishes a state: no motion switcher answers.)"""
+    from rio_unitree.commands import is_damping
+    from rio_unitree.tools import stand
+
+    result: list = []
+    run = threading.Thread(target=lambda: result.append(
+        stand("lo", domain_id, seconds=3.0, hold_s=0.5, state_timeout_s=0.25, check_mode_timeout_s=0.2)))
+    tap = Tap(domain_id, LOWCMD)
+    try:
+        with Participant(domain_id, "lo") as p:
+            with publishing(p.writer(LOWSTATE), LowState().encode()):
+                run.start()
+                assert wait_until(lambda: bool(tap.poll()) or bool(tap.samples), timeout=10.0), "stand sent nothing"
+            run.join(30)  # the state went quiet a moment into the 3 s ramp
+        tap.poll()
+    finally:
+        tap.close()
+    report = result[0]
+    assert not report.ok and "rt/lowstate went silent" in report.problem, report
+    assert is_damping(tap.samples[-1]), "the last command was not damping"
+
+
 def test_stand_ramps_a_released_robot_to_home(make_bridge, domain_id):
     from rio_unitree.g1 import HOME, joint_names
 
@@ -128,7 +153,9 @@ def test_stand_ramps_a_released_robot_to_home(make_bridge, domain_id):
     assert released.exit_code == 0, released.output
     from rio_unitree.tools import stand
 
-    report = stand("lo", domain_id, seconds=1.0, hold_s=0.5)
+    # the ramp is what is tested here (silence has its own test): the bridge, in this process, may pause
+    # for longer than the robot's 0.25 s on a loaded machine (0.39 s seen beside another test worker)
+    report = stand("lo", domain_id, seconds=1.0, hold_s=0.5, state_timeout_s=2.0)
     assert report.ok, report.problem
     home = np.array([HOME.get(name, 0.0) for name in joint_names(29)])
     assert np.abs(report.start - home).max() > 0.3  # from where the released (soft) robot sagged to
