@@ -1,20 +1,15 @@
-"""Request flow control, both ends in one place (credit-based flow control, where acknowledgements grant
-queue slots and a client with none fails at once, would change only this module: OK already carries the
-free slots).
+"""Request flow control at the node's end (the client's end, credits spent per request and returned by
+the acknowledgements, is `rio.middleware.protocol.credits`).
 
 Server (`RequestIntake`): a record is checked on arrival (INVALID at once, naming the field). While the
 node's queue has room and nobody waits it enters at once (the OK leaves before the node loop wakes); else
 it waits in a `FairQueue` (FULL at once beyond its bounds), from which `feed` moves requests round-robin
 across peers as the node makes room (OK), or answers FULL after the queue's `put_timeout`. So a peer
 flooding requests hears FULL, and every other peer's request takes the next free slot in turn.
-
-Client (`RequestFlow`): one request in flight per client, so the node sees them in the sender's order; it
-returns on OK, raises QueueFull / InvalidRequest naming the node, NodeTimeout when no answer comes.
 """
 
 from __future__ import annotations
 
-import itertools
 import logging
 import math
 import threading
@@ -22,10 +17,9 @@ from collections.abc import Callable, Hashable
 from typing import Any
 
 from rio import clock
-from rio.errors import InvalidRequest, NodeTimeout
+from rio.errors import InvalidRequest
 from rio.middleware.protocol.fair import FairQueue
-from rio.middleware.protocol.messages import FULL, INVALID, OK, REQUEST_ID, Throttled, ack_error
-from rio.runtime import wire
+from rio.middleware.protocol.messages import FULL, INVALID, OK, Throttled
 from rio.runtime.buffers import RequestQueue
 
 log = logging.getLogger("rio.middleware.protocol")
@@ -105,38 +99,3 @@ class RequestIntake:
         self._warn("node '%s': refused a request of peer %r (%s)", self.node, peer, what)
         self._ack(peer, rid, status, a, b, tag)
 
-
-class RequestFlow:
-    def __init__(self, node: str, timeout: float, send: Callable[[bytes], None],
-                 recv: Callable[[], bytes | memoryview | None], alive: Callable[[], None]):
-        self.node, self.timeout = node, max(timeout, ANSWER_TIMEOUT_S)
-        self._send, self._recv, self._alive = send, recv, alive
-        self._lock = threading.Lock()
-        self._ids = itertools.count(1)
-
-    def send(self, record: bytes) -> None:
-        """Send one request record; return once the node has queued it (see the module's doc)."""
-        with self._lock:
-            self._alive()
-            rid = next(self._ids)
-            self._send(REQUEST_ID.pack(rid) + record)
-            deadline = clock.now() + self.timeout
-            while True:
-                body = self._recv()  # waits a liveness poll at most
-                if body is None:
-                    self._alive()
-                    if clock.now() > deadline:
-                        raise NodeTimeout(self.node, "a request (no answer from the node)", self.timeout)
-                    continue
-                try:
-                    ack = wire.unpack(body)
-                    mine = ack[0] == rid  # else the late answer of a request that timed out
-                    error = ack_error(self.node, ack) if mine else None
-                except (ValueError, TypeError, IndexError, KeyError):
-                    log.warning("node '%s': ignored a malformed answer to a request", self.node)
-                    continue
-                if not mine:
-                    continue
-                if error is not None:
-                    raise error
-                return
