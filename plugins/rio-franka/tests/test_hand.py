@@ -25,6 +25,19 @@ def test_closing_on_an_object_grasps_it_and_opening_releases(fake_ip):
         assert not s["object_detected"] and ctl.grasping is None  # a move
 
 
+def test_fingers_that_reach_the_goal_with_nothing_between_them_detect_no_object(fake_ip):
+    """libfranka calls a grasp whose fingers reach its goal grasped (the goal is within the epsilons):
+    the kind's step-limited goals are such grasps, and none of them holds an object."""
+    ctl = fake.controller(fake_ip)
+    ctl.object_width = None
+    with lifecycle(FrankaHand(ip=fake_ip, backend="fake", speed=0.2)) as hand:
+        hand.command("position", [0.05], clock.now() + 0.1)
+        s = Loop(hand).run(until=lambda s: abs(s["position"] - 0.05) < 1e-4, timeout=5)
+        assert abs(s["position"] - 0.05) < 1e-4
+        assert ctl.grasping is not None and hand.conn.handle.is_grasped  # what libfranka says
+        assert not Loop(hand).run(cycles=3)["object_detected"]
+
+
 def test_a_dropped_gripper_link_reconnects(fake_ip):
     ctl = fake.controller(fake_ip)
     with lifecycle(FrankaHand(ip=fake_ip, backend="fake")) as hand:

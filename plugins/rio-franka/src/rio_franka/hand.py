@@ -7,7 +7,9 @@ cycle (raise `max_step_m` for fewer, larger steps). Closing with a
 force is a `grasp(width, speed, force, epsilon_inner, epsilon_outer)`: libfranka reports an object as
 grasped when the fingers stop within [width - epsilon_inner, width + epsilon_outer], so the default
 `epsilon_outer` counts any object narrower than the opening; opening (or no force) is a `move`.
-`object_detected` is franky's `is_grasped`.
+`object_detected` is franky's `is_grasped` when the fingers also stopped short of the grasp's goal: the
+kind sends step-limited goals, and a grasp whose fingers simply reached an intermediate goal (a late cycle
+on a busy machine lets them) is one libfranka calls grasped although nothing is between the fingers.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ class FrankaHand(GripperNode):
         self.faults = FaultHolder(self, f"Franka at {self.config.ip}")
         self.link = LinkSupervisor(self.faults, up=lambda: self.conn.handle is not None, reconnect=self.conn.retry)
         self._sent: tuple[float, float] | None = None
+        self._grasp_goal: float | None = None  # the goal of the running grasp; None while moving
         self._last = (float(self.config.max_width), False)
 
     def open(self) -> None:
@@ -61,7 +64,9 @@ class FrankaHand(GripperNode):
             # reads of the gripper, which a busy machine can put far apart)
             got = self.conn.call(lambda: (lambda st: (float(st.width), bool(st.is_grasped)))(hand.state))
             if got is not None:
-                self._last = got
+                width, grasped = got
+                goal = self._grasp_goal
+                self._last = (width, grasped and goal is not None and width > goal + self.config.deadband_m)
         width, obj = self._last
         return {"position": width, "object_detected": obj}
 
@@ -76,6 +81,8 @@ class FrankaHand(GripperNode):
         c, hand = self.config, self.conn.handle
         closing = goal < self._last[0] - c.deadband_m
         if closing and np.isfinite(force) and force > 0:
+            self._grasp_goal = goal
             self.conn.call(hand.grasp_async, goal, c.speed, force, c.epsilon_inner, c.epsilon_outer)
         else:
+            self._grasp_goal = None
             self.conn.call(hand.move_async, goal, c.speed)
