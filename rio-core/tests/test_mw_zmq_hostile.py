@@ -8,6 +8,7 @@ from __future__ import annotations
 import shutil
 import threading
 import time
+from typing import Any
 
 import numpy as np
 import pytest
@@ -312,8 +313,17 @@ def test_calls_whose_callers_gave_up_are_not_run():
         with connect(_Counter, mw, name=node.name, address=addr) as first, \
                 connect(_Counter, mw, name=node.name, address=addr) as second, \
                 connect(_Counter, mw, name=node.name, address=addr) as late:
-            calls = [threading.Thread(target=lambda: first.sleep(0.9), daemon=True),
-                     threading.Thread(target=lambda: second.sleep(1.5), daemon=True)]
+            ended: dict[str, str] = {}
+
+            def call(name: str, client: Any, seconds: float) -> None:
+                try:
+                    client.sleep(seconds)
+                    ended[name] = "returned"
+                except rio.NodeTimeout:
+                    ended[name] = "timed out"
+
+            calls = [threading.Thread(target=call, args=("first", first, 0.9), daemon=True),
+                     threading.Thread(target=call, args=("second", second, 1.5), daemon=True)]
             for c in calls:  # the first holds the API thread, the second queues behind it
                 c.start()
                 time.sleep(0.15)
@@ -321,6 +331,7 @@ def test_calls_whose_callers_gave_up_are_not_run():
                 late.bump()  # behind ~0.6 + 1.5 s of calls: its caller gives up after 1 s
             for c in calls:
                 c.join(10)
+            assert ended.get("second") == "timed out"  # its 1.5 s call outlasts the 1 s call timeout
             time.sleep(1.0)  # whatever was still queued has been run or skipped by now
             assert node.runs == 0
             assert late.bump() == 1  # the node serves fresh calls
