@@ -63,3 +63,14 @@ def test_the_computed_reach_wins_where_the_solver_is_installed(make_emulator):
         assert box["source"] == "model"
         lower, upper = reach_box_from_table(get_arm("lite6").reach, get_arm("lite6").shoulder_height)
         assert (np.asarray(box["lower"]) >= lower).all() and (np.asarray(box["upper"]) <= upper).all(), box
+
+
+def test_the_emulator_node_of_a_station_names_the_extra_it_needs(no_solver):
+    from rio_ufactory.emulator_node import EmulatorNode
+    from rio_ufactory.loopback import PORT_502_HINT, can_listen_on_502, free_loopback
+
+    if not can_listen_on_502():
+        pytest.skip(PORT_502_HINT)
+    with pytest.raises(ImportError, match=r"Cartesian commands and poses need .*pip install 'rio-ufactory\[ik\]'"):
+        with lifecycle(EmulatorNode(ip=free_loopback())):
+            pass
