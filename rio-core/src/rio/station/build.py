@@ -152,8 +152,10 @@ def make_station(station: str | os.PathLike | Station, *, middleware: str | None
         robot = {r: clients[r] for r in sorted(emb_cls.roles() & st.roles())}
         cameras = {R.camera_name(r): clients[r] for r in sorted(st.roles()) if R.kind_of(r) == "camera"}
         sensors = {R.sensor_name(r): clients[r] for r in sorted(st.roles()) if R.kind_of(r) == "sensor"}
+        sources = {r: R.sensor_name(src) for r, c in st.components.items() if r in robot
+                   and (src := getattr(c.config, "wrench_source", None)) is not None}
         env = Env(emb_cls, emb_options, robot, cameras, sensors, rate_hz=st.rate_hz, station=st.name,
-                  drivers={r: c.driver for r, c in st.components.items()})
+                  drivers={r: c.driver for r, c in st.components.items()}, wrench_sources=sources)
     return servers, clients, env
 
 
