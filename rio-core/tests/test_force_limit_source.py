@@ -60,8 +60,8 @@ def served(mw: str, load: list[float]):
 
 
 @pytest.mark.parametrize("mw", ["thread", "shm"])
-def test_a_load_over_the_limit_on_the_sensor_node_holds_the_arm(mw):
-    with served(mw, [0.0, 0.0, -30.0, 0.0, 0.0, 0.0]) as mgr:
+def test_a_load_over_the_limit_on_the_sensor_node_holds_the_arm(mw, caplog):
+    with caplog.at_level(logging.INFO, logger="rio.control"), served(mw, [0.0, 0.0, -30.0, 0.0, 0.0, 0.0]) as mgr:
         with connect(FakeArm, mw, name="arm", station=mgr.station) as arm, \
                 connect(FakeWrench, mw, name="ft_sensor", station=mgr.station) as ft:
             s = run_arm(arm, 0.1)  # no source handed over yet: held, counted
@@ -73,6 +73,10 @@ def test_a_load_over_the_limit_on_the_sensor_node_holds_the_arm(mw):
     # and the hold that began while it had no source went on (one hold: never back under the limit meanwhile)
     assert s["ext_wrench"][2] == pytest.approx(-30.0)
     assert s["force_holds"] == 1 and s["holding"] and abs(s["joint_pos"][0]) < 1e-9
+    assert s["source_holds"] == 1  # the one it began with: no source yet
+    if mw == "thread":  # (the shm arm logs in its own process) starting up is no alarm
+        start = [r for r in caplog.records if "its wrench source 'ft_sensor' is not connected" in r.getMessage()]
+        assert [r.levelno for r in start] == [logging.INFO]
 
 
 @pytest.mark.parametrize("mw", ["thread", "shm"])
@@ -83,7 +87,7 @@ def test_a_dead_sensor_node_holds_the_arm(mw, caplog):
             arm.use_wrench_source(ft.reference)
             s = run_arm(arm, 0.1)
             assert s["ext_wrench"][2] == pytest.approx(-5.0)  # within the limit: followed
-            holds = int(s["force_holds"])
+            holds, silent = int(s["force_holds"]), int(s["source_holds"])
             arm.move_joints([3.0, 0.0, 0.0], clock.now() + 3.0)  # 1 rad/s
             s = run_arm(arm, 0.5)
             assert not s["holding"] and s["joint_pos"][0] > 0.1
@@ -95,7 +99,7 @@ def test_a_dead_sensor_node_holds_the_arm(mw, caplog):
                 q_dead = s["joint_pos"][0]
                 s = run_arm(arm, 1.2)  # source_timeout_s (0.3 s) at most, then held
                 later = run_arm(arm, 0.5)
-    assert s["force_holds"] == holds + 1 and s["holding"], s
+    assert s["force_holds"] == holds + 1 and s["source_holds"] == silent + 1 and s["holding"], s
     # held within the timeout: at 1 rad/s it went on for 0.3 s at most (plus a loaded machine's late cycles)
     assert s["joint_pos"][0] - q_dead < 0.6 and later["joint_pos"][0] == pytest.approx(s["joint_pos"][0])
     assert later["joint_pos"][0] < 2.0

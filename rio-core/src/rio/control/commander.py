@@ -64,6 +64,8 @@ class _Commander:
         self.force_limit: ForceLimit | None = None
         #: Times a wrench crossed its limit and the force limit held.
         self.force_holds = 0
+        #: Of those, the times its source could not be trusted (`guard`'s `fault`: silent or gone).
+        self.source_holds = 0
         self._over_limit = False
         self._safe: np.ndarray | None = None  # where the device last was with its wrench within the limit
         self._interp_cls = interp_cls
@@ -129,13 +131,14 @@ class _Commander:
         m = np.asarray(measured, dtype=np.float64).reshape(self.goal.shape)
         self.goal = self._clip(np.clip(m, np.minimum(self.goal, desired), np.maximum(self.goal, desired)))
 
-    def guard(self, wrench, measured, now: float, fault: str | None = None) -> bool:
+    def guard(self, wrench, measured, now: float, fault: str | None = None, expected: bool = False) -> bool:
         """Check this cycle's wrench (force N, torque N m) against `force_limit`; over it, hold at `measured`
         (where the device is: a goal pressed into a table would keep pressing) and return True. A crossing
         is logged and counted once; the hold is renewed every cycle the wrench stays over the limit, so
         commands resume only once it is back under. `fault`: why the wrench cannot be trusted this cycle (its
         source is silent or gone), in words: held as over the limit, since a limit nobody measures bounds
-        nothing."""
+        nothing. `expected`: a hold that is part of starting up (the source not handed over yet), logged at
+        INFO instead of WARNING."""
         why = fault or (self.force_limit.exceeded(wrench) if self.force_limit is not None else None)
         if why is None:
             self._over_limit = False
@@ -143,7 +146,9 @@ class _Commander:
             return False
         if not self._over_limit:
             self.force_holds += 1
-            log.warning("%s: %s: force limit, holding where it is until the next command", self.owner, why)
+            self.source_holds += fault is not None
+            log.log(logging.INFO if expected else logging.WARNING,
+                    "%s: %s: force limit, holding where it is until the next command", self.owner, why)
             self._over_limit = True
             self.reset(measured, now)
         return True

@@ -13,7 +13,8 @@ With `force_limit` set in the station, a driver's `read_wrench()` (the external 
 force/torque cell it reads, or its controller's estimate), or with `wrench_source` a separate wrench node's
 samples (`rio.interfaces.wrench_peer`), is checked every cycle before the commander steps;
 over the limit the arm holds where it is (`rio.interfaces.force`, `rio.control.force_limit`), and every
-sample carries `ext_wrench` (6: N, N m, zeroed at enable) and `force_holds` (how many times it held).
+sample carries `ext_wrench` (6: N, N m, zeroed at enable) and `force_holds` (how many times it held; with
+`wrench_source`, also `source_holds`: how many of those because the source was silent or gone).
 
 `eef_pose` is what the driver measured when it reports one; else forward kinematics of the measured
 joints on `robot_description()`; else NaN. So an arm that ships a model can be teleoperated, recorded
@@ -40,8 +41,8 @@ from rio.control.commander import PoseCommander
 from rio.control.workspace import ToolBound, Workspace
 from rio.errors import InvalidRequest
 from rio.interfaces.force import ForceLimitConfig, WrenchSource
-from rio.interfaces.wrench_peer import PeerWrench
 from rio.interfaces.joints import JointConfig, JointNode, as_vector, t_target
+from rio.interfaces.wrench_peer import PeerWrench
 from rio.runtime.node import client_side, remote
 
 if TYPE_CHECKING:
@@ -147,6 +148,8 @@ class ArmNode(JointNode):
             peer = None if source is None else PeerWrench(self, source, limit.source_timeout_s)
             self.wrench = WrenchSource(self, limit, peer)
             self.example_data.update(ext_wrench=np.zeros(6), force_holds=0)
+            if peer is not None:
+                self.example_data.update(source_holds=0)
         self._eef_clipped = 0  # end-effector targets clipped before IK
 
     def opened(self) -> None:
@@ -239,9 +242,9 @@ class ArmNode(JointNode):
         assert self.wrench is not None
         w, now = self.wrench.read(), clock.now()
         if self.mode == EEF and self.poses is not None:
-            self.poses.guard(w, self._eef, now, self.wrench.fault)
+            self.poses.guard(w, self._eef, now, self.wrench.fault, self.wrench.starting)
         else:
-            self.commander.guard(w, sample["joint_pos"], now, self.wrench.fault)
+            self.commander.guard(w, sample["joint_pos"], now, self.wrench.fault, self.wrench.starting)
 
     def read_state(self) -> dict[str, Any]:
         """The arm now with the kind's keys: a read only, nothing is written (see `cycle()`)."""
@@ -258,6 +261,8 @@ class ArmNode(JointNode):
         if self.wrench is not None:
             sample["ext_wrench"] = self.wrench.last
             sample["force_holds"] = self.commander.force_holds + (self.poses.force_holds if self.poses else 0)
+            if self.wrench.peer is not None:
+                sample["source_holds"] = self.commander.source_holds + (self.poses.source_holds if self.poses else 0)
         sample["clipped"] = self.clipped
         if self.mode == EEF and self.enabled:
             assert self.poses is not None  # EEF mode is entered only where opened() made the pose commander

@@ -4,8 +4,9 @@ kind that feeds it: the driver's wrench source, zeroed when the arm is enabled.
 The wrench source is the driver's `read_wrench()`: the external force (N) and torque (N m) at the tool that
 its hardware measures or estimates (a wrist force/torque cell it reads, a controller's estimated external
 force, a sim arm's wrist sensor); or, where the station names one (`wrench_source`), a separate wrench node's
-samples (`rio.interfaces.wrench_peer`), whose silence or death holds the arm too. The zero is the reading when the arm is enabled (`tare_on_enable`), while
-it holds still and touches nothing, so a tool's weight does not count. The limit itself, and the hold, are
+samples (`rio.interfaces.wrench_peer`), whose silence or death holds the arm too. The zero is the reading
+when the arm is enabled (`tare_on_enable`; with a separate node, also when it is handed over to an enabled
+arm), while it holds still and touches nothing, so a tool's weight does not count. The limit itself, and the hold, are
 the commander's (`rio.control.commander._Commander.guard`), so there is one place where a wrench stops an arm.
 """
 
@@ -54,6 +55,11 @@ class WrenchSource:
         #: the last wrench checked (N, N m); NaN before the first reading
         self.last = np.full(6, np.nan)
         self.fault: str | None = None
+
+    @property
+    def starting(self) -> bool:
+        """The source is a separate node not handed over yet (the station is starting): a hold, but no alarm."""
+        return self.peer is not None and not self.peer.ever_connected
 
     def _raw(self) -> Any:
         if self.peer is None:

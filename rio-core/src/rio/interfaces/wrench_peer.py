@@ -38,6 +38,8 @@ class PeerWrench:
         self._stamp: float | None = None  # the newest sample's own timestamp
         self._seen = 0.0  # when (the arm's clock) a sample with a new timestamp last arrived, or we connected
         self._gone: str | None = None  # why the source is gone for good (until a new reference)
+        #: a reference was handed over once (before that, the hold is the station starting up)
+        self.ever_connected = False
 
     def connect(self, reference: dict[str, Any], now: float) -> None:
         """Connect (again) from `reference` (`rio.runtime.peer`), which must name `source`."""
@@ -50,6 +52,7 @@ class PeerWrench:
         client = connect_reference(reference)
         self.close()
         self.client, self._stamp, self._seen, self._gone = client, None, now, None
+        self.ever_connected = True
         log.info("node '%s': force limit reads wrench source '%s' (a hold after %.3g s without a new sample)",
                  self.node.name, self.source, self.timeout_s)
 

@@ -147,6 +147,10 @@ def make_station(station: str | os.PathLike | Station, *, middleware: str | None
                 raise ConfigError(f"{st.source}: components.{role}: driver '{comp.driver}' rejected its config: "
                                   f"{e}") from e
         clients[role] = ClientFactory(role, cls, node_mw, comp.config, address)
+    # an arm's wrench source is served before the arm, so it is stopped after it (`ServerManager` stops in
+    # reverse): an arm that outlived its source would log the source's end as a fault at every shutdown
+    sourced = [s for c in st.components.values() if (s := getattr(c.config, "wrench_source", None)) in servers]
+    servers = {**{s: servers[s] for s in sourced}, **servers}
     env = None
     if emb_cls is not None and machine is None:
         robot = {r: clients[r] for r in sorted(emb_cls.roles() & st.roles())}
