@@ -1,10 +1,12 @@
 """A separate wrench node as an arm's force-limit source (`wrench_source`): the station checks the name, the
 arm's own process reads the sensor node through a client it connects from a reference (`rio.runtime.peer`),
 a load over the limit holds it, and so does a source that is not connected, goes silent or dies, each
-counted in `force_holds`. Run on the thread middleware (one process) and shm (a process per node)."""
+counted in `force_holds` (and `source_holds`). The reading and the dead source run on every middleware (the
+arm's own client: in its thread, its process's shared memory, a network client); the rest on thread and shm."""
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 import os
 import signal
@@ -21,6 +23,15 @@ from rio.runtime.manager import ServerManager, connect, serve
 from rio.station.load import parse_station
 
 LIMIT = {"force_n": 20.0, "source_timeout_s": 0.3}
+
+
+def _needs(module: str) -> pytest.MarkDecorator:
+    return pytest.mark.skipif(importlib.util.find_spec(module) is None, reason=f"{module} is not installed")
+
+
+#: the arm reads the sensor node from its own thread or process on each: shared memory, network clients
+EVERY_MIDDLEWARE = ["thread", "shm", "zmq", pytest.param("zenoh", marks=_needs("zenoh")),
+                    pytest.param("portal", marks=_needs("portal"))]
 
 
 def station(arm: dict, **more: dict) -> dict:
@@ -79,7 +90,7 @@ def test_a_load_over_the_limit_on_the_sensor_node_holds_the_arm(mw, caplog):
         assert [r.levelno for r in start] == [logging.INFO]
 
 
-@pytest.mark.parametrize("mw", ["thread", "shm"])
+@pytest.mark.parametrize("mw", EVERY_MIDDLEWARE)
 def test_a_dead_sensor_node_holds_the_arm(mw, caplog):
     with served(mw, [0.0, 0.0, -5.0, 0.0, 0.0, 0.0]) as mgr:
         with connect(FakeArm, mw, name="arm", station=mgr.station) as arm, \
@@ -92,9 +103,9 @@ def test_a_dead_sensor_node_holds_the_arm(mw, caplog):
             s = run_arm(arm, 0.5)
             assert not s["holding"] and s["joint_pos"][0] > 0.1
             with caplog.at_level(logging.WARNING, logger="rio.control"):
-                if mw == "shm":
+                if mw == "shm":  # killed
                     os.kill(mgr.pids()["ft_sensor"], signal.SIGKILL)
-                else:
+                else:  # stopped (its thread or process ends)
                     next(h for h in mgr.handles if h.name == "ft_sensor").stop(2.0)
                 q_dead = s["joint_pos"][0]
                 s = run_arm(arm, 1.2)  # source_timeout_s (0.3 s) at most, then held
