@@ -82,3 +82,43 @@ def test_a_separate_wrench_node_as_the_source_holds_the_tool_pressed_into_the_ta
     # as with the driver's own wrench (16-20 N measured there): the free arm presses with ~140 N
     end_held = np.median(f_held[-15:])
     assert end_held < 40.0, f_held[-15:]
+
+
+@pytest.mark.parametrize("mw", ["thread", "shm"])
+def test_a_dead_wrench_node_holds_the_arm_on_its_way_down(tmp_path, mw):
+    """The sensor node stops (thread) or is killed (shm) while the tool is on its way down to the table: the
+    arm holds within `source_timeout_s` where it is, above the table, instead of going on into it blind."""
+    import os
+    import signal
+    import time
+
+    from rio import clock
+    from rio.runtime.manager import ServerManager
+    from rio.station.build import make_station
+
+    suffix = f"-dead-{mw}"
+    path = tmp_path / f"station{suffix}.toml"
+    path.write_text(STATION.format(suffix=suffix, mw=mw,
+                                   limit='force_limit = {force_n = 20.0}\nwrench_source = "ft_sensor"'))
+    servers, _clients, env = make_station(path)
+    with ServerManager(servers, station=f"press{suffix}") as mgr, env:
+        arm = env.robot.clients["arm"]
+        time.sleep(0.3)
+        start = arm.get_state()
+        target = np.array(start["eef_pose"], dtype=np.float64)
+        target[2] -= 0.15  # into the table, 10 cm below
+        arm.move_eef(target, clock.now() + 2.0)
+        time.sleep(0.5)
+        if mw == "shm":
+            os.kill(mgr.pids()["ft_sensor"], signal.SIGKILL)
+        else:
+            next(h for h in mgr.handles if h.name == "ft_sensor").stop(2.0)
+        time.sleep(2.5)  # the move would have ended in the table by now
+        held = arm.get_state()
+        time.sleep(0.5)
+        later = arm.get_state()
+    drop = start["eef_pose"][2] - held["eef_pose"][2]
+    assert held["source_holds"] >= start["source_holds"] + 1 and held["holding"], held
+    # 0.5 s of a 2 s move is 3.75 cm; the hold comes 0.2 s after the last sample (plus late cycles under load)
+    assert 0.01 < drop < 0.09, drop
+    assert abs(later["eef_pose"][2] - held["eef_pose"][2]) < 2e-3
