@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from rio import clock
-from rio.errors import ConfigError
+from rio.errors import ConfigError, NodeError
 from rio.fakes.arms import FakeArm
-from rio.fakes.sensors import FakeWrench
+from rio.fakes.sensors import FakeSensor, FakeWrench
 from rio.runtime.manager import ServerManager, connect, serve
 from rio.station.load import parse_station
 
@@ -90,6 +90,22 @@ def test_a_load_over_the_limit_on_the_sensor_node_holds_the_arm(mw, caplog):
         assert [r.levelno for r in start] == [logging.INFO]
 
 
+def test_a_reference_to_another_node_or_kind_is_refused():
+    with ServerManager("thread", [
+        serve(FakeArm, name="arm", dof=3, force_limit=LIMIT, wrench_source="ft_sensor"),
+        serve(FakeWrench, name="ft_sensor"), serve(FakeSensor, name="other_sensor"),
+    ], station=f"ftsrc-refs-{os.getpid()}") as mgr:
+        with connect(FakeArm, "thread", name="arm", station=mgr.station) as arm, \
+                connect(FakeSensor, "thread", name="other_sensor", station=mgr.station) as other:
+            with pytest.raises(NodeError, match=r"handed a reference to node 'other_sensor', but the station "
+                                                     r"names 'ft_sensor'"):
+                arm.use_wrench_source(other.reference)
+            ref = {**other.reference, "node": "ft_sensor"}  # the right name, the wrong kind
+            with pytest.raises(NodeError, match="node 'ft_sensor' is a FakeSensor, not a wrench sensor"):
+                arm.use_wrench_source(ref)
+            assert arm.get_state()["holding"]  # still without a source: held
+
+
 @pytest.mark.parametrize("mw", EVERY_MIDDLEWARE)
 def test_a_dead_sensor_node_holds_the_arm(mw, caplog):
     with served(mw, [0.0, 0.0, -5.0, 0.0, 0.0, 0.0]) as mgr:
@@ -116,3 +132,12 @@ def test_a_dead_sensor_node_holds_the_arm(mw, caplog):
     assert later["joint_pos"][0] < 2.0
     if mw == "thread":  # the shm arm logs in its own process
         assert "node 'arm': its wrench source 'ft_sensor' " in caplog.text
+
+
+def test_the_summary_counts_the_holds_of_a_silent_source_apart():
+    from rio.loop.summary import ArmTracking, _arm_line
+
+    pose = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    line = _arm_line(ArmTracking("arm", "eef_pose", pose, pose, force_holds=5, source_holds=1))
+    assert "force limit held it 5 times (1 with its wrench source silent or gone)" in line
+    assert "silent" not in _arm_line(ArmTracking("arm", "eef_pose", pose, pose, force_holds=2, source_holds=0))

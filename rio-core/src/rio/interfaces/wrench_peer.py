@@ -47,8 +47,19 @@ class PeerWrench:
         if named != self.source:
             raise InvalidRequest(self.node.name, "wrench_source", f"handed a reference to node '{named}', but the "
                                                                   f"station names '{self.source}'")
+        from rio.interfaces.wrench import WrenchNode
+        from rio.plugins.specs import import_path
         from rio.runtime.peer import connect_reference
 
+        try:
+            cls = import_path(str(reference.get("class", "")))
+        except (ImportError, AttributeError, ValueError) as e:
+            raise InvalidRequest(self.node.name, "wrench_source", f"node '{named}''s class cannot be imported here: "
+                                                                  f"{type(e).__name__}: {e}") from e
+        if not (isinstance(cls, type) and issubclass(cls, WrenchNode)):
+            what = getattr(cls, "__name__", cls)
+            raise InvalidRequest(self.node.name, "wrench_source", f"node '{named}' is a {what}, not a wrench sensor "
+                                                                  "(rio.interfaces.WrenchNode)")
         client = connect_reference(reference)
         self.close()
         self.client, self._stamp, self._seen, self._gone = client, None, now, None
