@@ -1,8 +1,10 @@
 """A policy across the link: observation -> first action when the cameras are on the robot's machine and
 the policy on the workstation's, emulated on one machine (`rio.machine.netns`; Linux, root, `tc`).
 
-The station: a 6-joint arm, a gripper and three 640x480 RGB cameras at 30 fps (the synthetic table-top
-scene of `bench/multi_machine.py --scenario cameras`, which compresses like real frames), placed on the
+The station: a 6-joint arm and a gripper (`rio.fake_arm`, `rio.fake_gripper`, as in `bench/obs_to_action.py`;
+not the MuJoCo sim arm, whose physics process is not on the obs -> action path and would only add noise on a
+loaded 2-core machine) and three 640x480 RGB cameras at 30 fps (the synthetic table-top scene of
+`bench/multi_machine.py --scenario cameras`, which compresses like real frames), placed on the
 robot's namespace (`[machines.robot]`, served by `rio serve STATION --machine robot`); on the workstation's
 namespace `rio deploy`'s loop (`run_deploy`, as `bench/obs_to_action.py` runs it) starts the policy node
 with the loop and drives the arm. The policy (`PixelPolicy`) reads every pixel of the three frames it is
@@ -27,10 +29,31 @@ the link shows; both namespaces read one clock) and the overhead's ratio to the 
 
     sudo python bench/policy_link.py [--seconds 15] [--json]
 
-Measured on the 2-core development machine shared with other jobs (load average 8-10 during the run),
-2026-11-29, `--seconds 15` (tbf: rate only):
+Measured on the 2-core development machine while other engineers' jobs ran (load average 18-22 during the
+run: every figure is noisy, p99s the most), 2026-11-29, `--seconds 15`, `tc` tbf (rate only):
 
-    (filled in by the run; see docs/concepts/middlewares.md)
+    case                first    p99   fwd  overh    p99 x shm  sent @node late     age     p99
+    shm, one machine     25.0  212.2  21.5    2.1   65.0  1.00   0.3   0.8   16    28.3   239.3
+    zmq, one machine     30.1  101.2  20.2    9.9   79.4  4.72   2.8   9.0    5    28.2   154.9
+    zmq, 1gbit, raw      30.4   89.4  20.2    9.8   49.7  4.70   2.9   8.7    7    37.7   119.4
+    zmq, 1gbit, jpeg     33.3  191.0  20.5   11.4  139.3  5.45   2.8  10.1   14    34.5   212.3
+    zmq, 100mbit, raw    29.6   47.3  20.2    9.1   25.0  4.35   2.9   8.3    1  1523.2  2250.5
+    zmq, 100mbit, jpeg   29.6   37.5  20.1    9.2   16.3  4.41   2.9   8.6    1    30.6    42.3
+    (ms, p50 unless p99; fwd: the forward pass; overh: first - fwd; sent: t_obs -> the request enqueued;
+    @node: t_obs -> the policy node took it; age: the oldest camera frame's at t_obs; 123-125 chunks each)
+
+What it says:
+- The link adds nothing measurable to obs -> first action: the loop reads its cameras' local mirrors, so
+  crossing the link happens before `t_obs`. What the overhead over zmq (9-11 ms p50, 4.4-5.5 x shm's 2 ms)
+  is made of is the loop -> policy request on the workstation: the observation carries copies of the three
+  frames (2.8 MB), enqueued 2.8 ms after `t_obs` and taken by the node 8-10 ms after it, as much on one
+  machine as across the link; over shm the frames go by reference (0.3 / 0.8 ms).
+- The link shows in the frames' age. 3 raw 640x480 streams at 30 fps need ~660 Mbit/s: over 100 Mbit/s raw
+  the frames the policy acts on are 1.5 s old (p50; 2.3 s p99) while obs -> action looks fine; JPEG brings
+  them back to 31 ms. At 1 Gbit/s raw and JPEG are alike (38 / 35 ms; the capture period alone is 33 ms).
+- Before the send-path fix made with this bench (`rio.middleware.protocol.client.RecordSender`, zmq
+  `_send_parts`: the request's record copied once after its check, not four times), an earlier run of the same bench (load average ~10)
+  measured zmq overheads of 13.8-15.4 ms p50 and the request enqueued 6.1 ms after `t_obs`.
 """
 
 from __future__ import annotations
@@ -221,18 +244,21 @@ def _f(x: float | None, w: int, spec: str = ".1f") -> str:
 
 
 def table(rows: list[dict]) -> str:
+    links = "; ".join(dict.fromkeys(f"{r['tc']}" for r in rows if r["tc"] != "-"))
     out = [f"obs -> first action, 3 x 640x480 RGB @ 30 fps on the robot, a {FORWARD_S * 1e3:g} ms forward pass "
-           f"reading every pixel on the workstation; links: " +
-           "; ".join(dict.fromkeys(f"{r['tc']}" for r in rows if r["tc"] != "-")),
-           f"{'case':24} {'first p50':>9} {'p99':>7} {'overh p50':>9} {'p99':>7} {'fwd p50':>7} {'x shm':>6} "
-           f"{'late':>4} {'chunks':>6} {'frame age p50':>13} {'p99':>7}"]
+           f"reading every pixel on the workstation; links: {links}",
+           f"{'case':18} {'first':>6} {'p99':>6} {'fwd':>5} {'overh':>6} {'p99':>6} {'x shm':>5} {'sent':>5} "
+           f"{'@node':>5} {'late':>4} {'age':>7} {'p99':>7}"]
     for r in rows:
-        out.append(f"{r['case']:24} {_f(r['first_action_ms_p50'], 9)} {_f(r['first_action_ms_p99'], 7)} "
-                   f"{_f(r['overhead_ms_p50'], 9)} {_f(r['overhead_ms_p99'], 7)} {_f(r['forward_ms_p50'], 7)} "
-                   f"{_f(r['overhead_x_shm'], 6, '.2f')} {r['late_events'] or 0:4d} {r['chunks'] or 0:6d} "
-                   f"{_f(r['frame_age_ms_p50'], 13)} {_f(r['frame_age_ms_p99'], 7)}")
-    out.append("ms; overhead = first action - that chunk's forward pass; x shm: overhead p50 / shm's; late: chunks "
-               "that landed after the schedule ran out; frame age: capture -> the loop's read, oldest camera")
+        out.append(f"{r['case']:18} {_f(r['first_action_ms_p50'], 6)} {_f(r['first_action_ms_p99'], 6)} "
+                   f"{_f(r['forward_ms_p50'], 5)} {_f(r['overhead_ms_p50'], 6)} {_f(r['overhead_ms_p99'], 6)} "
+                   f"{_f(r['overhead_x_shm'], 5, '.2f')} {_f(r.get('obs_sent_ms_p50'), 5)} "
+                   f"{_f(r.get('obs_to_policy_ms_p50'), 5)} {r['late_events'] or 0:4d} "
+                   f"{_f(r['frame_age_ms_p50'], 7)} {_f(r['frame_age_ms_p99'], 7)}")
+    out.append("ms, p50 unless p99. first: obs -> first action; fwd: forward pass; overh: first - that chunk's fwd; "
+               "x shm: overh / the shm case's; sent: t_obs -> the request enqueued; @node: t_obs -> the policy node "
+               "took it; late: chunks that landed after the schedule ran out; age: capture -> the loop's read, "
+               f"oldest camera; chunks per case: {', '.join(str(r['chunks']) for r in rows)}")
     return "\n".join(out)
 
 
