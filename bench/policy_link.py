@@ -52,8 +52,9 @@ What it says:
   the frames the policy acts on are 1.5 s old (p50; 2.3 s p99) while obs -> action looks fine; JPEG brings
   them back to 31 ms. At 1 Gbit/s raw and JPEG are alike (38 / 35 ms; the capture period alone is 33 ms).
 - Before the send-path fix made with this bench (`rio.middleware.protocol.client.RecordSender`, zmq
-  `_send_parts`: the request's record copied once after its check, not four times), an earlier run of the same bench (load average ~10)
-  measured zmq overheads of 13.8-15.4 ms p50 and the request enqueued 6.1 ms after `t_obs`.
+  `_send_parts`: the request's record copied once after its check, not four times), an earlier run of the
+  same bench (load average ~10) measured zmq overheads of 13.8-15.4 ms p50 and the request enqueued 6.1 ms
+  after `t_obs`.
 """
 
 from __future__ import annotations
