@@ -39,7 +39,7 @@ import os
 import socket
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import zmq
 from pydantic import Field
@@ -440,7 +440,7 @@ class ZmqClient(NetworkClient):
         time) after releasing the GIL, which another thread (the state stream's receiver) may then hold for
         a while; asking does neither."""
         sock = self._req_sock if kind == ACK else self._call_sock
-        while sock.getsockopt(zmq.EVENTS) & zmq.POLLIN:
+        while cast(int, sock.getsockopt(zmq.EVENTS)) & zmq.POLLIN:
             try:
                 msg = sock.recv(zmq.NOBLOCK)
             except zmq.Again:

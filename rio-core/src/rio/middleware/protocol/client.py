@@ -20,7 +20,7 @@ import itertools
 import logging
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from functools import partial
 from typing import Any, ClassVar
 
@@ -34,7 +34,8 @@ from rio.middleware.protocol.config import NetworkConfig
 from rio.middleware.protocol.credits import CreditFlow, RequestStats
 from rio.middleware.protocol.requests import ANSWER_TIMEOUT_S
 from rio.runtime import wire
-from rio.runtime.buffers import RequestSender, RingBuffer
+from rio.runtime.buffers import RingBuffer
+from rio.runtime.layout import Layout
 from rio.runtime.node import Node
 from rio.runtime.transport import ClientTransport, NodeLayouts, ProcessWatch, machine_id
 
@@ -52,9 +53,14 @@ def local_process_watch(address: dict[str, Any], node: str) -> ProcessWatch | No
     return None
 
 
-class RecordSender(RequestSender):
-    """`RequestSender` handing on the checked record's own memory (no `tobytes()` copy): the transport joins it
-    with the request's id once (`NetworkClient._send_parts`), the only copy after the check."""
+class RecordSender:
+    """The client side of a node's request queue on a network (what `rio.runtime.buffers.RequestSender` does, less
+    a copy): checks the values here and hands on the checked record's own memory, not a `tobytes()` copy of it;
+    the transport joins it with the request's id once (`NetworkClient._send_parts`), the only copy after the
+    check. A record can be megabytes (an observation with its camera frames)."""
+
+    def __init__(self, layout: Layout, send: Callable[[np.ndarray], None]):
+        self.layout, self._send = layout, send
 
     def put(self, values: Mapping[str, Any]) -> None:
         rec = self.layout.encode(values, fill_timestamp=clock.now())
@@ -98,7 +104,7 @@ class NetworkClient(ClientTransport):
         Joined here (one copy) for `_send`; an adapter that can pass the parts on with fewer copies overrides
         it (zmq: one join, handed to libzmq without another copy). A request record is a whole observation
         with its camera frames (megabytes): every copy on the way is paid in `send_request`."""
-        self._send(kind, parts[0] if len(parts) == 1 else b"".join(parts))
+        self._send(kind, b"".join(parts))
 
     def _recv_now(self, kind: bytes) -> bytes | memoryview | None:
         """The next answer of that kind if one has arrived, else None at once (request acknowledgements are
