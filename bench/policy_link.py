@@ -29,32 +29,36 @@ the link shows; both namespaces read one clock) and the overhead's ratio to the 
 
     sudo python bench/policy_link.py [--seconds 15] [--json]
 
-Measured on the 2-core development machine while other engineers' jobs ran (load average 18-22 during the
+Measured on the 2-core development machine while other engineers' jobs ran (load average 13-15 during the
 run: every figure is noisy, p99s the most), 2026-11-29, `--seconds 15`, `tc` tbf (rate only):
 
     case                first    p99   fwd  overh    p99 x shm  sent @node late     age     p99
-    shm, one machine     25.0  212.2  21.5    2.1   65.0  1.00   0.3   0.8   16    28.3   239.3
-    zmq, one machine     30.1  101.2  20.2    9.9   79.4  4.72   2.8   9.0    5    28.2   154.9
-    zmq, 1gbit, raw      30.4   89.4  20.2    9.8   49.7  4.70   2.9   8.7    7    37.7   119.4
-    zmq, 1gbit, jpeg     33.3  191.0  20.5   11.4  139.3  5.45   2.8  10.1   14    34.5   212.3
-    zmq, 100mbit, raw    29.6   47.3  20.2    9.1   25.0  4.35   2.9   8.3    1  1523.2  2250.5
-    zmq, 100mbit, jpeg   29.6   37.5  20.1    9.2   16.3  4.41   2.9   8.6    1    30.6    42.3
+    shm, one machine     22.4   45.7  20.4    1.6    8.6  1.00   0.3   0.6    1    28.9    79.0
+    zmq, one machine     29.8  120.7  20.2    9.4  100.6  5.86   3.0   8.3    3    28.2    61.0
+    zmq, 1gbit, raw      29.2  126.5  20.2    8.8   76.1  5.53   3.0   7.8    8    37.3   114.9
+    zmq, 1gbit, jpeg     31.7  104.2  20.2   11.0   77.8  6.89   2.9   9.7    2    32.2   233.3
+    zmq, 100mbit, raw    29.7   69.8  20.2    9.3   48.6  5.83   3.1   8.3    4  1532.9  2395.1
+    zmq, 100mbit, jpeg   31.4   67.7  20.3   11.0   46.4  6.89   2.9   9.6    5    35.3   149.6
     (ms, p50 unless p99; fwd: the forward pass; overh: first - fwd; sent: t_obs -> the request enqueued;
-    @node: t_obs -> the policy node took it; age: the oldest camera frame's at t_obs; 123-125 chunks each)
+    @node: t_obs -> the policy node took it; age: the oldest camera frame's at t_obs; 125 chunks each)
+
+An earlier run of the same send path at load average 18-22 agreed within 1 ms at p50 (zmq overheads
+9.1-11.4 ms).
 
 What it says:
 - The link adds nothing measurable to obs -> first action: the loop reads its cameras' local mirrors, so
-  crossing the link happens before `t_obs`. What the overhead over zmq (9-11 ms p50, 4.4-5.5 x shm's 2 ms)
-  is made of is the loop -> policy request on the workstation: the observation carries copies of the three
-  frames (2.8 MB), enqueued 2.8 ms after `t_obs` and taken by the node 8-10 ms after it, as much on one
-  machine as across the link; over shm the frames go by reference (0.3 / 0.8 ms).
+  crossing the link happens before `t_obs`. The overhead over zmq (8.8-11.0 ms p50, 5.5-6.9 x shm's 1.6 ms)
+  is the loop -> policy request on the workstation: the observation carries copies of the three frames
+  (2.8 MB), enqueued 3 ms after `t_obs` and taken by the node 8-10 ms after it, as much on one machine as
+  across the link; the node's intake of it takes 0.5 ms (measured apart), the rest is the trip over TCP
+  loopback through threads waiting for a CPU on a loaded machine. Over shm the frames go by reference
+  (0.3 / 0.6 ms). JPEG costs ~2 ms more than raw, probably the loop process decoding 90 frames/s.
 - The link shows in the frames' age. 3 raw 640x480 streams at 30 fps need ~660 Mbit/s: over 100 Mbit/s raw
-  the frames the policy acts on are 1.5 s old (p50; 2.3 s p99) while obs -> action looks fine; JPEG brings
-  them back to 31 ms. At 1 Gbit/s raw and JPEG are alike (38 / 35 ms; the capture period alone is 33 ms).
+  the frames the policy acts on are 1.5 s old (p50; 2.4 s p99) while obs -> action looks fine; JPEG brings
+  them back to 35 ms. At 1 Gbit/s raw and JPEG are alike (37 / 32 ms; the capture period alone is 33 ms).
 - Before the send-path fix made with this bench (`rio.middleware.protocol.client.RecordSender`, zmq
-  `_send_parts`: the request's record copied once after its check, not four times), an earlier run of the
-  same bench (load average ~10) measured zmq overheads of 13.8-15.4 ms p50 and the request enqueued 6.1 ms
-  after `t_obs`.
+  `_send_parts`: the request's record copied once after its check, not four times), the same bench (load
+  average ~10) measured zmq overheads of 13.8-15.4 ms p50 and the request enqueued 6.1 ms after `t_obs`.
 """
 
 from __future__ import annotations
