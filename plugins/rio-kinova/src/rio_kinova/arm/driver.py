@@ -30,7 +30,8 @@ from ..link import KortexConfig, close_session, guarded, hold_faults_and_drops, 
 from ..models import ARMS, MAX_RATE_HZ, NODE_DEFAULTS, get_arm
 from ..pose import from_kinova
 
-MODELS = ModelTable(ARMS, description, default="gen3", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ)
+MODELS = ModelTable(ARMS, description, default="gen3", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ,
+                    ik_extra="rio-kinova[ik]")
 _TWO_PI = 2 * math.pi
 _GAP_DECAY = 0.98  # per command: a stall's gap is forgotten over a second or two of cycles
 
