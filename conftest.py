@@ -3,8 +3,9 @@
 Hardware tests (marker `hardware`) are deselected unless `-m` names them (`-m hardware`): a `-m` given on the
 command line replaces pyproject's, so a `-m 'not hardware'` there would be lost from `-m "not slow"`.
 
-How the suite is split over pytest-xdist workers (`-n auto` in pyproject's addopts; `-n 0` runs it in one
-process): which tests must run on one worker, one after another.
+How the suite is split over pytest-xdist workers (`-n auto` in pyproject's addopts: two per core, see
+`pytest_xdist_auto_num_workers`; `-n 0` runs it in one process): which tests must run on one worker, one after
+another.
 
 The unit of work is a test file: its module- and class-scoped fixtures (an emulator, a recorded episode)
 are made once, on one worker. Files that use one fixed machine resource are one unit together
@@ -31,6 +32,8 @@ import pytest
 
 #: the main thread's scheduling policy and priority when the session started
 _SCHEDULING = pytest.StashKey[tuple[int, int]]()
+#: the handlers of SIGINT and SIGTERM when the session started
+_SIGNALS = pytest.StashKey[dict[int, Any]]()
 
 #: Files whose tests use one fixed machine resource, by resource: each group runs on one worker.
 SHARED_RESOURCE = {
@@ -53,8 +56,10 @@ def pytest_collection_modifyitems(config: Any, items: list[Any]) -> None:
 
 def pytest_sessionstart(session: Any) -> None:
     import os
+    import signal
 
     session.config.stash[_SCHEDULING] = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+    session.config.stash[_SIGNALS] = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
 
 
 @pytest.hookimpl(trylast=True)  # after the test's fixtures are torn down: one may undo what it set
@@ -63,11 +68,21 @@ def pytest_runtest_teardown(item: Any) -> None:
     naming itself, and the policy is put back: every thread the process starts later inherits it, and a
     real-time thread that busy-waits on a normal one starves the whole machine (seen in a full xdist run: both
     workers' main threads at SCHED_FIFO 99 after an AV1 recording test (SVT-AV1 as root; rio.recording.video now
-    keeps its caller's scheduling), their realsense tests spinning for 45 min at a load of 60)."""
+    keeps its caller's scheduling), their realsense tests spinning for 45 min at a load of 60). The same for the
+    handlers of SIGINT and SIGTERM: an ignored one is inherited by every subprocess the worker starts later, whose
+    Ctrl-C (a test's SIGINT) is then lost."""
     import os
+    import signal
 
     if _SCHEDULING not in item.config.stash:  # a nested pytest session (a kit's) that did not start here
         return
+    signals = item.config.stash.get(_SIGNALS, {})
+    changed = {signal.Signals(sig).name: signal.getsignal(sig) for sig, handler in signals.items()
+               if signal.getsignal(sig) != handler}
+    for sig, handler in signals.items():
+        signal.signal(sig, handler)
+    if changed:
+        raise AssertionError(f"{item.nodeid} left the test process's signal handlers changed: {changed}; put back")
     policy, priority = item.config.stash[_SCHEDULING]
     now = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
     if now != (policy, priority):
@@ -80,6 +95,20 @@ def unit_of(nodeid: str) -> str:
     """The unit of work a test belongs to: its file, or the resource its file shares with others."""
     path = nodeid.split("::", 1)[0]
     return SHARED_RESOURCE.get(path, path)
+
+
+def pytest_xdist_auto_num_workers(config: Any) -> int:
+    """`-n auto`: two workers per core (at most 8). Most of the suite's time is spent waiting, not computing:
+    a station runs its seconds in real time, a subprocess starts, an emulator answers. Measured per test on
+    this 2-core machine, the CPU a test used (its process and the processes it waited for) was about 40 % of
+    its wall time, so one worker per core leaves the cores idle half the time. `PYTEST_XDIST_AUTO_NUM_WORKERS`
+    (xdist's own setting) still decides when set; `-n N` as always."""
+    import os
+
+    setting = os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS")
+    if setting:
+        return int(setting)
+    return min(2 * len(os.sched_getaffinity(0)), 8)
 
 
 def pytest_xdist_make_scheduler(config: Any, log: Any) -> Any:

@@ -132,7 +132,7 @@ def test_calibration_recovers_offsets_from_the_known_pose(gello, layout):
     rng = np.random.default_rng(abs(hash(layout)) % 2 ** 32)
     truth = _mounting(layout, rng)
     g = gello(layout, mounting=truth)  # held in the known pose, trigger released
-    cal = calibrate_leader(g.port, layout, name="lab", emulated=True)
+    cal = calibrate_leader(g.port, layout, name="lab")
     assert np.allclose(cal.offsets, np.round(np.asarray(truth.offsets) / QUARTER) * QUARTER)
     assert cal.signs == list(get_layout(layout).signs)
     assert np.all(np.abs(cal.residual) < 0.1)
@@ -156,7 +156,7 @@ def test_signs_from_a_second_pose(gello):
         if step == "second pose":
             g.pose(second)
 
-    cal = calibrate_leader(g.port, "ur5e", wait=wait, second_pose=second, emulated=True)
+    cal = calibrate_leader(g.port, "ur5e", wait=wait, second_pose=second)
     assert cal.signs == truth.signs and np.allclose(cal.offsets, truth.offsets)
 
 
@@ -166,7 +166,7 @@ def test_calibration_refuses_a_leader_out_of_the_pose(gello):
     q[3] += 0.7  # joint 4 bent 40 degrees away
     g.pose(q)
     with pytest.raises(CalibrationError, match=r"not in the known pose.*joint4 \(\+0\.70 rad\)"):
-        calibrate_leader(g.port, "fr3", emulated=True)
+        calibrate_leader(g.port, "fr3")
     with pytest.raises(CalibrationError, match="7 joints: got 6"):
         calibrate("fr3", np.zeros(6))
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 
 import pytest
 from pydantic import ValidationError
@@ -111,7 +112,10 @@ def test_emulator_command_serves_a_controller_until_interrupted():
         try:
             out, _ = proc.communicate(timeout=30)
         except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGUSR1)  # `rio` prints every thread's stack: where it is stuck
+            time.sleep(1.0)
             proc.kill()  # else it outlives the test, serving on its address (seen: 13 min after a failed run)
-            proc.communicate()
-            raise
+            out, _ = proc.communicate()
+            raise AssertionError(f"the emulator did not stop within 30 s of SIGINT; its threads:\n"
+                                 f"{out[-12000:]}") from None
     assert proc.returncode == 0, out

@@ -19,8 +19,6 @@ from .servo_group import ServoGroup
 EMULATOR = "emulator"
 
 
-#: Status-packet timeout on an emulated bus (in-process or sim-backed): generous, nothing real waits on it.
-EMULATED_TIMEOUT_MS = 500.0
 
 
 def is_emulator(port: str) -> bool:
@@ -55,10 +53,8 @@ class ArmConnection:
             cal = load_calibration(self.calibration, self.model, self.device, emulated=self.emulator is not None)
         joints = {name: cal.joint(name) for name in joint_names}
         names = {j.id: n for n, j in joints.items()}
-        # an emulated bus answers from a thread that a loaded machine may not schedule for a while
-        slack_ms = EMULATED_TIMEOUT_MS if self.emulator is not None else 0.0
-        self.bus = FeetechBus(path, baudrate=self.baudrate, retries=self.retries, names=names,
-                              min_timeout_ms=slack_ms).open()
+        # (an emulated bus gets the slack its thread needs on a loaded machine: rio.machine.servo_port)
+        self.bus = FeetechBus(path, baudrate=self.baudrate, retries=self.retries, names=names).open()
         check_present(self.bus, names, self.port)
         apply_calibration(self.bus, joints)
         return ServoGroup(self.bus, joints)

@@ -17,6 +17,8 @@ import tty
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+from rio.machine.servo_port import mark_emulated
+
 log = logging.getLogger("rio.emulation")
 
 _D = TypeVar("_D", bound="PtyDevice")
@@ -30,6 +32,7 @@ class PtyDevice:
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)  # no echo, no line editing: bytes pass as they are
         self.port = os.ttyname(self._slave)
+        mark_emulated(self.port)  # drivers opening it allow for a thread that answers late (rio.machine.servo_port)
         #: Taken while input is handled; hold it to change the device consistently from another thread.
         self.lock = threading.RLock()
         self._stop = threading.Event()
@@ -48,6 +51,7 @@ class PtyDevice:
         return self
 
     def close(self) -> None:
+        mark_emulated(self.port, False)
         self._stop.set()
         if self._thread is not None:
             self._thread.join(2.0)

@@ -5,7 +5,9 @@ which polls a zero-timeout port while it waits for a status packet: a driver nod
 the CPU, and the GIL, from the rest of its process. Their drivers therefore use `port_handler`: reads
 block for at most `READ_SLICE_S` (the SDK still checks its packet timeout between reads), and the packet
 timeout can be raised to `min_timeout_ms` (an emulated servo answering from a thread on a loaded machine
-needs more than the SDK's own, which suits a real bus)."""
+needs more than the SDK's own, which suits a real bus). A port that a device of this very process emulates
+(`rio.emulation.PtyDevice` marks its pty here) gets `EMULATED_SLACK_MS` whoever opens it: the station's own
+emulator or one a script or test made and handed the driver by its path."""
 
 from __future__ import annotations
 
@@ -13,6 +15,20 @@ from typing import Any
 
 #: Longest a single port read blocks.
 READ_SLICE_S = 0.001
+#: The packet timeout of a port emulated in this process: its servos answer when their thread gets the CPU.
+EMULATED_SLACK_MS = 500.0
+
+_EMULATED: set[str] = set()  # the ptys this process's emulated devices serve
+
+
+def mark_emulated(port: str, emulated: bool = True) -> None:
+    """Say that a device of this process serves `port` (or no longer does)."""
+    (_EMULATED.add if emulated else _EMULATED.discard)(port)
+
+
+def emulated_here(port: str) -> bool:
+    """Whether a device of this process serves `port`."""
+    return port in _EMULATED
 
 
 def port_handler(base: type, port: str, min_timeout_ms: float = 0.0) -> Any:
@@ -28,6 +44,7 @@ def port_handler(base: type, port: str, min_timeout_ms: float = 0.0) -> Any:
 
         def setPacketTimeout(self, packet_length: Any) -> None:  # noqa: N802 (SDK name)
             super().setPacketTimeout(packet_length)
-            self.packet_timeout = max(self.packet_timeout, min_timeout_ms)
+            self.packet_timeout = max(self.packet_timeout, min_timeout_ms,
+                                      EMULATED_SLACK_MS if emulated_here(port) else 0.0)
 
     return PortHandler(port)

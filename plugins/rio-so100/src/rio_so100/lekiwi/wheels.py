@@ -60,7 +60,7 @@ class LeKiwiBase(BaseNode):
 
     # -- lifecycle ----------------------------------------------------------------------------------
     def open(self) -> None:
-        from ..connection import EMULATED_TIMEOUT_MS, check_present
+        from ..connection import check_present
         from ..feetech.bus import FeetechBus
 
         c, path = self.config, self.config.port
@@ -75,8 +75,7 @@ class LeKiwiBase(BaseNode):
             self.emulator = open_sim_wheel_bus(c.port, self.ids)
             path = self.emulator.port
         names = dict(zip(self.ids, self.wheel_list, strict=True))
-        self.bus = FeetechBus(path, baudrate=c.baudrate, retries=c.retries, names=names,
-                              min_timeout_ms=EMULATED_TIMEOUT_MS if self.emulator is not None else 0.0).open()
+        self.bus = FeetechBus(path, baudrate=c.baudrate, retries=c.retries, names=names).open()
         check_present(self.bus, names, c.port)
         for sid in self.ids:  # wheel mode is an EEPROM register: torque off, unlock, write, lock
             self.bus.write(sid, T.TORQUE_ENABLE, 0)

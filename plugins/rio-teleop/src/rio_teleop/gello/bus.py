@@ -21,8 +21,6 @@ from rio.machine.servo_port import port_handler
 from . import control_table as T
 from . import protocol as P
 
-#: Status timeout on an emulated bus: a thread on a loaded machine may answer late; nothing real waits.
-EMULATED_TIMEOUT_MS = 500.0
 _STATE = (T.PRESENT_VELOCITY[0], 8)
 
 

@@ -9,7 +9,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from . import control_table as T
-from .bus import EMULATED_TIMEOUT_MS, DynamixelBus
+from .bus import DynamixelBus
 from .calibration import GelloCalibration, calibrate
 from .layouts import Layout, get_layout
 
@@ -21,13 +21,11 @@ def read_raw(bus: DynamixelBus, ids: tuple[int, ...], samples: int = 10) -> np.n
 
 def calibrate_leader(port: str, layout: Layout | str, *, name: str = "default", baudrate: int = 57600,
                      wait: Callable[[str], None] = lambda step: None, squeeze: bool = False,
-                     second_pose: Sequence[float] | None = None, label: str | None = None,
-                     emulated: bool = False) -> GelloCalibration:
+                     second_pose: Sequence[float] | None = None, label: str | None = None) -> GelloCalibration:
     """`wait(step)` returns once the person did `step` ("known pose", "squeeze", "second pose")."""
     lay = get_layout(layout) if isinstance(layout, str) else layout
     ids = lay.ids
-    with DynamixelBus(port, baudrate=baudrate, names=lay.servo_names(), label=label,
-                      min_timeout_ms=EMULATED_TIMEOUT_MS if emulated else 0.0) as bus:
+    with DynamixelBus(port, baudrate=baudrate, names=lay.servo_names(), label=label) as bus:
         bus.check_present(ids)
         for sid in ids:
             bus.write(sid, T.TORQUE_ENABLE, 0)

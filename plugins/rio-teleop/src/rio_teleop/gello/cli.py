@@ -62,8 +62,7 @@ def calibrate(port: Port, layout: LayoutOpt, name: Annotated[str, typer.Option(
             time.sleep(0.05)
 
     try:
-        cal = calibrate_leader(path, lay, name=name, baudrate=baudrate, wait=wait, squeeze=squeeze, label=port,
-                               emulated=emu is not None)
+        cal = calibrate_leader(path, lay, name=name, baudrate=baudrate, wait=wait, squeeze=squeeze, label=port)
     finally:
         if emu is not None:
             emu.close()

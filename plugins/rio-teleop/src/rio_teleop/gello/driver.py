@@ -23,7 +23,7 @@ from rio.interfaces import ServoBus, TeleopNode
 from rio.runtime.node import client_side, remote
 
 from . import control_table as T
-from .bus import EMULATED_TIMEOUT_MS, DynamixelBus
+from .bus import DynamixelBus
 from .calibration import GelloCalibration, load_calibration
 from .layouts import LAYOUTS, get_layout
 
@@ -74,8 +74,8 @@ class GelloLeader(TeleopNode):
             attach_motion(self.emulator, c.emulator_motion)
             path = self.emulator.port
         self.ids = lay.joint_ids + ((lay.gripper_id,) if c.gripper and lay.gripper_id is not None else ())
-        self.bus = DynamixelBus(path, baudrate=c.baudrate, retries=c.retries, names=lay.servo_names(), label=c.port,
-                                min_timeout_ms=EMULATED_TIMEOUT_MS if self.emulator is not None else 0.0).open()
+        self.bus = DynamixelBus(path, baudrate=c.baudrate, retries=c.retries, names=lay.servo_names(),
+                                label=c.port).open()
         self.models = self.bus.check_present(self.ids)
         self.cal = self._calibration()
         for sid in lay.joint_ids:
