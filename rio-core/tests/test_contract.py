@@ -120,10 +120,10 @@ def test_a_silent_stream_is_held_by_the_watchdog():
 def test_gripper_targets_are_clipped_to_its_width():
     g = FakeGripper(max_width=0.08, max_step_m=0.05)
     with lifecycle(g):
-        g.handle_request({"position": 0.5, "t_cmd_target": time.monotonic(), "force": 0.0})
-        assert run_for(g, 0.1)["position"] == pytest.approx(0.08)
-        g.handle_request({"position": -1.0, "t_cmd_target": time.monotonic(), "force": 0.0})
-        assert run_for(g, 0.1)["position"] == pytest.approx(0.0)
+        g.handle_request({"width": 0.5, "t_cmd_target": time.monotonic(), "force": 0.0})
+        assert run_for(g, 0.1)["width"] == pytest.approx(0.08)
+        g.handle_request({"width": -1.0, "t_cmd_target": time.monotonic(), "force": 0.0})
+        assert run_for(g, 0.1)["width"] == pytest.approx(0.0)
 
 
 # -- kinematics from robot_description() -------------------------------------------------------------

@@ -190,7 +190,7 @@ class Step:
 class SingleArmObs(Observation):
     proprio_eef: np.ndarray | None = None
     proprio_joints: np.ndarray | None = None
-    gripper_position: float | None = None
+    gripper_width: float | None = None
 
     hand_pose: np.ndarray | None = None
     hand_joints: np.ndarray | None = None
@@ -201,14 +201,14 @@ class BimanualObs(Observation):
     # Left arm (station role "arm", "gripper", "hand")
     arm1_proprio_eef: np.ndarray | None = None
     arm1_proprio_joints: np.ndarray | None = None
-    gripper1_position: float | None = None
+    gripper1_width: float | None = None
     hand1_pose: np.ndarray | None = None
     hand1_joints: np.ndarray | None = None
 
     # Right arm (station role "arm2", "gripper2", "hand2")
     arm2_proprio_eef: np.ndarray | None = None
     arm2_proprio_joints: np.ndarray | None = None
-    gripper2_position: float | None = None
+    gripper2_width: float | None = None
     hand2_pose: np.ndarray | None = None
     hand2_joints: np.ndarray | None = None
 

@@ -65,8 +65,8 @@ def cycle_gripper(grip: Any, widths: Any, tol: float, seconds: float = 1.0, time
     """A hardware test of a gripper: command each opening in `widths` (m) in turn, arriving over `seconds`,
     checking it got within `tol` (m) of each within `timeout` (s)."""
     for goal in widths:
-        grip.command("position", [goal], clock.now() + seconds)
-        assert wait_until(lambda g=goal: abs(grip.cycle()["position"] - g) < tol, timeout=timeout)
+        grip.command("width", [goal], clock.now() + seconds)
+        assert wait_until(lambda g=goal: abs(grip.cycle()["width"] - g) < tol, timeout=timeout)
 
 
 def skip_tests_without(need: str | SystemNeed, why: str = "", items: Any = None, under: str = "") -> None:
