@@ -8,7 +8,7 @@ clipped to `[0, max_width]`, interpolated to `t_cmd_target`, move at most `max_s
 held by the watchdog, through the same `JointCommander` the arms use.
 
 The opening has one name everywhere: `width` (the state and request key, `move(width)`), `gripper_width` in
-an observation. Its old name, `position`, is still taken in a request for one release (`OldRequestKeys`).
+an observation. Its old name, `position`, is still taken in a request for one release (`GripperRequest`).
 """
 
 from __future__ import annotations
@@ -94,10 +94,10 @@ class GripperNode(CommandedNode):
     @client_side
     def send_request(self, request: Mapping[str, Any] | None = None, **fields: Any) -> None:
         """`Node.send_request`, taking a script's old key `position` for `width` with one notice."""
-        super().send_request(accept_renamed(OldRequestKeys, {**(request or {}), **fields}))
+        super().send_request(accept_renamed(GripperRequest, {**(request or {}), **fields}))
 
 
-class OldRequestKeys:
+class GripperRequest:
     """The gripper request's keys renamed in Core v3 (`rio.config.accept_renamed` reads `renamed`): the
     opening was `position`, now `width` like everywhere else."""
 
