@@ -166,7 +166,7 @@ class RingCamera(Camera):
 
 #: Observation fields renamed since datasets were recorded and scripts written with them ({old: new}; Core v3
 #: gave the gripper's opening one name, `width`). A dataset recorded before reads its columns under the new
-#: names (`rio.recording.dataset.load_schema`); a script or a policy's input map reading an old name gets the
+#: names (`rio.recording.dataset.current_names`); a script or a policy's input map reading an old name gets the
 #: new field, with one notice (`Observation.__getattr__`).
 RENAMED_FIELDS = {"gripper_position": "gripper_width", "gripper1_position": "gripper1_width",
                   "gripper2_position": "gripper2_width"}
