@@ -30,7 +30,7 @@ def test_an_old_dataset_exports_and_imports_under_the_new_name(native, old, tmp_
     f = get_format("zarr")
     f.export(Dataset(old), tmp_path / "old.zarr")
     f.export(Dataset(native), tmp_path / "new.zarr")
-    was, now = zarr.open_group(str(tmp_path / "old.zarr"), mode="r"), zarr.open_group(str(tmp_path / "new.zarr"), mode="r")
+    was, now = (zarr.open_group(str(tmp_path / f"{name}.zarr"), mode="r") for name in ("old", "new"))
     assert "gripper_width" in was["data"] and "gripper_position" not in was["data"]
     np.testing.assert_array_equal(was["data/gripper_width"][:], now["data/gripper_width"][:])
     f.import_(tmp_path / "old.zarr", tmp_path / "back")
