@@ -120,10 +120,29 @@ def test_a_silent_stream_is_held_by_the_watchdog():
 def test_gripper_targets_are_clipped_to_its_width():
     g = FakeGripper(max_width=0.08, max_step_m=0.05)
     with lifecycle(g):
-        g.handle_request({"position": 0.5, "t_cmd_target": time.monotonic(), "force": 0.0})
-        assert run_for(g, 0.1)["position"] == pytest.approx(0.08)
-        g.handle_request({"position": -1.0, "t_cmd_target": time.monotonic(), "force": 0.0})
-        assert run_for(g, 0.1)["position"] == pytest.approx(0.0)
+        g.handle_request({"width": 0.5, "t_cmd_target": time.monotonic(), "force": 0.0})
+        assert run_for(g, 0.1)["width"] == pytest.approx(0.08)
+        g.handle_request({"width": -1.0, "t_cmd_target": time.monotonic(), "force": 0.0})
+        assert run_for(g, 0.1)["width"] == pytest.approx(0.0)
+
+
+def test_a_gripper_request_still_takes_its_old_key_with_one_notice(caplog, monkeypatch):
+    """Before Core v3 the opening was `position`: a script sending it moves the gripper as `width` does,
+    with one line saying so; both at once is an error naming both."""
+    import rio.config
+
+    monkeypatch.setattr(rio.config, "_noticed", set())
+    with ServerManager("thread", [serve(FakeGripper, name="gripper", max_width=0.08)]):
+        with connect(FakeGripper, "thread", name="gripper") as g, caplog.at_level("WARNING", logger="rio.config"):
+            g.move(0.03)
+            assert wait_until(lambda: g.get_state()["width"] == pytest.approx(0.03))
+            for _ in range(2):
+                g.send_request(position=0.01, t_cmd_target=time.monotonic(), force=0.0)
+            assert wait_until(lambda: g.get_state()["width"] == pytest.approx(0.01))
+            with pytest.raises(ValueError, match="position and width are one field"):
+                g.send_request(position=0.02, width=0.02, t_cmd_target=time.monotonic(), force=0.0)
+    assert [r.getMessage() for r in caplog.records] == [
+        "GripperRequest: 'position' is now 'width' (the old name is accepted until the next release)"]
 
 
 # -- kinematics from robot_description() -------------------------------------------------------------

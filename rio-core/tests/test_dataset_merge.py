@@ -40,8 +40,8 @@ def _bimanual(i: int, t: float, cams: dict) -> Step:
     lo, ro = left.observation, right.observation
     obs = BimanualObs(proprio=np.concatenate([lo.proprio, ro.proprio]), cameras=lo.cameras,
                       arm1_proprio_eef=lo.proprio_eef, arm1_proprio_joints=lo.proprio_joints,
-                      gripper1_position=lo.gripper_position, arm2_proprio_eef=ro.proprio_eef,
-                      arm2_proprio_joints=ro.proprio_joints, gripper2_position=ro.gripper_position)
+                      gripper1_width=lo.gripper_width, arm2_proprio_eef=ro.proprio_eef,
+                      arm2_proprio_joints=ro.proprio_joints, gripper2_width=ro.gripper_width)
     meta = {**left.meta, "timestamps": {"arm": t, "gripper": t, "arm2": t, "gripper2": t}}
     return Step(i, obs, "fold the towel", np.concatenate([left.action, right.action]), meta)
 
@@ -56,7 +56,7 @@ def _humanoid(i: int, t: float, cams: dict) -> Step:
 
 def _xarm(i: int, t: float, cams: dict) -> Step:
     s = synthetic_step(i, t, cams, dof=7)
-    s.action = np.concatenate([s.observation.proprio_eef, [s.observation.gripper_position]])
+    s.action = np.concatenate([s.observation.proprio_eef, [s.observation.gripper_width]])
     s.observation.proprio = s.action.copy()
     return s
 

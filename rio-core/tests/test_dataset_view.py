@@ -104,7 +104,7 @@ def test_save_writes_every_camera_frame_joint_gripper_and_eef(ds, rr, tmp_path, 
         assert temporal[f"/cameras/{info['camera']}/{info['kind']}"] == info["frames"] == STEPS, key
     for name in NAMES:  # per joint, named from the episode's action names: state and action
         assert temporal[f"/joints/{name}/state"] == temporal[f"/joints/{name}/action"] == STEPS
-    assert temporal["/gripper/gripper_position"] == STEPS
+    assert temporal["/gripper/gripper_width"] == STEPS
     assert temporal["/state/proprio_joints/5"] == STEPS  # other observation fields, by their names
     assert temporal["/world/proprio_eef/pose"] == STEPS  # the pose at every step
     assert static["/world/proprio_eef/trajectory"] == 1  # the whole path, one line strip

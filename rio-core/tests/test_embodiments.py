@@ -125,7 +125,7 @@ def test_single_arm_station_steps(reg):
             assert set(step.meta["timestamps"]) == {"arm", "gripper", "front_camera"}
             assert wait_until(lambda: np.allclose(env.get_state().observation.proprio, target, atol=1e-6))
             final = env.get_state().observation
-            assert final.gripper_position == pytest.approx(0.02)
+            assert final.gripper_width == pytest.approx(0.02)
             assert np.allclose(final.proprio_joints, target[:6])
 
             with pytest.raises(ValueError, match=r"action has 6 values, expected 7: joint_pos \(6\), gripper \(1\)"):
@@ -169,7 +169,7 @@ def test_bimanual_station_steps(reg):
         obs = env.get_state().observation
         assert isinstance(obs, BimanualObs)
         assert np.allclose(obs.arm1_proprio_joints, left) and np.allclose(obs.arm2_proprio_joints, right)
-        assert (obs.gripper1_position, obs.gripper2_position) == (pytest.approx(0.01), pytest.approx(0.05))
+        assert (obs.gripper1_width, obs.gripper2_width) == (pytest.approx(0.01), pytest.approx(0.05))
 
 
 def test_humanoid_station_steps(reg):
@@ -300,7 +300,7 @@ def test_a_node_behind_on_its_link_skips_a_command_and_the_others_still_get_thei
         env.step(target)
         env.step(target)
         assert env.robot.behind == {"arm": 2}
-        assert wait_until(lambda: env.get_state().observation.gripper_position == pytest.approx(0.02))
+        assert wait_until(lambda: env.get_state().observation.gripper_width == pytest.approx(0.02))
         assert np.allclose(env.get_state().observation.proprio_joints, 0.0)  # the arm got nothing
 
         class Hold:

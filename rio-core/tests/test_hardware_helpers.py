@@ -20,4 +20,4 @@ def test_cycle_gripper_reaches_each_opening():
     with lifecycle(FakeGripper()) as grip:
         w = grip.width
         cycle_gripper(grip, (w, 0.3 * w, w), tol=0.003, seconds=0.2)
-        assert abs(grip.cycle()["position"] - w) < 0.003
+        assert abs(grip.cycle()["width"] - w) < 0.003

@@ -32,7 +32,7 @@ def test_round_trip_exact_state_and_close_fast(tmp_path):
     assert len(ep) == 40 and ep.verify() == []
     np.testing.assert_array_equal(ep.column("action"), np.stack([s.action for s in sent]))
     np.testing.assert_array_equal(ep.column("obs.proprio_eef"), np.stack([s.observation.proprio_eef for s in sent]))
-    assert ep.column("obs.gripper_position").dtype == np.float64
+    assert ep.column("obs.gripper_width").dtype == np.float64
     # timestamps: from rio.clock.now(), increasing, at the declared rate
     t = ep.column("t")
     assert np.all(np.diff(t) > 0)

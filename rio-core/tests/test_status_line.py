@@ -23,7 +23,7 @@ from rio.testing import fake_eef_station
 
 
 def _tick(k: int, t: float, mode: str, x: float) -> Tick:
-    obs = SingleArmObs(proprio=np.zeros(8), proprio_eef=np.array([x, 0.0, 0.1, 1, 0, 0, 0]), gripper_position=0.025)
+    obs = SingleArmObs(proprio=np.zeros(8), proprio_eef=np.array([x, 0.0, 0.1, 1, 0, 0, 0]), gripper_width=0.025)
     tick = Tick(t, t + 0.04, 0.0, k, True, None, None, step=Step(k, obs, None, None), lateness=0.0004)
     tick.info["mode"] = mode
     return tick

@@ -51,8 +51,8 @@ def test_a_wrist_moves_the_tool_by_its_motion_and_a_pinch_closes_the_gripper(tmp
     assert np.allclose(end[:3] - start[:3], [0.06, 0.03, -0.04], atol=3e-3)
     turn = quat_to_rotvec(quat_mul(end[3:], quat_conj(start[3:])))  # in the base frame: about z
     assert np.allclose(turn, [0, 0, np.deg2rad(30)], atol=np.deg2rad(2))
-    assert first.gripper_position == pytest.approx(0.08, abs=1e-3)
-    assert last.gripper_position < 0.01  # the pinch closed it
+    assert first.gripper_width == pytest.approx(0.08, abs=1e-3)
+    assert last.gripper_width < 0.01  # the pinch closed it
 
 
 def test_translation_mode_keeps_the_tool_orientation(tmp_path):

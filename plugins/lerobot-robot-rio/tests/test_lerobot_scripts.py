@@ -98,7 +98,7 @@ def measuring_stop(self):  # what the station's arm did, read from its node befo
         time.sleep(0.5)  # the last command's target lies one control period ahead
         s = self.env.robot.arm.get_state()
         json.dump({"sent": sent, "final_q": np.asarray(s["joint_pos"]).tolist(),
-                   "gripper": float(self.env.robot.gripper.get_state()["position"])}, open(out, "w"))
+                   "gripper": float(self.env.robot.gripper.get_state()["width"])}, open(out, "w"))
     stop(self)
 
 bridge.StationBridge.send, bridge.StationBridge.stop = recording_send, measuring_stop

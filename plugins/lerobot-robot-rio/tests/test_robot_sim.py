@@ -46,7 +46,7 @@ def test_sim_so100_as_a_lerobot_robot(tmp_path, shm_entries):
         assert set(obs) == set(robot.observation_features)
         q = np.asarray(rio.arm.get_state()["joint_pos"])
         np.testing.assert_allclose([obs[n] for n in names[:5]], q, atol=1e-3)
-        assert obs["gripper.pos"] == pytest.approx(float(rio.gripper.get_state()["position"]), abs=1e-3)
+        assert obs["gripper.pos"] == pytest.approx(float(rio.gripper.get_state()["width"]), abs=1e-3)
         for cam in ("front", "wrist"):
             assert obs[cam].shape == (240, 320, 3) and obs[cam].dtype == np.uint8
 

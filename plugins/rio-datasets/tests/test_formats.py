@@ -18,7 +18,7 @@ def _compare(a: Dataset, b: Dataset, exact: bool = True, depth: bool = True, img
     assert len(a) == len(b)
     for e0, e1 in zip(a, b, strict=False):
         assert len(e0) == len(e1) and e0.instruction == e1.instruction
-        for col in ("action", "obs.proprio", "obs.proprio_eef", "obs.gripper_position"):
+        for col in ("action", "obs.proprio", "obs.proprio_eef", "obs.gripper_width"):
             x0, x1 = e0.column(col), e1.column(col)
             if exact:
                 np.testing.assert_array_equal(x0, x1)

@@ -15,13 +15,13 @@ def test_closing_on_an_object_grasps_it_and_opening_releases(fake_ip):
     ctl = fake.controller(fake_ip)
     ctl.object_width = 0.03
     with lifecycle(FrankaHand(ip=fake_ip, backend="fake", speed=0.2)) as hand:
-        assert abs(hand.cycle()["position"] - 0.08) < 1e-6
-        hand.command("position", [0.0], clock.now() + 0.1)
+        assert abs(hand.cycle()["width"] - 0.08) < 1e-6
+        hand.command("width", [0.0], clock.now() + 0.1)
         s = Loop(hand).run(until=lambda s: s["object_detected"], timeout=5)
-        assert s["object_detected"] and abs(s["position"] - 0.03) < 1e-3
+        assert s["object_detected"] and abs(s["width"] - 0.03) < 1e-3
         assert ctl.grasping is not None  # a grasp, with the force
-        hand.command("position", [0.08], clock.now() + 0.1)
-        s = Loop(hand).run(until=lambda s: s["position"] > 0.079, timeout=5)
+        hand.command("width", [0.08], clock.now() + 0.1)
+        s = Loop(hand).run(until=lambda s: s["width"] > 0.079, timeout=5)
         assert not s["object_detected"] and ctl.grasping is None  # a move
 
 
@@ -31,9 +31,9 @@ def test_fingers_that_reach_the_goal_with_nothing_between_them_detect_no_object(
     ctl = fake.controller(fake_ip)
     ctl.object_width = None
     with lifecycle(FrankaHand(ip=fake_ip, backend="fake", speed=0.2)) as hand:
-        hand.command("position", [0.05], clock.now() + 0.1)
-        s = Loop(hand).run(until=lambda s: abs(s["position"] - 0.05) < 1e-4, timeout=5)
-        assert abs(s["position"] - 0.05) < 1e-4
+        hand.command("width", [0.05], clock.now() + 0.1)
+        s = Loop(hand).run(until=lambda s: abs(s["width"] - 0.05) < 1e-4, timeout=5)
+        assert abs(s["width"] - 0.05) < 1e-4
         assert ctl.grasping is not None and hand.conn.handle.is_grasped  # what libfranka says
         assert not Loop(hand).run(cycles=3)["object_detected"]
 

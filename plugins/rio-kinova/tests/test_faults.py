@@ -117,6 +117,6 @@ def test_a_lost_session_holds_refuses_and_reconnects_holding_where_the_arm_is():
         assert np.all(np.abs(s["joint_pos"] - (q0 + 0.3)) > 0.1)
         g = Loop(grip).run(until=lambda s: s["connected"] and s["enabled"], timeout=5)
         assert g["connected"] and g["enabled"]
-        grip.command("position", [0.02], clock.now() + 0.5)
-        g = Loop(grip).run(until=lambda s: abs(s["position"] - 0.02) < 2e-3, timeout=5)
-        assert abs(g["position"] - 0.02) < 2e-3
+        grip.command("width", [0.02], clock.now() + 0.5)
+        g = Loop(grip).run(until=lambda s: abs(s["width"] - 0.02) < 2e-3, timeout=5)
+        assert abs(g["width"] - 0.02) < 2e-3

@@ -70,7 +70,7 @@ def test_sim_station_picks_the_cube_and_places_it_on_the_pad():
 
     widths: list[float] = []
     summary = run_teleop(SIM, "scripted", middleware="thread", log=None,
-                         on_tick=lambda tick: widths.append(float(tick.step.observation.gripper_position)))
+                         on_tick=lambda tick: widths.append(float(tick.step.observation.gripper_width)))
     check_cube_on_pad(summary, "gen3")  # the world's ground truth
     # the gripper node reports the simulated fingers: stopped by the cube while carrying it, open at the end
     assert abs(min(widths) - CUBE) < 0.006, (min(widths), summary.format())

@@ -10,6 +10,7 @@ import msgpack
 import numpy as np
 import pytest
 from rio_policies import openpi_wire
+from rio_policies.inputs import state_value
 from rio_policies.openpi import OpenPIPolicy
 from websockets.sync.server import serve
 
@@ -61,7 +62,7 @@ class OpenPIServer:
 def observation() -> SingleArmObs:
     rgb = np.arange(48 * 64 * 3, dtype=np.uint32).astype(np.uint8).reshape(48, 64, 3)
     return SingleArmObs(proprio=np.array([0.1, 0.2, 0.3, 0.04]), proprio_joints=np.array([0.1, 0.2, 0.3]),
-                        gripper_position=0.04, cameras={"front": Camera(rgb=rgb, meta={"timestamp": 1.0})})
+                        gripper_width=0.04, cameras={"front": Camera(rgb=rgb, meta={"timestamp": 1.0})})
 
 
 def test_adapter_speaks_openpi_frames():
@@ -115,3 +116,13 @@ def test_rio_deploy_with_an_openpi_server():
     assert summary.reason == "duration reached"
     assert summary.details["stats"]["chunks"] >= 2 and srv.seen[0]["prompt"] == "wave"
     assert from_frame(srv.seen[0]["observation/front_image"]).shape == (24, 32, 3)
+
+
+def test_a_state_map_naming_the_gripper_by_its_old_field_still_reads_it():
+    """A station or command line written before Core v3 maps `gripper_position`: it reads `gripper_width`
+    (with one notice, `rio.schema.RENAMED_FIELDS`); a field the observation lacks stays an error naming it."""
+    obs = observation()
+    for ref in ("gripper_width", "gripper_position"):
+        np.testing.assert_array_equal(state_value(obs, ref), [0.04])
+    with pytest.raises(ValueError, match="has no 'gripper_opening'"):
+        state_value(obs, "gripper_opening")

@@ -58,13 +58,13 @@ class Runner:
 
     def move(self, width: float, force: float = 0.0, seconds: float = 0.1) -> None:
         """What the `move()` client call sends, handed to the node directly."""
-        self.node.handle_request({"position": float(width), "t_cmd_target": clock.now() + seconds,
+        self.node.handle_request({"width": float(width), "t_cmd_target": clock.now() + seconds,
                                   "force": float(force)})
 
     def closing(self, seconds: float, below: float) -> dict[str, Any]:
         """Close the fingers over `seconds`; returns once they are under way (opening below `below` m)."""
         self.move(0.0, seconds=seconds)
-        return self.until(lambda s: s["position"] < below)
+        return self.until(lambda s: s["width"] < below)
 
     def settle(self, seconds: float = 0.3) -> dict[str, Any]:
         t_end = time.monotonic() + seconds

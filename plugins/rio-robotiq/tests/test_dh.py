@@ -33,18 +33,18 @@ def test_open_initializes_and_skips_it_when_done(dh_rtu):
     with lifecycle(DhGripper(port=dh_rtu.port)) as g:
         assert regs.init_state == 1
         s = g.cycle()
-        assert s["position"] == pytest.approx(0.095) and s["enabled"] and not s["object_detected"]
+        assert s["width"] == pytest.approx(0.095) and s["enabled"] and not s["object_detected"]
     regs.handle(bytes.fromhex("01 06 01 03 01 F4"))  # move to half open behind the driver's back
     time.sleep(1.0)
     with lifecycle(DhGripper(port=dh_rtu.port)) as g:  # initialized: no initialization (it would open fully)
-        assert g.cycle()["position"] == pytest.approx(0.0475, abs=TOL)
+        assert g.cycle()["width"] == pytest.approx(0.0475, abs=TOL)
 
 
 def test_moves_to_a_width_and_both_ends(dh_rtu, runner):
     with driven(dh_rtu, runner) as (g, r):
         for width in (0.03, 0.0, 0.095, 0.06):
             r.move(width)
-            r.until(lambda s, w=width: abs(s["position"] - w) <= TOL)
+            r.until(lambda s, w=width: abs(s["width"] - w) <= TOL)
             assert dh_rtu.device.holding[POSITION] == round(width / 0.095 * 1000)
 
 
@@ -52,19 +52,19 @@ def test_force_and_speed_reach_the_registers(dh_rtu, runner):
     regs = dh_rtu.device
     with driven(dh_rtu, runner, speed=0.05, force=80.0) as (g, r):
         r.move(0.05)
-        r.until(lambda s: abs(s["position"] - 0.05) <= TOL)
+        r.until(lambda s: abs(s["width"] - 0.05) <= TOL)
         assert regs.holding[SPEED] == round(0.05 / (0.095 / 0.7) * 100)  # 37 %
         assert regs.holding[FORCE] == 50  # 80 N of 160 N
         assert regs.force == pytest.approx(80.0) and regs.speed == pytest.approx(0.05, rel=0.02)
         r.move(0.02, force=10.0)  # below the gripper's 20 %: clipped, never refused
-        r.until(lambda s: abs(s["position"] - 0.02) <= TOL)
+        r.until(lambda s: abs(s["width"] - 0.02) <= TOL)
         assert regs.holding[FORCE] == 20
 
 
 def test_without_a_force_half_of_the_maximum(dh_rtu, runner):
     with driven(dh_rtu, runner) as (g, r):
         r.move(0.04)
-        r.until(lambda s: abs(s["position"] - 0.04) <= TOL)
+        r.until(lambda s: abs(s["width"] - 0.04) <= TOL)
         assert dh_rtu.device.holding[FORCE] == 50 and dh_rtu.device.holding[SPEED] == 100
 
 
@@ -74,10 +74,10 @@ def test_object_caught_then_dropped(dh_rtu, runner):
     with driven(dh_rtu, runner) as (g, r):
         r.move(0.0, seconds=0.3)
         s = r.until(lambda s: s["object_detected"])
-        assert s["position"] == pytest.approx(0.04, abs=TOL) and not s["object_dropped"]
+        assert s["width"] == pytest.approx(0.04, abs=TOL) and not s["object_dropped"]
         regs.fingers.object_width = None  # it slips out
         s = r.until(lambda s: s["object_dropped"])
-        assert not s["object_detected"] and s["position"] == pytest.approx(0.0, abs=TOL)
+        assert not s["object_detected"] and s["width"] == pytest.approx(0.0, abs=TOL)
 
 
 def test_lost_initialization_stops_it_with_a_named_error_and_resets(dh_rtu, runner):
@@ -92,7 +92,7 @@ def test_lost_initialization_stops_it_with_a_named_error_and_resets(dh_rtu, runn
         assert g.reset_fault() is True
         assert regs.init_state == 1
         r.move(0.03)
-        r.until(lambda s: abs(s["position"] - 0.03) <= TOL)
+        r.until(lambda s: abs(s["width"] - 0.03) <= TOL)
 
 
 def test_disable_and_enable_hold_the_measured_position(dh_rtu, runner):
@@ -104,13 +104,13 @@ def test_disable_and_enable_hold_the_measured_position(dh_rtu, runner):
         time.sleep(0.2)
         assert regs.position == pytest.approx(stopped, abs=TOL)
         g.enable()
-        assert r.settle(0.2)["position"] == pytest.approx(stopped, abs=TOL)
+        assert r.settle(0.2)["width"] == pytest.approx(stopped, abs=TOL)
 
 
 def test_reads_with_function_3_writes_with_function_6(dh_rtu, runner):
     with driven(dh_rtu, runner) as (g, r):
         r.move(0.05)
-        r.until(lambda s: abs(s["position"] - 0.05) <= TOL)
+        r.until(lambda s: abs(s["width"] - 0.05) <= TOL)
     assert set(dh_rtu.device.requests) == {3, 6}
 
 

@@ -56,13 +56,13 @@ def open_and_close(node) -> None:
     with lifecycle(node) as g:
         width = float(g.config.max_width)
         for target in (0.5 * width, width):
-            g.handle_request({"position": target, "t_cmd_target": clock.now() + 1.0, "force": 0.0})
+            g.handle_request({"width": target, "t_cmd_target": clock.now() + 1.0, "force": 0.0})
             t_end = time.monotonic() + 5.0
             while time.monotonic() < t_end:
                 s = g.cycle()
                 time.sleep(1.0 / g.rate_hz)
-            print(f"{type(node).__name__}: target {target:.4f} m, measured {s['position']:.4f} m, state {s}")
-            assert abs(s["position"] - target) < TOL
+            print(f"{type(node).__name__}: target {target:.4f} m, measured {s['width']:.4f} m, state {s}")
+            assert abs(s["width"] - target) < TOL
             assert s.get("fault", 0) == 0
 
 

@@ -50,7 +50,7 @@ def test_open_activates_a_reset_gripper(bench):
     with lifecycle(bench.make()) as g:
         assert bench.regs.activated and bench.regs.rGTO == 1  # activated, and enabled: following
         s = g.cycle()
-        assert s["position"] == pytest.approx(0.085) and s["fault"] == 0 and not s["object_detected"]
+        assert s["width"] == pytest.approx(0.085) and s["fault"] == 0 and not s["object_detected"]
         assert s["enabled"] and s["max_width"] == pytest.approx(0.085)
 
 
@@ -62,7 +62,7 @@ def test_an_activated_gripper_is_not_activated_again(bench):
     assert wait_until(lambda: abs(regs.position - 0.085 * (1 - 128 / 255)) < 1e-6)
     regs.activation_s = 60.0  # re-activating would now time out
     with lifecycle(bench.make(activation_timeout_s=2.0)) as g:
-        assert g.cycle()["position"] == pytest.approx(regs.position, abs=COUNT)
+        assert g.cycle()["width"] == pytest.approx(regs.position, abs=COUNT)
 
 
 def test_moves_to_a_width_and_to_both_ends(bench, runner):
@@ -70,7 +70,7 @@ def test_moves_to_a_width_and_to_both_ends(bench, runner):
         r = runner(g)
         for width in (0.03, 0.085, 0.0, 0.0425):
             r.move(width)
-            r.until(lambda s, w=width: abs(s["position"] - w) <= COUNT)
+            r.until(lambda s, w=width: abs(s["width"] - w) <= COUNT)
             assert bench.regs.rPR == robotiq_counts(width, 0.085)
             assert bench.regs.position == pytest.approx(width, abs=COUNT)
 
@@ -79,11 +79,11 @@ def test_speed_and_force_reach_the_registers(bench, runner):
     with lifecycle(bench.make(speed=0.05, force=100.0)) as g:
         r = runner(g)
         r.move(0.05)
-        r.until(lambda s: abs(s["position"] - 0.05) <= COUNT)
+        r.until(lambda s: abs(s["width"] - 0.05) <= COUNT)
         assert bench.regs.speed == pytest.approx(0.05, abs=0.13 / 255)
         assert bench.regs.force == pytest.approx(100.0, abs=215 / 255)
         r.move(0.02, force=200.0)  # a request's force replaces the station's
-        r.until(lambda s: abs(s["position"] - 0.02) <= COUNT)
+        r.until(lambda s: abs(s["width"] - 0.02) <= COUNT)
         assert bench.regs.force == pytest.approx(200.0, abs=215 / 255)
 
 
@@ -91,7 +91,7 @@ def test_without_a_force_the_middle_of_the_range(bench, runner):
     with lifecycle(bench.make()) as g:
         r = runner(g)
         r.move(0.04)
-        r.until(lambda s: abs(s["position"] - 0.04) <= COUNT)
+        r.until(lambda s: abs(s["width"] - 0.04) <= COUNT)
         assert bench.regs.rFR == 128 and bench.regs.rSP == 255
 
 
@@ -101,15 +101,15 @@ def test_closing_on_an_object_detects_it_at_its_width(bench, runner):
         r = runner(g)
         r.move(0.0, seconds=0.3)
         s = r.until(lambda s: s["object_detected"])
-        assert s["position"] == pytest.approx(0.031, abs=COUNT)
+        assert s["width"] == pytest.approx(0.031, abs=COUNT)
         s = r.settle(0.2)
-        assert s["object_detected"] and s["position"] == pytest.approx(0.031, abs=COUNT)
+        assert s["object_detected"] and s["width"] == pytest.approx(0.031, abs=COUNT)
         if bench.transport == "rtu":
             assert s["current"] > 0.05
         else:
             assert math.isnan(s["current"])  # the URCap serves no current
         r.move(0.06)
-        s = r.until(lambda s: abs(s["position"] - 0.06) <= COUNT)
+        s = r.until(lambda s: abs(s["width"] - 0.06) <= COUNT)
         assert not s["object_detected"]
 
 
@@ -134,9 +134,9 @@ def test_a_major_fault_stops_the_fingers_raises_and_resets(bench, runner):
         assert g.reset_fault() is True
         assert regs.activated and regs.fault == 0
         s = r.settle(0.1)
-        assert s["fault"] == 0 and s["position"] == pytest.approx(stopped, abs=COUNT)
+        assert s["fault"] == 0 and s["width"] == pytest.approx(stopped, abs=COUNT)
         r.move(0.07)
-        r.until(lambda s: abs(s["position"] - 0.07) <= COUNT)
+        r.until(lambda s: abs(s["width"] - 0.07) <= COUNT)
 
 
 def test_a_minor_fault_is_published_and_logged_not_raised(bench, runner, caplog):
@@ -148,7 +148,7 @@ def test_a_minor_fault_is_published_and_logged_not_raised(bench, runner, caplog)
         assert s["fault"] == 0x08
         assert "maximum operating temperature" in caplog.text
         r.move(0.05)
-        r.until(lambda s: abs(s["position"] - 0.05) <= COUNT)  # it keeps working
+        r.until(lambda s: abs(s["width"] - 0.05) <= COUNT)  # it keeps working
         bench.regs.inject_fault(0)
         assert r.settle(0.05)["fault"] == 0
 
@@ -176,7 +176,7 @@ def test_disable_stops_and_enable_holds_without_moving(bench, runner):
         assert regs.position == pytest.approx(stopped)
         g.enable()
         s = r.settle(0.2)
-        assert regs.rGTO == 1 and s["position"] == pytest.approx(stopped, abs=COUNT)
+        assert regs.rGTO == 1 and s["width"] == pytest.approx(stopped, abs=COUNT)
     assert regs.rGTO == 0 and regs.activated  # closing disables; it does not deactivate
 
 
@@ -184,7 +184,7 @@ def test_rtu_reads_input_registers_and_writes_multiple(robotiq_rtu, runner):
     with lifecycle(RobotiqGripper(port=robotiq_rtu.port)) as g:
         r = runner(g)
         r.move(0.04)
-        r.until(lambda s: abs(s["position"] - 0.04) <= COUNT)
+        r.until(lambda s: abs(s["width"] - 0.04) <= COUNT)
     assert set(robotiq_rtu.device.requests) == {4, 16}  # function 4 reads, function 16 writes
 
 
@@ -204,7 +204,7 @@ def test_urcap_speaks_the_documented_lines(urcap, runner):
     with lifecycle(RobotiqUrcapGripper(ip=urcap.host, port=urcap.port, force=235.0)) as g:
         r = runner(g)
         r.move(0.0425)
-        r.until(lambda s: abs(s["position"] - 0.0425) <= COUNT)
+        r.until(lambda s: abs(s["width"] - 0.0425) <= COUNT)
     lines = urcap.lines
     assert "SET ACT 0 ATR 0" in lines and "SET ACT 1" in lines and "GET STA" in lines
     assert "SET POS 128 SPE 255 FOR 255 GTO 1" in lines
@@ -226,5 +226,5 @@ def test_emulator_ports_start_private_emulators(runner):
             r = runner(g)
             w = 0.5 * g.config.max_width
             r.move(w)
-            r.until(lambda s, w=w: abs(s["position"] - w) <= 0.001)
+            r.until(lambda s, w=w: abs(s["width"] - w) <= 0.001)
         assert node._emulator is None and node.device is None  # stopped with the node

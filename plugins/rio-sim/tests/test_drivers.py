@@ -103,9 +103,9 @@ def test_gripper_closes_and_opens(station):
     g = station["gripper"]
     assert g.max_width() == pytest.approx(0.06)
     g.move(0.0, time.monotonic() + 0.3)
-    assert wait_until(lambda: g.get_state()["position"] < 0.002, 3.0)
+    assert wait_until(lambda: g.get_state()["width"] < 0.002, 3.0)
     g.move(0.06, time.monotonic() + 0.3)
-    assert wait_until(lambda: g.get_state()["position"] > 0.058, 3.0)
+    assert wait_until(lambda: g.get_state()["width"] > 0.058, 3.0)
 
 
 def test_cameras_render_the_shared_world(station):

@@ -74,14 +74,14 @@ def test_gripper_in_meters_and_a_grasp_does_not_trip_overload(vbus, calibrated):
     calibrated()
     with ServerManager(MW, [serve(So100Gripper, name="gripper", port=vbus.port)]):
         with connect(So100Gripper, MW, name="gripper", port=vbus.port) as g:
-            assert g.max_width() == pytest.approx(0.06) and g.get_state()["position"] == pytest.approx(0.0)
+            assert g.max_width() == pytest.approx(0.06) and g.get_state()["width"] == pytest.approx(0.0)
             g.move(0.03, time.monotonic() + 0.2)
-            assert wait_until(lambda: abs(g.get_state()["position"] - 0.03) < 0.0005)
+            assert wait_until(lambda: abs(g.get_state()["width"] - 0.03) < 0.0005)
             vbus.servo(6).stops = (-1e9, vbus.servo(6).encoder)  # an object between the jaws
             g.move(0.06, time.monotonic() + 0.1)  # squeeze: stalls at the torque limit (50 %)
             time.sleep(0.5)
             s = g.get_state()
-            assert abs(s["position"] - 0.03) < 0.001 and s["error"] == 0 and 0.4 < abs(s["load"]) <= 0.5
+            assert abs(s["width"] - 0.03) < 0.001 and s["error"] == 0 and 0.4 < abs(s["load"]) <= 0.5
 
 
 def test_a_real_port_needs_a_calibration(vbus):

@@ -454,7 +454,7 @@ def test_emulated_arm_runs_on_an_imported_calibration(lerobot_root, vbus, config
             want = [expected_rad(present[m], data[m]) for m in ARM_JOINTS]
             np.testing.assert_allclose(q, want, rtol=0, atol=1e-12)
             jaw = lerobot_normalize("range_0_100", present["gripper"], data["gripper"])  # LeRobot's 0..100
-            assert gripper.get_state()["position"] == pytest.approx(jaw / 100 * 0.06)
+            assert gripper.get_state()["width"] == pytest.approx(jaw / 100 * 0.06)
             # a pose given in LeRobot's degrees, sent in radians: each servo ends where LeRobot would send it
             target_deg = {"shoulder_pan": 30.0, "shoulder_lift": -45.0, "elbow_flex": 20.0, "wrist_flex": -10.0,
                           "wrist_roll": 90.0}

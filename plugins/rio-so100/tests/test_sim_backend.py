@@ -52,4 +52,4 @@ def test_leader_drives_the_simulated_arm_through_the_real_driver(make_vbus, cali
     obs = last["obs"]
     # the follower's joints (read through the SDK from the simulated servos) reached the leader's pose
     assert np.allclose(obs.proprio_joints, target, atol=0.03), obs.proprio_joints
-    assert obs.gripper_position == pytest.approx(0.03, abs=0.003)  # half-open jaw -> half the fingers' width
+    assert obs.gripper_width == pytest.approx(0.03, abs=0.003)  # half-open jaw -> half the fingers' width

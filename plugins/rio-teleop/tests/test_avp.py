@@ -358,8 +358,8 @@ def test_rio_teleop_moves_a_fake_arm_with_the_emulated_hand(tmp_path):
         run_teleop(str(path), duration=3.0, on_tick=on_tick, log=None)
     first, last = ticks[0].step.observation, ticks[-1].step.observation
     assert np.allclose(last.proprio_eef[:3] - first.proprio_eef[:3], [0.06, 0.03, 0.02], atol=3e-3)
-    assert first.gripper_position == pytest.approx(0.08, abs=1e-3)
-    assert last.gripper_position < 0.01  # the pinch closed it
+    assert first.gripper_width == pytest.approx(0.08, abs=1e-3)
+    assert last.gripper_width < 0.01  # the pinch closed it
 
 
 # -- a real headset -----------------------------------------------------------------------------------------

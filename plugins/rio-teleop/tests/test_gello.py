@@ -269,7 +269,7 @@ def test_gripper_trigger_maps_to_the_follower_gripper_range(gello, tmp_path):
     g.pose(get_layout("xarm7").known_pose, gripper=0.3)
     widths = []
     summary = run_teleop(_station(g.port, cal_file), duration=1.5, log=None,
-                         on_tick=lambda tick: widths.append(tick.env.robot.clients["gripper"].get_state()["position"]))
+                         on_tick=lambda tick: widths.append(tick.env.robot.clients["gripper"].get_state()["width"]))
     max_width = 0.085  # rio.fake_gripper's default
     assert widths[-1] == pytest.approx(0.3 * max_width, abs=0.003), summary.format()
 

@@ -38,38 +38,38 @@ def test_gripper_moves_to_widths_and_stops_on_an_object(make_emulator, case):
         w = grip.width
         tol = 0.03 * w + 0.002  # the devices' own position units (pulses, mm, 1/255 of the stroke)
         for goal in (0.8 * w, 0.3 * w):
-            grip.command("position", [goal], clock.now() + 0.3)
-            s = run_until(grip, lambda s, g=goal: abs(s["position"] - g) < tol)
-            assert abs(s["position"] - goal) < tol, (case, goal, s["position"])
+            grip.command("width", [goal], clock.now() + 0.3)
+            s = run_until(grip, lambda s, g=goal: abs(s["width"] - g) < tol)
+            assert abs(s["width"] - goal) < tol, (case, goal, s["width"])
             assert not s["object_detected"]
-        grip.command("position", [w], clock.now() + 0.2)
-        run_until(grip, lambda s: s["position"] > 0.95 * w - tol)
+        grip.command("width", [w], clock.now() + 0.2)
+        run_until(grip, lambda s: s["width"] > 0.95 * w - tol)
         emu.gripper.fingers.object_width = jaw + 0.5 * w
-        grip.command("position", [0.0], clock.now() + 0.2)
+        grip.command("width", [0.0], clock.now() + 0.2)
         s = run_until(grip, lambda s: s["object_detected"])
         assert s["object_detected"], (case, s)
-        assert abs(s["position"] - 0.5 * w) < tol, (case, s["position"])
+        assert abs(s["width"] - 0.5 * w) < tol, (case, s["width"])
 
 
 def test_lite6_gripper_opens_and_closes_on_tool_io(make_emulator):
     emu = make_emulator("lite6", gripper="lite6")
     with lifecycle(Lite6Gripper(ip=emu.host)) as grip:
-        grip.command("position", [0.0], clock.now() + 0.1)
+        grip.command("width", [0.0], clock.now() + 0.1)
         fingers = emu.gripper.fingers
-        s = run_until(grip, lambda s: s["position"] == 0.0 and fingers.update() < 1e-4)
-        assert s["position"] == 0.0 and fingers.goal == 0.0 and fingers.update() < 1e-4
-        grip.command("position", [grip.width], clock.now() + 0.1)
+        s = run_until(grip, lambda s: s["width"] == 0.0 and fingers.update() < 1e-4)
+        assert s["width"] == 0.0 and fingers.goal == 0.0 and fingers.update() < 1e-4
+        grip.command("width", [grip.width], clock.now() + 0.1)
         s = run_until(grip, lambda s: fingers.update() > fingers.max_width - 1e-4)
-        assert s["position"] == grip.width and fingers.goal == fingers.max_width
+        assert s["width"] == grip.width and fingers.goal == fingers.max_width
 
 
 def test_vacuum_reports_a_held_object(make_emulator):
     emu = make_emulator("lite6", gripper="lite6")
     emu.gripper.vacuum_object = True
     with lifecycle(VacuumGripper(ip=emu.host)) as cup:
-        cup.command("position", [0.0], clock.now() + 0.1)  # closed = suction on
+        cup.command("width", [0.0], clock.now() + 0.1)  # closed = suction on
         s = run_until(cup, lambda s: s["object_detected"])
         assert s["object_detected"] and emu.gripper.suction
-        cup.command("position", [cup.width], clock.now() + 0.1)
+        cup.command("width", [cup.width], clock.now() + 0.1)
         s = run_until(cup, lambda s: not s["object_detected"])
         assert not s["object_detected"] and not emu.gripper.suction

@@ -85,12 +85,16 @@ _noticed: set[tuple[str, str]] = set()
 
 
 def _notice(model: type, old: str, new: str) -> None:
-    """One line per process and rename: a station validated by a server, its client and a tool says it once."""
-    key = (model.__qualname__, old)
+    notice_renamed(model.__qualname__, old, new)
+
+
+def notice_renamed(owner: str, old: str, new: str) -> None:
+    """One line per process and rename: a station validated by a server, its client and a tool says it once.
+    Also for old names outside a config model (a gripper request's key, an observation field a script reads)."""
+    key = (owner, old)
     if key not in _noticed:
         _noticed.add(key)
-        log.warning("%s: %s is now %s (the old name is accepted until the next release)", model.__qualname__,
-                    old, new)
+        log.warning("%s: %s is now %s (the old name is accepted until the next release)", owner, old, new)
 
 
 def accept_renamed(model: type, data: Any) -> Any:

@@ -164,6 +164,14 @@ class RingCamera(Camera):
         return Camera, (self.rgb, self.depth, self.meta)
 
 
+#: Observation fields renamed since datasets were recorded and scripts written with them ({old: new}; Core v3
+#: gave the gripper's opening one name, `width`). A dataset recorded before reads its columns under the new
+#: names (`rio.recording.dataset.current_names`); a script or a policy's input map reading an old name gets the
+#: new field, with one notice (`Observation.__getattr__`).
+RENAMED_FIELDS = {"gripper_position": "gripper_width", "gripper1_position": "gripper1_width",
+                  "gripper2_position": "gripper2_width"}
+
+
 @dataclass
 class Observation:
     #: Proprioception in the policy's action space (what `Env.step` takes, same order and units).
@@ -175,6 +183,16 @@ class Observation:
     #: receives (`rio deploy`, `rio eval`; `Env.environment_state`); the steps an `Env` returns, and so the
     #: recorder, keep it as the sensors' own values (`meta["sensors"]`).
     environment_state: np.ndarray | None = None
+
+    def __getattr__(self, name: str) -> Any:
+        """Only for names not found otherwise: an old field name (`RENAMED_FIELDS`) reads the new field."""
+        new = RENAMED_FIELDS.get(name)
+        if new is None:
+            raise AttributeError(f"'{type(self).__name__}' object has no attribute '{name}'")
+        from rio.config import notice_renamed  # here: rio.config brings pydantic, which a reader need not load
+
+        notice_renamed(type(self).__name__, f"'{name}'", f"'{new}'")
+        return getattr(self, new)
 
 
 @dataclass
@@ -190,7 +208,7 @@ class Step:
 class SingleArmObs(Observation):
     proprio_eef: np.ndarray | None = None
     proprio_joints: np.ndarray | None = None
-    gripper_position: float | None = None
+    gripper_width: float | None = None
 
     hand_pose: np.ndarray | None = None
     hand_joints: np.ndarray | None = None
@@ -201,14 +219,14 @@ class BimanualObs(Observation):
     # Left arm (station role "arm", "gripper", "hand")
     arm1_proprio_eef: np.ndarray | None = None
     arm1_proprio_joints: np.ndarray | None = None
-    gripper1_position: float | None = None
+    gripper1_width: float | None = None
     hand1_pose: np.ndarray | None = None
     hand1_joints: np.ndarray | None = None
 
     # Right arm (station role "arm2", "gripper2", "hand2")
     arm2_proprio_eef: np.ndarray | None = None
     arm2_proprio_joints: np.ndarray | None = None
-    gripper2_position: float | None = None
+    gripper2_width: float | None = None
     hand2_pose: np.ndarray | None = None
     hand2_joints: np.ndarray | None = None
 

@@ -65,8 +65,30 @@ def cycle_gripper(grip: Any, widths: Any, tol: float, seconds: float = 1.0, time
     """A hardware test of a gripper: command each opening in `widths` (m) in turn, arriving over `seconds`,
     checking it got within `tol` (m) of each within `timeout` (s)."""
     for goal in widths:
-        grip.command("position", [goal], clock.now() + seconds)
-        assert wait_until(lambda g=goal: abs(grip.cycle()["position"] - g) < tol, timeout=timeout)
+        grip.command("width", [goal], clock.now() + seconds)
+        assert wait_until(lambda g=goal: abs(grip.cycle()["width"] - g) < tol, timeout=timeout)
+
+
+def with_old_field_names(root: Any, renamed: Any = None) -> None:
+    """Make the native dataset at `root` look recorded before its observation fields were renamed: every
+    episode's steps.json names its columns by the old names (`rio.schema.RENAMED_FIELDS`, or `renamed`:
+    {old: new}), and episode.json's sizes and checksums are those of the edited file, so the dataset
+    verifies as one written then did. For tests that old datasets still read, replay, export and merge."""
+    from pathlib import Path
+
+    from rio.recording import paths as L
+    from rio.recording.durable import describe_files, read_json, write_json_atomic
+    from rio.schema import RENAMED_FIELDS
+
+    back = {f"obs.{new}": f"obs.{old}" for old, new in (renamed or RENAMED_FIELDS).items()}
+    for meta_path in sorted(Path(root).glob(f"*/{L.EPISODE_META}")):
+        ep = meta_path.parent
+        layout = read_json(ep / L.STEPS_SCHEMA)
+        layout["fields"] = [[back.get(f[0], f[0]), *f[1:]] for f in layout["fields"]]
+        write_json_atomic(ep / L.STEPS_SCHEMA, layout)
+        meta = read_json(meta_path)
+        meta["files"].update(describe_files(ep, [L.STEPS_SCHEMA]))
+        write_json_atomic(meta_path, meta)
 
 
 def skip_tests_without(need: str | SystemNeed, why: str = "", items: Any = None, under: str = "") -> None:

@@ -124,7 +124,7 @@ class RerunViz:
             self.pose(f"{b.role}/tool", s["eef_pose"])
             rr.log(f"{b.role}/tool_target", rr.Points3D([b.target[:3]], radii=0.005))
             if b.gripper is not None:
-                self.scalar(f"{b.role}/gripper", b.gripper.get_state()["position"])
+                self.scalar(f"{b.role}/gripper", b.gripper.get_state()["width"])
 
     def close(self) -> None:
         try:

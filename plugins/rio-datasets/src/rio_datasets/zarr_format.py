@@ -3,7 +3,7 @@
     OUT.zarr/
       data/action            (N, A)        every step of every episode, concatenated
       data/state             (N, S)        proprio (the policy's action space)
-      data/<field>           (N, ...)      other observation fields (proprio_eef, gripper_position, ...);
+      data/<field>           (N, ...)      other observation fields (proprio_eef, gripper_width, ...);
                                            every numeric array's attrs `names`: one per element (the
                                            drivers' joint names, `gripper`, `x` ... `qz`)
       data/environment_state (N, E)        the environment state (a simulator's object poses), float64;

@@ -68,7 +68,7 @@ class FrankaHand(GripperNode):
                 goal = self._grasp_goal
                 self._last = (width, grasped and goal is not None and width > goal + self.config.deadband_m)
         width, obj = self._last
-        return {"position": width, "object_detected": obj}
+        return {"width": width, "object_detected": obj}
 
     def write_width(self, width: float, force: float) -> None:
         goal = float(width)  # the kind's goal this cycle (clipped, step-limited, held by the watchdog)

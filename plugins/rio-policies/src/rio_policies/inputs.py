@@ -1,7 +1,7 @@
 """Building a model's inputs from a standard `Observation`: the pieces every adapter needs.
 
 Adapters name what they send by the observation's own vocabulary, so one config line maps a station
-to a model: a state entry is an `Observation` field (`proprio`, `proprio_joints`, `gripper_position`,
+to a model: a state entry is an `Observation` field (`proprio`, `proprio_joints`, `gripper_width`,
 ...) or a slice of `proprio` written `"proprio[0:6]"`; an image entry is a camera name.
 """
 

@@ -7,7 +7,7 @@ instruction goes under `prompt_key`. For the DROID checkpoints, for example:
 
     --policy 'openpi.remote,host=gpu1,port=8000,rate_hz=15,image_size=[224,224],
       images={"observation/exterior_image_1_left":"front","observation/wrist_image_left":"wrist"},
-      state={"observation/joint_position":"proprio_joints","observation/gripper_position":"gripper_position"}'
+      state={"observation/joint_position":"proprio_joints","observation/gripper_position":"gripper_width"}'
 """
 
 from __future__ import annotations

@@ -149,7 +149,7 @@ class _Ticks:
         q = np.array(data.qpos[self.idx.qpos])
         self.arm_state.update(joint_pos=q, joint_vel=np.array(data.qvel[self.idx.dof]), eef_pose=self.fk(q),
                               timestamp=t)
-        self.grip_state.update(position=float(np.sum(data.qpos[self.idx.finger_qpos])), timestamp=t)
+        self.grip_state.update(width=float(np.sum(data.qpos[self.idx.finger_qpos])), timestamp=t)
         task_time = t - self.t0
         world = {"sim_time": t, "object_poses": np.stack([np.array(data.qpos[a:a + 7]) for a in self.qadr]),
                  "success": bool(placed), "task_time": task_time, "time_up": task_time >= self.time_limit_s}

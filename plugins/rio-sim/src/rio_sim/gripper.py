@@ -40,7 +40,7 @@ class SimGripper(GripperNode):
         self.sim.detach()
 
     def read_width(self) -> dict[str, Any]:
-        return {"position": float(np.sum(self.sim.state()["qpos"][self.idx.finger_qpos]))}
+        return {"width": float(np.sum(self.sim.state()["qpos"][self.idx.finger_qpos]))}
 
     def write_width(self, width: float, force: float) -> None:
         n = len(self.idx.finger_act)

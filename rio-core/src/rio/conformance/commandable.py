@@ -496,7 +496,7 @@ class GripperConformance(_CommandableConformance):
     max_width_m: ClassVar[float] = 0.5
 
     def measure(self, sample: Mapping[str, Any]) -> np.ndarray:
-        return np.asarray([sample["position"]], dtype=np.float64)
+        return np.asarray([sample["width"]], dtype=np.float64)
 
     def limits(self, node: Any) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros(1), np.array([float(node.max_width())])
@@ -505,28 +505,28 @@ class GripperConformance(_CommandableConformance):
         return float(node.config.max_step_m)
 
     def command(self, node: Any, target: np.ndarray, t_cmd_target: float) -> None:
-        node.handle_request({"position": float(np.asarray(target).reshape(-1)[0]),
+        node.handle_request({"width": float(np.asarray(target).reshape(-1)[0]),
                              "t_cmd_target": float(t_cmd_target), "force": 0.0})
 
     def goal_of(self, width: float, force: float | None = None, *args: Any, **kwargs: Any) -> Any:
         return [width]
 
     def kind_keys(self, node: Any) -> KeySpec:
-        return {"position": ((), FLOAT), "max_width": ((), FLOAT), "enabled": ((), BOOL), "holding": ((), BOOL)}
+        return {"width": ((), FLOAT), "max_width": ((), FLOAT), "enabled": ((), BOOL), "holding": ((), BOOL)}
 
     def request_keys(self, node: Any) -> KeySpec:
-        return {"position": ((), FLOAT), "t_cmd_target": ((), FLOAT), "force": ((), FLOAT)}
+        return {"width": ((), FLOAT), "t_cmd_target": ((), FLOAT), "force": ((), FLOAT)}
 
     def measured_keys(self, node: Node) -> tuple[str, ...]:
-        return ("position", "max_width")
+        return ("width", "max_width")
 
     def check_units(self, node: Any, sample: Mapping[str, Any], i: int) -> None:
         width = float(sample["max_width"])
         expect(0.0 < width < self.max_width_m, self.kind, SI,
                f"sample {i}: max_width {width} is not a plausible opening in meters (0 < max_width < "
                f"{self.max_width_m})")
-        pos, tol = float(sample["position"]), self.tracking_tol
+        pos, tol = float(sample["width"]), self.tracking_tol
         expect(-tol <= pos <= width + tol, self.kind, SI,
-               f"sample {i}: position {pos:.4f} m outside [0, max_width {width}] (tolerance {tol})")
+               f"sample {i}: width {pos:.4f} m outside [0, max_width {width}] (tolerance {tol})")
 
 

@@ -53,10 +53,10 @@ class ArmGroup:
         s = self.emb._state(self.arm)
         parts = [np.asarray(s[self.action_space], dtype=np.float64)]
         out: dict[str, Any] = {"eef": np.asarray(s["eef_pose"]), "joints": np.asarray(s["joint_pos"])}
-        out["gripper"] = None
+        out["gripper_width"] = None
         if self.gripper:
-            out["gripper"] = float(self.emb._state(self.gripper)["position"])
-            parts.append(np.array([out["gripper"]]))
+            out["gripper_width"] = float(self.emb._state(self.gripper)["width"])
+            parts.append(np.array([out["gripper_width"]]))
         out["hand_joints"] = None
         if self.hand:
             out["hand_joints"] = np.asarray(self.emb._state(self.hand)["joint_pos"])

@@ -43,9 +43,9 @@ class Bimanual(Embodiment):
         a, b = self.left.read(), self.right.read()
         return BimanualObs(
             proprio=np.concatenate([a["proprio"], b["proprio"]]),
-            arm1_proprio_eef=a["eef"], arm1_proprio_joints=a["joints"], gripper1_position=a["gripper"],
+            arm1_proprio_eef=a["eef"], arm1_proprio_joints=a["joints"], gripper1_width=a["gripper_width"],
             hand1_joints=a["hand_joints"],
-            arm2_proprio_eef=b["eef"], arm2_proprio_joints=b["joints"], gripper2_position=b["gripper"],
+            arm2_proprio_eef=b["eef"], arm2_proprio_joints=b["joints"], gripper2_width=b["gripper_width"],
             hand2_joints=b["hand_joints"],
         )
 

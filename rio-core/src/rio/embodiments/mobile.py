@@ -35,7 +35,7 @@ class MobileManipulator(Embodiment):
         b = self._state("base")
         twist = np.asarray(b["body_twist"], dtype=np.float64)
         return MobileManipulatorObs(proprio=np.concatenate([g["proprio"], twist]), proprio_eef=g["eef"],
-                                    proprio_joints=g["joints"], gripper_position=g["gripper"],
+                                    proprio_joints=g["joints"], gripper_width=g["gripper_width"],
                                     hand_joints=g["hand_joints"], base_twist=twist,
                                     base_odom=np.asarray(b["odom_pose"], dtype=np.float64),
                                     base_wheel_pos=np.asarray(b["wheel_pos"], dtype=np.float64),

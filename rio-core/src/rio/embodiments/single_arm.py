@@ -43,7 +43,7 @@ class SingleArm(Embodiment):
     def observe(self) -> SingleArmObs:
         g = self.group.read()
         return SingleArmObs(proprio=g["proprio"], proprio_eef=g["eef"], proprio_joints=g["joints"],
-                            gripper_position=g["gripper"], hand_joints=g["hand_joints"])
+                            gripper_width=g["gripper_width"], hand_joints=g["hand_joints"])
 
     def apply(self, parts: dict[str, np.ndarray], t_cmd_target: float) -> None:
         self.group.apply(parts, t_cmd_target)

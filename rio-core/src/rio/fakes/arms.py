@@ -165,7 +165,7 @@ class FakeGripper(ifc.GripperNode):
         self.opening = self.width
 
     def read_width(self) -> dict[str, Any]:
-        return {"position": float(self.opening)}
+        return {"width": float(self.opening)}
 
     def write_width(self, width: float, force: float) -> None:
         self.opening = float(width)

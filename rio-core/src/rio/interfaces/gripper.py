@@ -1,11 +1,14 @@
 """The gripper contract: a parallel gripper commanded by finger opening in meters (0 = closed).
 
-A driver writes `read_width() -> {"position": m, [extra keys declared in setup()]}` and
+A driver writes `read_width() -> {"width": m, [extra keys declared in setup()]}` and
 `write_width(width, force)` (this cycle's goal, and the grip force in N where the hardware takes one,
 else NaN), plus `set_enabled(on)` where the hardware can switch; the kind's `cycle()` calls them (read,
 step the commander, write). The kind owns the rest: targets are
 clipped to `[0, max_width]`, interpolated to `t_cmd_target`, move at most `max_step_m` per cycle and are
 held by the watchdog, through the same `JointCommander` the arms use.
+
+The opening has one name everywhere: `width` (the state and request key, `move(width)`), `gripper_width` in
+an observation. Its old name, `position`, is still taken in a request for one release (`GripperRequest`).
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import numpy as np
 from pydantic import Field
 
 from rio import clock
+from rio.config import accept_renamed
 from rio.control.commander import JointCommander
 from rio.interfaces.commanded import CommandedNode
 from rio.interfaces.joints import t_target
@@ -44,8 +48,8 @@ class GripperNode(CommandedNode):
     def setup(self) -> None:
         super().setup()
         self.width = float(self.config.max_width)
-        self.example_data = {"position": 0.0, "max_width": self.width, "enabled": False, "holding": True}
-        self.example_request = {"position": 0.0, "t_cmd_target": 0.0, "force": 0.0}
+        self.example_data = {"width": 0.0, "max_width": self.width, "enabled": False, "holding": True}
+        self.example_request = {"width": 0.0, "t_cmd_target": 0.0, "force": 0.0}
         self.force = np.nan if self.config.force is None else float(self.config.force)
 
     def make_commander(self) -> JointCommander:
@@ -53,7 +57,7 @@ class GripperNode(CommandedNode):
                               start=self.measured())
 
     def measured(self) -> np.ndarray:
-        return np.array([float(self.read_width()["position"])])
+        return np.array([float(self.read_width()["width"])])
 
     def cycle(self) -> dict[str, Any]:
         """One tick at `rate_hz` (the runtime calls it): read the opening, step the commander, write the
@@ -72,7 +76,7 @@ class GripperNode(CommandedNode):
         return self.status(sample)
 
     def handle_request(self, request: dict[str, Any]) -> None:
-        self.command("position", [float(request["position"])], float(request["t_cmd_target"]))
+        self.command("width", [float(request["width"])], float(request["t_cmd_target"]))
         if float(request["force"]) > 0:
             self.force = float(request["force"])
 
@@ -82,10 +86,22 @@ class GripperNode(CommandedNode):
         return self.width
 
     @client_side
-    def move(self, position: float, t_cmd_target: float | None = None, force: float | None = None) -> None:
+    def move(self, width: float, t_cmd_target: float | None = None, force: float | None = None) -> None:
         """Opening target in meters (clipped to [0, max_width]); `force` in N where the hardware takes one."""
-        self.send_request(position=float(position), t_cmd_target=t_target(t_cmd_target),
+        self.send_request(width=float(width), t_cmd_target=t_target(t_cmd_target),
                           force=0.0 if force is None else float(force))
+
+    @client_side
+    def send_request(self, request: Mapping[str, Any] | None = None, **fields: Any) -> None:
+        """`Node.send_request`, taking a script's old key `position` for `width` with one notice."""
+        super().send_request(accept_renamed(GripperRequest, {**(request or {}), **fields}))
+
+
+class GripperRequest:
+    """The gripper request's keys renamed in Core v3 (`rio.config.accept_renamed` reads `renamed`): the
+    opening was `position`, now `width` like everywhere else."""
+
+    renamed = {"position": "width"}
 
 
 GripperConfig = GripperNode.Config

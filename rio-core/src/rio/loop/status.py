@@ -101,6 +101,6 @@ def _robot(obs: Any) -> list[str]:
             x, y, z = np.asarray(value, dtype=float)[:3]
             out.append(f"{f.name.removesuffix('_proprio_eef').removesuffix('proprio_eef') or 'tool'} "
                        f"({x:+.3f} {y:+.3f} {z:+.3f}) m")
-        elif f.name.startswith("gripper") and f.name.endswith("_position"):
-            out.append(f"{f.name.removesuffix('_position')} {float(value) * 1e3:.0f} mm")
+        elif f.name.startswith("gripper") and f.name.endswith("_width"):
+            out.append(f"{f.name.removesuffix('_width')} {float(value) * 1e3:.0f} mm")
     return out

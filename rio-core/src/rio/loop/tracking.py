@@ -96,7 +96,7 @@ class _Arm:
         errs = self.errors
         final = self._error(self.last_cmd, tool, q) if self.last_cmd is not None else float("nan")
         stats = (errs.max, errs.mean, final) if errs.mean is not None else None
-        g = None if self.gripper is None else float(self.gripper.get_state()["position"])
+        g = None if self.gripper is None else float(self.gripper.get_state()["width"])
         holds = None if self.holds0 is None else int(s["force_holds"]) - self.holds0
         silent = None if self.silent0 is None else int(s["source_holds"]) - self.silent0
         clipped = int(s["clipped"]) - self.clipped_before if self.clipped_before is not None else None

@@ -35,7 +35,7 @@ from rio.recording.durable import read_json, sha256_file
 from rio.recording.episode_writer import FRAME_RECORD
 from rio.recording.flatten import StepSchema
 from rio.recording.video import read_frames
-from rio.schema import Camera, Step
+from rio.schema import RENAMED_FIELDS, Camera, Step
 
 
 class DatasetError(RioError):
@@ -67,13 +67,26 @@ class Verification:
 
 
 def load_schema(path: Path) -> StepSchema:
-    """An episode directory's steps.json; damaged is one ConfigError naming it."""
+    """An episode directory's steps.json, its observation columns under today's names (`current_names`);
+    damaged is one ConfigError naming it."""
     schema_path = path / L.STEPS_SCHEMA
     raw = read_json(schema_path)
     try:
-        return StepSchema.from_json(raw)
+        return StepSchema.from_json(current_names(raw))
     except (KeyError, TypeError, ValueError) as e:
         raise ConfigError(f"{schema_path}: damaged (not a step layout: {type(e).__name__}: {e})") from None
+
+
+def current_names(raw: dict[str, Any]) -> dict[str, Any]:
+    """A steps.json layout with the observation columns renamed since it was recorded (`obs.gripper_position`
+    -> `obs.gripper_width`: `rio.schema.RENAMED_FIELDS`) under their new names. The one place old names are
+    read: every reader (steps, columns, replay, view, export, merge, repair) gets its layout here, and
+    steps.bin's records are laid out by position, so the bytes read the same; the files are not changed."""
+    renamed = {f"obs.{old}": f"obs.{new}" for old, new in RENAMED_FIELDS.items()}
+    fields = raw["fields"]
+    if not any(f[0] in renamed for f in fields):
+        return raw
+    return {**raw, "fields": [[renamed.get(f[0], f[0]), *f[1:]] for f in fields]}
 
 
 class Episode:

@@ -56,7 +56,7 @@ def synthetic_step(i: int, t: float, cameras: dict[str, tuple[np.ndarray, float]
     grip = float(0.04 + 0.04 * np.sin(0.2 * t))
     cams = {name: Camera(rgb=rgb, meta={"timestamp": ts}) for name, (rgb, ts) in (cameras or {}).items()}
     obs = SingleArmObs(proprio=np.concatenate([q, [grip]]), proprio_eef=eef, proprio_joints=q,
-                       gripper_position=grip, cameras=cams)
+                       gripper_width=grip, cameras=cams)
     action = np.concatenate([q + 0.01, [grip]])
     return Step(i, obs, instruction, action, {"t_obs": t, "timestamps": {"arm": t, "gripper": t},
                                               "station": "synthetic", "t_recv_wall": clock.now()})

@@ -9,7 +9,7 @@ What goes where (entity paths):
     cameras/<camera>/rgb, cameras/<camera>/depth   every recorded frame once, at its capture time
     joints/<name>/state, joints/<name>/action      `obs.proprio` and `action`, one plot per joint; names
                                                    from the episode's `action_names` (else 0, 1, ...)
-    gripper/<field>                                gripper observation fields (gripper_position, ...)
+    gripper/<field>                                gripper observation fields (gripper_width, ...)
     state/<field>/<i>                              other numeric observation fields (proprio_joints, ...)
     world/<field>/trajectory, world/<field>/pose   end-effector fields (proprio_eef, arm1_proprio_eef, ...):
                                                    the whole path as a line strip, the pose at each step

@@ -59,7 +59,7 @@ class ArmBinding:
         self.start_pose = self.target.copy()
         self.q_target = np.asarray(s["joint_pos"], dtype=np.float64).copy()
         if self.gripper is not None:
-            self.gripper_cmd = float(self.gripper.get_state()["position"])
+            self.gripper_cmd = float(self.gripper.get_state()["width"])
 
     def arm_command(self) -> np.ndarray:
         """This arm's action part for the current target (IK for joint-space embodiments)."""

@@ -27,7 +27,7 @@ class DeviceFeedback:
         for b in arms:
             state[f"{b.role}_xyz"] = [float(v) for v in b.client.get_state()["eef_pose"][:3]]
             if b.gripper is not None:
-                state[f"{b.role}_gripper_m"] = float(b.gripper.get_state()["position"])
+                state[f"{b.role}_gripper_m"] = float(b.gripper.get_state()["width"])
         for role, dev in list(self.targets.items()):
             try:
                 dev.feedback(state)

@@ -112,7 +112,7 @@ class LeaderFollower:
             if p.gripper_label:
                 g = robot.clients["gripper" + p.arm_role[3:]]
                 p.max_width = float(g.max_width())
-                p.grip_cmd = float(g.get_state()["position"]) / p.max_width if p.max_width > 0 else 0.0
+                p.grip_cmd = float(g.get_state()["width"]) / p.max_width if p.max_width > 0 else 0.0
         loop.say(f"aligning {len(self.pairs)} follower(s) to their leader(s) at {self.align_speed:g} rad/s, then "
                  "mirroring " + (f"for {loop.duration:g} s" if loop.duration else "until Ctrl+C"))
 

@@ -51,7 +51,7 @@ class KinovaRobotiq(GripperNode):
         g = guarded(self, s.base.GetMeasuredGripperMovement, req)
         if g is not None and len(g.finger):
             self._last = (1.0 - float(g.finger[0].value)) * self.width
-        return {"position": self._last}
+        return {"width": self._last}
 
     def write_width(self, width: float, force: float) -> None:
         if self._sent is not None and abs(width - self._sent) <= self.config.deadband_m:

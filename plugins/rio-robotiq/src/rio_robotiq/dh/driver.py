@@ -102,7 +102,7 @@ class DhGripper(GripperNode):
                                f"{init}: {INIT_STATES.get(init, 'unknown')}), as after a power cut; the fingers are no "
                                "longer commanded: call reset_fault() (or restart the node) to initialize it again",
                                code=init)
-        return {"position": dh_width(permille, self.spec.stroke), "object_detected": grip == GRIP_CAUGHT,
+        return {"width": dh_width(permille, self.spec.stroke), "object_detected": grip == GRIP_CAUGHT,
                 "object_dropped": grip == GRIP_DROPPED}
 
     def write_width(self, width: float, force: float) -> None:

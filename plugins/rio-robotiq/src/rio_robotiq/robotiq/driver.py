@@ -101,7 +101,7 @@ class RobotiqBase(GripperNode):
     def read_width(self) -> dict[str, Any]:
         st = self.device.status(full=False)
         self._check_fault(st.gFLT)
-        return {"position": self._width(st.gPO), "object_detected": st.object_detected, "fault": int(st.gFLT),
+        return {"width": self._width(st.gPO), "object_detected": st.object_detected, "fault": int(st.gFLT),
                 "current": math.nan if st.gCU is None else st.gCU * CURRENT_PER_COUNT}
 
     def write_width(self, width: float, force: float) -> None:

@@ -44,7 +44,7 @@ class So100Gripper(GripperNode):
 
     def read_width(self) -> dict[str, Any]:
         s = self.servos.read(hold=self.enabled)
-        return {"position": self.cal.fraction(s["steps"][0]) * self.width, "load": float(s["load"][0]),
+        return {"width": self.cal.fraction(s["steps"][0]) * self.width, "load": float(s["load"][0]),
                 "temperature": float(s["temperature"][0]), "error": int(s["error"][0])}
 
     def write_width(self, width: float, force: float) -> None:

@@ -73,7 +73,7 @@ class ToolGripper(GripperNode):
             except XArmLost:
                 self.link.lost()
         width, obj = self._last
-        return {"position": float(width), "object_detected": bool(obj)}
+        return {"width": float(width), "object_detected": bool(obj)}
 
     def write_width(self, width: float, force: float) -> None:
         sent = self._sent

@@ -3,7 +3,7 @@
 The Lite 6 gripper is pneumatic-style open/close with no position sensor, and the vacuum gripper is a
 suction cup: both are driven as grippers so teleop's gripper button and a policy's gripper action work
 unchanged. A goal below half the opening closes (sucks), above opens (releases). The Lite 6 gripper's
-`position` is the last commanded state (it cannot be measured); the vacuum's `object_detected` is its
+`width` is the last commanded state (it cannot be measured); the vacuum's `object_detected` is its
 pressure switch.
 """
 
