@@ -20,6 +20,11 @@ request waiting for its acknowledgement: tick lateness p99, send_request time.
 
     sudo python bench/multi_machine.py --scenario cameras [--seconds 10]
     sudo python bench/multi_machine.py --scenario requests [--seconds 5]
+
+`--scenario send`: `send_request`'s own time on shm, zmq and zenoh in one loop on this machine
+(`bench/send_request.py`: the issue's "within 3x of shm's in the same run"; no namespaces, no root).
+A policy node across the link (obs -> first action, cameras on the robot, the policy on the workstation):
+`bench/policy_link.py`.
 """
 
 from __future__ import annotations
@@ -281,7 +286,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rounds", type=int, default=3, help="alternating blocks of node calls and bare pings")
     p.add_argument("--middlewares", default="zmq,zenoh")
     p.add_argument("--json", action="store_true")
-    p.add_argument("--scenario", choices=["latency", "cameras", "requests"], default="latency")
+    p.add_argument("--scenario", choices=["latency", "cameras", "requests", "send"], default="latency")
     p.add_argument("--seconds", type=float, default=10.0, help="measured seconds per run (cameras, requests)")
     p.add_argument("--cameras", choices=["all", "pair"], default="all",
                    help="all: 3 RGB + 1 depth; pair: 1 RGB + 1 depth (a machine too loaded for four)")
@@ -297,6 +302,10 @@ def main(argv: list[str] | None = None) -> int:
     if a.client:
         client(a.client, a.keys, a.host, a.n, a.rounds)
         return 0
+    if a.scenario == "send":
+        from send_request import main as send_main  # bench/ is this script's directory
+
+        return send_main(["--seconds", str(a.seconds), *(["--json"] if a.json else [])])
 
     from rio.machine import keys, netns
 

@@ -326,6 +326,39 @@ def test_requests_through_the_flow(pair):
     assert len(server.request_queue) == 2
 
 
+class _Spying(_Client):
+    """Keeps what `send_request` hands the transport."""
+
+    def __init__(self, *a, **kw):
+        self.handed = []
+        super().__init__(*a, **kw)
+
+    def _send_parts(self, kind, *parts):
+        self.handed.append((kind, parts))
+        super()._send_parts(kind, *parts)
+
+
+def test_a_request_reaches_the_transport_as_its_record_s_own_memory_joined_once_with_its_id(pair):
+    """A request record can be megabytes (an observation with its camera frames): `send_request` hands the
+    transport the checked record itself, not a bytes copy of it, with the request's id beside it; the default
+    `_send_parts` joins the two once, and the node takes the exact record."""
+    _, server, _ = pair
+    c = _Spying(_arm(), server, NetworkConfig(call_timeout=0.5))
+    try:
+        c.request_queue.put({"x": np.array([1.5, -2.5])})
+        c.request_queue.put({"x": np.array([3.0, 4.0])})
+        (k1, (id1, rec1)), (k2, (id2, rec2)) = c.handed
+        assert (k1, k2) == (m.REQUEST, m.REQUEST) and (id1, id2) == (m.REQUEST_ID.pack(1), m.REQUEST_ID.pack(2))
+        layout = server.request_queue.layout
+        assert isinstance(rec1, np.ndarray) and rec1.dtype == np.uint8 and rec1.nbytes == layout.itemsize
+        assert not np.shares_memory(rec1, rec2)  # each request its own record: none is rewritten while in flight
+        got = [server.request_queue.get(), server.request_queue.get()]
+        assert [list(r["x"]) for r in got] == [[1.5, -2.5], [3.0, 4.0]]
+        assert c.request_stats().acknowledged == 2
+    finally:
+        c.close()
+
+
 def test_no_credits_fails_at_once_and_acknowledgements_give_credits_back(pair):
     """The node takes nothing (no loop runs it here): its queue fills, then the fair queue's room for this
     peer; with every credit in flight the next request fails at once, sending nothing. Once the node takes

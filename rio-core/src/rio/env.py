@@ -53,8 +53,12 @@ class Env:
     def __init__(self, embodiment: type[Embodiment], config: EmbodimentConfig,
                  robot_clients: Mapping[str, Callable[[], Any]], camera_clients: Mapping[str, Callable[[], Any]],
                  sensor_clients: Mapping[str, Callable[[], Any]] | None = None, *, rate_hz: float = 30.0,
-                 station: str = "rio", drivers: Mapping[str, str] | None = None):
+                 station: str = "rio", drivers: Mapping[str, str] | None = None,
+                 wrench_sources: Mapping[str, str] | None = None):
         self.embodiment_cls, self.config = embodiment, config
+        #: {arm role: sensor name} of arms whose force limit reads a separate wrench node (`wrench_source`):
+        #: each is handed a reference to its sensor once connected (`ArmNode.use_wrench_source`)
+        self.wrench_sources: dict[str, str] = dict(wrench_sources or {})
         #: {role: driver name} of the station (`so101.follower`): the recorder's `robot_type`
         self.drivers: dict[str, str] = dict(drivers or {})
         self.robot_clients, self.camera_clients = robot_clients, camera_clients
@@ -80,6 +84,8 @@ class Env:
             clients = {role: stack.enter_context(make()) for role, make in self.robot_clients.items()}
             self.cameras = {name: stack.enter_context(make()) for name, make in self.camera_clients.items()}
             self.sensors = {name: stack.enter_context(make()) for name, make in self.sensor_clients.items()}
+            for arm, sensor in self.wrench_sources.items():  # every node is up: the arm connects its own client
+                clients[arm].use_wrench_source(self.sensors[sensor].reference)
             self.robot = self.embodiment_cls(clients, self.config)
         except BaseException:
             stack.close()

@@ -27,8 +27,7 @@ from rio.runtime.node import remote
 
 from .attached import WorldAttachment
 from .indices import joint_indices
-
-PLANAR = ("x", "y", "yaw")
+from .world_base import PLANAR, to_body, to_world
 
 
 class SimBase(OmniBaseNode):
@@ -56,9 +55,7 @@ class SimBase(OmniBaseNode):
     def read_wheels(self) -> dict[str, Any]:
         s = self.sim.state()
         x, y, yaw = (float(v) for v in s["qpos"][self.idx.qpos])
-        vx, vy, wz = (float(v) for v in s["qvel"][self.idx.dof])
-        c, sn = math.cos(yaw), math.sin(yaw)
-        body = np.array([c * vx + sn * vy, -sn * vx + c * vy, wz])  # world velocity into the base frame
+        body = to_body(*(float(v) for v in s["qvel"][self.idx.dof]), yaw)  # world velocity into the base frame
         wheel_vel = self.kinematics.to_wheels(body)
         t = float(s["sim_time"])
         if self._t is not None and t > self._t:
@@ -66,7 +63,8 @@ class SimBase(OmniBaseNode):
         self._t, self._yaw = t, yaw
         twist = self.kinematics.to_body(wheel_vel)
         return {"wheel_pos": self.wheel_pos.copy(), "wheel_vel": wheel_vel, "body_twist": twist,
-                "odom_pose": self.sim_odometry.update(twist, t), "true_pose": np.array([x, y, math.atan2(sn, c)])}
+                "odom_pose": self.sim_odometry.update(twist, t),
+                "true_pose": np.array([x, y, math.atan2(math.sin(yaw), math.cos(yaw))])}
 
     @remote
     def reset_odometry(self, pose: list[float] | None = None) -> None:
@@ -74,7 +72,4 @@ class SimBase(OmniBaseNode):
         self.sim_odometry.reset(self.odometry.pose)
 
     def write_twist(self, twist: np.ndarray) -> None:
-        c, sn = math.cos(self._yaw), math.sin(self._yaw)
-        vx, vy, wz = (float(v) for v in twist)
-        world = np.array([c * vx - sn * vy, sn * vx + c * vy, wz])
-        self.sim.bus.command(self.idx.act, world, clock.now() + 1.0 / self.rate_hz)
+        self.sim.bus.command(self.idx.act, to_world(twist, self._yaw), clock.now() + 1.0 / self.rate_hz)

@@ -26,8 +26,9 @@ A commander turns sparse timed targets (`t_cmd_target`) into one goal per driver
   wrench crossing its limit holds the device where it measures itself to be (not at the goal, which may
   lie inside what it pushes against), as the watchdog holds: until the next command. While the wrench
   stays over the limit, a command is followed only as far as it backs the device off toward where it
-  last was within the limit (an operator can pull back; pushing on goes nowhere). Each crossing is
-  logged by node name and counted (`force_holds`).
+  last was within the limit (an operator can pull back; pushing on goes nowhere). A wrench source that
+  falls silent or dies (a separate sensor node) holds the same way: a limit nobody measures bounds
+  nothing. Each crossing is logged by node name and counted (`force_holds`).
 
 Every standard driver kind (`rio.interfaces`) owns one and feeds the hardware only what it returns.
 Time is passed in explicitly, which keeps them testable. `clipped` counts the targets the workspace box cut.
@@ -63,6 +64,8 @@ class _Commander:
         self.force_limit: ForceLimit | None = None
         #: Times a wrench crossed its limit and the force limit held.
         self.force_holds = 0
+        #: Of those, the times its source could not be trusted (`guard`'s `fault`: silent or gone).
+        self.source_holds = 0
         self._over_limit = False
         self._safe: np.ndarray | None = None  # where the device last was with its wrench within the limit
         self._interp_cls = interp_cls
@@ -128,19 +131,24 @@ class _Commander:
         m = np.asarray(measured, dtype=np.float64).reshape(self.goal.shape)
         self.goal = self._clip(np.clip(m, np.minimum(self.goal, desired), np.maximum(self.goal, desired)))
 
-    def guard(self, wrench, measured, now: float) -> bool:
+    def guard(self, wrench, measured, now: float, fault: str | None = None, expected: bool = False) -> bool:
         """Check this cycle's wrench (force N, torque N m) against `force_limit`; over it, hold at `measured`
         (where the device is: a goal pressed into a table would keep pressing) and return True. A crossing
         is logged and counted once; the hold is renewed every cycle the wrench stays over the limit, so
-        commands resume only once it is back under."""
-        why = self.force_limit.exceeded(wrench) if self.force_limit is not None else None
+        commands resume only once it is back under. `fault`: why the wrench cannot be trusted this cycle (its
+        source is silent or gone), in words: held as over the limit, since a limit nobody measures bounds
+        nothing. `expected`: a hold that is part of starting up (the source not handed over yet), logged at
+        INFO instead of WARNING."""
+        why = fault or (self.force_limit.exceeded(wrench) if self.force_limit is not None else None)
         if why is None:
             self._over_limit = False
             self._safe = self._clip(measured)
             return False
         if not self._over_limit:
             self.force_holds += 1
-            log.warning("%s: %s: force limit, holding where it is until the next command", self.owner, why)
+            self.source_holds += fault is not None
+            log.log(logging.INFO if expected else logging.WARNING,
+                    "%s: %s: force limit, holding where it is until the next command", self.owner, why)
             self._over_limit = True
             self.reset(measured, now)
         return True

@@ -4,8 +4,8 @@ before it steps, for an arm whose station sets `force_limit` (`rio.interfaces.ar
 A wrench is 6 values: force (N) then torque (N m), the external load at the tool as a wrist force/torque
 sensor or the driver's estimate measures it, with its zero taken when the arm was enabled. Each limit bounds
 the vector's magnitude (the direction of a collision is not known in advance); a limit left unset is not
-checked. A NaN wrench (nothing measured this cycle) exceeds nothing: the source's own silence is the
-watchdog's and the link's business, not this one's.
+checked. A NaN wrench (nothing measured this cycle) exceeds nothing here; a source that stays silent (a
+separate sensor node) is judged by the arm, which holds through the same guard (`rio.interfaces.wrench_peer`).
 """
 
 from __future__ import annotations

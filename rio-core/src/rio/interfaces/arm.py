@@ -10,9 +10,11 @@ End-effector targets reach the hardware one of two ways:
   warm-started from the last joint target, and the joint commander takes it from there.
 
 With `force_limit` set in the station, a driver's `read_wrench()` (the external wrench at the tool: a wrist
-force/torque cell it reads, or its controller's estimate) is checked every cycle before the commander steps;
+force/torque cell it reads, or its controller's estimate), or with `wrench_source` a separate wrench node's
+samples (`rio.interfaces.wrench_peer`), is checked every cycle before the commander steps;
 over the limit the arm holds where it is (`rio.interfaces.force`, `rio.control.force_limit`), and every
-sample carries `ext_wrench` (6: N, N m, zeroed at enable) and `force_holds` (how many times it held).
+sample carries `ext_wrench` (6: N, N m, zeroed at enable) and `force_holds` (how many times it held; with
+`wrench_source`, also `source_holds`: how many of those because the source was silent or gone).
 
 `eef_pose` is what the driver measured when it reports one; else forward kinematics of the measured
 joints on `robot_description()`; else NaN. So an arm that ships a model can be teleoperated, recorded
@@ -32,7 +34,7 @@ import logging
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from rio import clock
 from rio.control.commander import PoseCommander
@@ -40,6 +42,7 @@ from rio.control.workspace import ToolBound, Workspace
 from rio.errors import InvalidRequest
 from rio.interfaces.force import ForceLimitConfig, WrenchSource
 from rio.interfaces.joints import JointConfig, JointNode, as_vector, t_target
+from rio.interfaces.wrench_peer import PeerWrench
 from rio.runtime.node import client_side, remote
 
 if TYPE_CHECKING:
@@ -70,7 +73,17 @@ class ArmNode(JointNode):
                                                                  "drivers streaming poses")
         force_limit: ForceLimitConfig | None = Field(
             None, description="hold the arm where it is when the external wrench at the tool exceeds these "
-                              "limits (needs a driver with a wrench source: read_wrench())")
+                              "limits (needs a driver with a wrench source, read_wrench(), or wrench_source)")
+        wrench_source: str | None = Field(
+            None, description="the station's wrench sensor node (its role: 'ft_sensor') whose samples the force "
+                              "limit checks, instead of the driver's read_wrench(); its silence holds the arm")
+
+        @model_validator(mode="after")
+        def _source_needs_a_limit(self) -> ArmNode.Config:
+            if self.wrench_source is not None and self.force_limit is None:
+                raise ValueError(f"wrench_source = '{self.wrench_source}' is set but force_limit is not: the source "
+                                 "feeds the force limit (force_limit = {force_n = ...})")
+            return self
 
     #: The vendor's table of arm models (`rio.interfaces.ModelTable`), for a driver serving a family of arms:
     #: joints, home, limits and robot description are then those of the station's `model`.
@@ -127,11 +140,16 @@ class ArmNode(JointNode):
         self.mode = JOINT
         self._eef = _NAN_POSE
         self.wrench: WrenchSource | None = None
-        if self.config.force_limit is not None:
-            if type(self).read_wrench is ArmNode.read_wrench:
-                raise ValueError(f"force_limit is set but {type(self).__name__} has no wrench source (read_wrench())")
-            self.wrench = WrenchSource(self, self.config.force_limit)
+        source, limit = self.config.wrench_source, self.config.force_limit
+        if limit is not None:
+            if source is None and type(self).read_wrench is ArmNode.read_wrench:
+                raise ValueError(f"force_limit is set but {type(self).__name__} has no wrench source (read_wrench(), "
+                                 "or a wrench sensor node named by wrench_source)")
+            peer = None if source is None else PeerWrench(self, source, limit.source_timeout_s)
+            self.wrench = WrenchSource(self, limit, peer)
             self.example_data.update(ext_wrench=np.zeros(6), force_holds=0)
+            if peer is not None:
+                self.example_data.update(source_holds=0)
         self._eef_clipped = 0  # end-effector targets clipped before IK
 
     def opened(self) -> None:
@@ -224,9 +242,9 @@ class ArmNode(JointNode):
         assert self.wrench is not None
         w, now = self.wrench.read(), clock.now()
         if self.mode == EEF and self.poses is not None:
-            self.poses.guard(w, self._eef, now)
+            self.poses.guard(w, self._eef, now, self.wrench.fault, self.wrench.starting)
         else:
-            self.commander.guard(w, sample["joint_pos"], now)
+            self.commander.guard(w, sample["joint_pos"], now, self.wrench.fault, self.wrench.starting)
 
     def read_state(self) -> dict[str, Any]:
         """The arm now with the kind's keys: a read only, nothing is written (see `cycle()`)."""
@@ -243,6 +261,8 @@ class ArmNode(JointNode):
         if self.wrench is not None:
             sample["ext_wrench"] = self.wrench.last
             sample["force_holds"] = self.commander.force_holds + (self.poses.force_holds if self.poses else 0)
+            if self.wrench.peer is not None:
+                sample["source_holds"] = self.commander.source_holds + (self.poses.source_holds if self.poses else 0)
         sample["clipped"] = self.clipped
         if self.mode == EEF and self.enabled:
             assert self.poses is not None  # EEF mode is entered only where opened() made the pose commander
@@ -307,6 +327,25 @@ class ArmNode(JointNode):
         if self.wrench is not None:
             self.wrench.tare()  # holding still, nothing touched yet: the tool's own weight is the zero
         return enabled
+
+    @remote
+    def use_wrench_source(self, reference: dict[str, Any]) -> None:
+        """Read the force limit's wrench from the node `reference` names (`client.reference` of the station's
+        `wrench_source` node, `rio.runtime.peer`), through a client this arm's process connects. The station's
+        `Env` calls it once every node is up; without it the arm holds (its limit has nothing to measure).
+        Called again (the sensor restarted), it reconnects. Retakes the zero when the arm is enabled."""
+        if self.wrench is None or self.wrench.peer is None:
+            raise InvalidRequest(self.name, "wrench_source", "this arm names no wrench_source in its station")
+        self.wrench.peer.connect(reference, clock.now())
+        if self.enabled:
+            self.wrench.tare()
+
+    def closing(self) -> None:
+        try:
+            super().closing()
+        finally:
+            if self.wrench is not None and self.wrench.peer is not None:
+                self.wrench.peer.close()
 
     @remote
     def hold(self) -> None:

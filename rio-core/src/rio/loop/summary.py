@@ -9,7 +9,8 @@ means the same thing everywhere:
   that time (joints in rad, tool position in m; max / mean / final), and the path the tool travelled
   next to the path it was commanded to travel. Comparing only the final pose with the final target
   reports success for an arm that never moved, when the target never moved either;
-- per arm with a force limit, how many times it held the arm (`force_holds`);
+- per arm with a force limit, how many times it held the arm (`force_holds`), and, where a separate wrench
+  node feeds the limit, how many of those because that node was silent or gone (`source_holds`);
 - per-node publishing rates over the run, and ground-truth object motion where a simulator tells it;
 - the task's verdict where a sensor runs one (a sim world with a task): `success` (None without a task)
   and `task` (the episode's seed and start, its task time, when success was first seen), from
@@ -59,6 +60,8 @@ class ArmTracking:
     final_q: np.ndarray | None = None
     #: times the arm's force limit held it during the run (None: the arm has no force limit)
     force_holds: int | None = None
+    #: of those, the times its wrench source (a separate node) was silent or gone (None: no such source)
+    source_holds: int | None = None
     #: commands the run sent the arm, and how many of them its workspace box cut (`rio.control.workspace`;
     #: None: the arm does not say)
     commands: int = 0
@@ -212,7 +215,8 @@ def _arm_line(a: ArmTracking) -> str:
     if a.gripper is not None:
         parts.append(f"gripper {a.gripper * 1000:.0f} mm;")
     if a.force_holds:
-        parts.append(f"force limit held it {a.force_holds} time{'s' if a.force_holds != 1 else ''};")
+        silent = f" ({a.source_holds} with its wrench source silent or gone)" if a.source_holds else ""
+        parts.append(f"force limit held it {a.force_holds} time{'s' if a.force_holds != 1 else ''}{silent};")
     if a.clipped:
         parts.append(f"{a.clipped} of {a.commands} commands clipped to its workspace;")
     if not a.followed:

@@ -54,6 +54,8 @@ class _Arm:
         self.errors = Reservoir()  # only max and mean are reported; both exact
         holds = s.get("force_holds")  # an arm with a force limit: counted from here
         self.holds0 = None if holds is None else int(holds)
+        silent = s.get("source_holds")  # an arm whose force limit reads a separate wrench node
+        self.silent0 = None if silent is None else int(silent)
         self.path = self.cmd_path = self.joint_path = self.cmd_joint_path = 0.0
         #: targets the arm's workspace box had cut before the run (its samples count since the node opened)
         self.clipped_before = int(s["clipped"]) if "clipped" in s else None
@@ -96,13 +98,14 @@ class _Arm:
         stats = (errs.max, errs.mean, final) if errs.mean is not None else None
         g = None if self.gripper is None else float(self.gripper.get_state()["position"])
         holds = None if self.holds0 is None else int(s["force_holds"]) - self.holds0
+        silent = None if self.silent0 is None else int(s["source_holds"]) - self.silent0
         clipped = int(s["clipped"]) - self.clipped_before if self.clipped_before is not None else None
         return ArmTracking(self.role, self.space, self.start, tool,
                            self.last_cmd.copy() if self.space == "eef_pose" and self.last_cmd is not None else None,
                            self.path, self.cmd_path, self.joint_path, self.cmd_joint_path,
                            joint_err_rad=stats if self.space == "joint_pos" else None,
                            eef_err_m=stats if self.space == "eef_pose" else None, gripper=g, final_q=q.copy(),
-                           force_holds=holds, commands=self.commands, clipped=clipped)
+                           force_holds=holds, source_holds=silent, commands=self.commands, clipped=clipped)
 
 
 class ArmTracker:

@@ -39,7 +39,7 @@ import os
 import socket
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import zmq
 from pydantic import Field
@@ -396,14 +396,21 @@ class ZmqClient(NetworkClient):
             s.curve_serverkey, s.curve_publickey, s.curve_secretkey = curve
         return s
 
-    def _send(self, kind: bytes, body: bytes, sock: zmq.Socket | None = None) -> None:
+    def _send(self, kind: bytes, body: bytes | memoryview, sock: zmq.Socket | None = None) -> None:
+        self._send_parts(kind, body, sock=sock)
+
+    def _send_parts(self, kind: bytes, *parts: bytes | memoryview, sock: zmq.Socket | None = None) -> None:
         """Non-blocking, retried while the connection is (re)establishing or the pipe is full, checking
-        liveness: a dead server is an error, never a hang."""
-        sock, msg = sock or (self._req_sock if kind == REQUEST else self._call_sock), kind + body
+        liveness: a dead server is an error, never a hang. The message is joined once and handed to libzmq
+        without a copy of its own (`copy=False`: pyzmq still copies a message under its copy threshold,
+        64 kB), so a request of megabytes (an observation with its camera frames) is copied once here, not
+        three times (the id's prefix, the kind's, libzmq's)."""
+        sock = sock or (self._req_sock if kind == REQUEST else self._call_sock)
+        msg = b"".join((kind, *parts))
         deadline = None
         while True:
             try:
-                sock.send(msg, zmq.NOBLOCK)
+                sock.send(msg, zmq.NOBLOCK, copy=False)
                 return
             except zmq.Again:
                 pass
@@ -428,14 +435,19 @@ class ZmqClient(NetworkClient):
                 return None
 
     def _recv_now(self, kind: bytes) -> memoryview | None:
+        """The next answer if one is there. Asked first (ZMQ_EVENTS): every `send_request` looks for
+        acknowledgements, mostly finding none, and a `recv` that finds none raises (an exception built each
+        time) after releasing the GIL, which another thread (the state stream's receiver) may then hold for
+        a while; asking does neither."""
         sock = self._req_sock if kind == ACK else self._call_sock
-        while True:
+        while cast(int, sock.getsockopt(zmq.EVENTS)) & zmq.POLLIN:
             try:
                 msg = sock.recv(zmq.NOBLOCK)
             except zmq.Again:
                 return None
             if msg[:1] == kind:  # else a stray (an answer to a handshake of long ago)
                 return memoryview(msg)[1:]
+        return None
 
     def _auth_failed(self, monitor: zmq.Socket, keyed: bool) -> None:
         """Raise ConfigError when the call socket's monitor reports a failed handshake (a refused key,

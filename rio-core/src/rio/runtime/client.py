@@ -45,9 +45,12 @@ class _Checked:
 class NodeClient:
     """Proxy for a running node. Use as a context manager, or call `close()`."""
 
-    def __init__(self, node: Node, transport: ClientTransport, ring_ref: dict[str, Any] | None = None):
+    def __init__(self, node: Node, transport: ClientTransport, ring_ref: dict[str, Any] | None = None,
+                 reference: dict[str, Any] | None = None):
         self._node, self._transport = node, transport
         self.name = node.name
+        #: How another process connects a client of this node (`rio.runtime.peer`: JSON, for a remote call).
+        self.reference = reference
         #: How another consumer on this machine reads this node's ring buffer in place (`rio.runtime.ring_ref`),
         #: or None (network middlewares, nodes that publish nothing).
         self.ring_ref = ring_ref

@@ -41,6 +41,7 @@ from rio.machine import host
 from rio.runtime import description as D
 from rio.runtime.client import NodeClient
 from rio.runtime.node import Node
+from rio.runtime.peer import client_reference
 from rio.runtime.ring_ref import ring_reference
 from rio.runtime.runner import Dispatcher, NodeRunner
 from rio.runtime.sweep import MANIFEST, Swept, mark_run, sweep_dead_runs, unmark_run
@@ -154,7 +155,8 @@ def connect(cls: type[N], mw: str | Middleware, *, name: str | None = None, stat
         layouts = NodeLayouts.of(node)
     transport = mwo.make_client(node, layouts, addr)
     # the proxy stands in for the node: typed as its class (see the docstring), not as NodeClient
-    return cast(N, NodeClient(node, transport, ring_reference(mwo, layouts, addr)))
+    return cast(N, NodeClient(node, transport, ring_reference(mwo, layouts, addr),
+                              client_reference(node_cls, mwo, name, addr)))
 
 
 # -- child process ----------------------------------------------------------------------------------

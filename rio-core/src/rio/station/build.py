@@ -147,13 +147,19 @@ def make_station(station: str | os.PathLike | Station, *, middleware: str | None
                 raise ConfigError(f"{st.source}: components.{role}: driver '{comp.driver}' rejected its config: "
                                   f"{e}") from e
         clients[role] = ClientFactory(role, cls, node_mw, comp.config, address)
+    # an arm's wrench source is served before the arm, so it is stopped after it (`ServerManager` stops in
+    # reverse): an arm that outlived its source would log the source's end as a fault at every shutdown
+    sourced = [s for c in st.components.values() if (s := getattr(c.config, "wrench_source", None)) in servers]
+    servers = {**{s: servers[s] for s in sourced}, **servers}
     env = None
     if emb_cls is not None and machine is None:
         robot = {r: clients[r] for r in sorted(emb_cls.roles() & st.roles())}
         cameras = {R.camera_name(r): clients[r] for r in sorted(st.roles()) if R.kind_of(r) == "camera"}
         sensors = {R.sensor_name(r): clients[r] for r in sorted(st.roles()) if R.kind_of(r) == "sensor"}
+        sources = {r: R.sensor_name(src) for r, c in st.components.items() if r in robot
+                   and (src := getattr(c.config, "wrench_source", None)) is not None}
         env = Env(emb_cls, emb_options, robot, cameras, sensors, rate_hz=st.rate_hz, station=st.name,
-                  drivers={r: c.driver for r, c in st.components.items()})
+                  drivers={r: c.driver for r, c in st.components.items()}, wrench_sources=sources)
     return servers, clients, env
 
 

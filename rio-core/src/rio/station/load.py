@@ -117,6 +117,7 @@ def parse_station(data: dict[str, Any], *, source: str = "<dict>", registry: Reg
         if comp is not None:
             components[role] = comp
     _check_machines(top, errors)
+    _check_wrench_sources(components, errors)
     if errors:
         raise invalid(source, errors)
     mw = top.middleware.model_dump()
@@ -146,6 +147,31 @@ def _check_machines(top: StationFile, errors: list[str]) -> None:
                 errors.append(f"{where}.nodes: '{role}' is already placed on machine '{placed[role]}'")
             else:
                 placed[role] = machine
+
+
+def _check_wrench_sources(components: dict[str, Component], errors: list[str]) -> None:
+    """Each arm's `wrench_source` names a component of the station that is a wrench sensor (`WrenchNode`)."""
+    from rio.interfaces.wrench import WrenchNode
+
+    def is_wrench(comp: Component) -> bool:
+        try:
+            cls = comp.node_class()
+        except Exception:  # its own import error was reported with its component, or is reported at start
+            return False
+        return isinstance(cls, type) and issubclass(cls, WrenchNode)
+
+    wrenches = sorted(r for r, c in components.items() if R.kind_of(r) == "sensor" and is_wrench(c))
+    known = f"wrench sensors here: {', '.join(wrenches)}" if wrenches else "this station has no wrench sensor"
+    for role, comp in components.items():
+        source = getattr(comp.config, "wrench_source", None)
+        if source is None:
+            continue
+        where = f"components.{role}.wrench_source"
+        if source not in components:
+            errors.append(f"{where}: '{source}' is not a component of this station ({known})")
+        elif source not in wrenches:
+            errors.append(f"{where}: '{source}' is a '{components[source].driver}' {components[source].kind}, not a "
+                          f"wrench sensor ({known})")
 
 
 def invalid(source: str, lines: list[str]) -> ConfigError:

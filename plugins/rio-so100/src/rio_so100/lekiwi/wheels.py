@@ -11,7 +11,9 @@ turn a wheel faster than `max_wheel_steps` is scaled down as a whole, so the bas
 
 The wheels share LeKiwi's one bus with the arm (ids 1-6): with the same `port` as the follower and gripper,
 the port lock serializes their transactions. `port = "emulator"` gives the base a private emulated bus with
-servos 7-9 in it (`rio_so100.emulator`, whose servos model wheel mode).
+servos 7-9 in it (`rio_so100.emulator`, whose servos model wheel mode); `port = "sim"` (`"sim:BASE@WORLD"`)
+one whose wheels turn with a running rio-sim world's base (`rio_so100.emulator.sim_base`): the driver
+against physics.
 """
 
 from __future__ import annotations
@@ -66,6 +68,11 @@ class LeKiwiBase(BaseNode):
             from ..emulator import FeetechBusEmulator
 
             self.emulator = FeetechBusEmulator(ids=self.ids)
+            path = self.emulator.port
+        elif c.port == "sim" or c.port.startswith("sim:"):
+            from ..emulator.sim_base import open_sim_wheel_bus
+
+            self.emulator = open_sim_wheel_bus(c.port, self.ids)
             path = self.emulator.port
         names = dict(zip(self.ids, self.wheel_list, strict=True))
         self.bus = FeetechBus(path, baudrate=c.baudrate, retries=c.retries, names=names,

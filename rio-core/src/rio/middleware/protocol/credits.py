@@ -24,12 +24,15 @@ import logging
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rio import clock
 from rio.errors import NoCredits, NodeTimeout, RioError
 from rio.middleware.protocol.messages import FULL, INVALID, OK, REQUEST_ID, Throttled, ack_error
 from rio.runtime import wire
+
+if TYPE_CHECKING:
+    import numpy as np
 
 log = logging.getLogger("rio.middleware.protocol")
 
@@ -55,10 +58,12 @@ class RequestStats:
 
 
 class CreditFlow:
-    def __init__(self, node: str, timeout: float, send: Callable[[bytes], None],
+    def __init__(self, node: str, timeout: float, send: Callable[..., None],
                  recv_now: Callable[[], bytes | memoryview | None], alive: Callable[[], None],
                  credits: int = DEFAULT_CREDITS, recv_wait: Callable[[], bytes | memoryview | None] | None = None):
         self.node, self.timeout, self.credits = node, timeout, max(int(credits), 1)
+        #: `send(*parts)`: one message whose body is the parts back to back (the request's id, its record),
+        #: so the transport joins them once (a record can be megabytes: an observation with its frames).
         self._send, self._recv_now, self._alive = send, recv_now, alive
         #: Waits a little for the next acknowledgement (the transport's poll), for `drain`.
         self._recv_wait = recv_wait
@@ -78,7 +83,7 @@ class CreditFlow:
     def available(self) -> int:
         return self.credits - len(self._in_flight)
 
-    def send(self, record: bytes) -> None:
+    def send(self, record: bytes | memoryview | np.ndarray) -> None:
         """Send one request record now, or raise: an earlier refusal (this one not sent), NoCredits, a dead
         node. Never waits for the network."""
         with self._lock:
@@ -92,7 +97,7 @@ class CreditFlow:
             rid = next(self._ids)
             self._in_flight[rid] = clock.now()
             try:
-                self._send(REQUEST_ID.pack(rid) + record)
+                self._send(REQUEST_ID.pack(rid), record)
             except BaseException:
                 del self._in_flight[rid]
                 raise
