@@ -50,7 +50,7 @@ def test_onnx_rl_policy(tmp_path):
 
 
 @pytest.mark.parametrize("kind", ["act", "diffusion"])
-def test_lerobot_policy_from_a_saved_directory(tmp_path, kind):
+def test_lerobot_policy_from_a_saved_directory(tmp_path, kind, capsys):
     pytest.importorskip("lerobot")
     from lerobot.configs.types import FeatureType, PolicyFeature
     from lerobot.policies.factory import get_policy_class, make_policy_config, make_pre_post_processors
@@ -68,7 +68,9 @@ def test_lerobot_policy_from_a_saved_directory(tmp_path, kind):
         processor.save_pretrained(tmp_path / "model")
     obs = SingleArmObs(proprio=np.zeros(4), cameras={"front": Camera(rgb=np.zeros((*size, 3), np.uint8))})
     pol = LeRobotPolicy(path=str(tmp_path / "model"), rate_hz=30)
+    capsys.readouterr()
     pol.load(ObsLayout.of(obs))
+    assert capsys.readouterr().out == ""  # LeRobot's own prints kept off stdout (`rio eval --json` prints there)
     chunk = pol(obs, None, t_obs=0.0)
     assert chunk.actions.shape[1] == 4 and chunk.horizon >= 1 and np.isfinite(chunk.actions).all()
 

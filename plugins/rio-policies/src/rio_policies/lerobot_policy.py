@@ -13,6 +13,8 @@ own name).
 
 from __future__ import annotations
 
+import contextlib
+import sys
 from typing import Any
 
 import numpy as np
@@ -51,7 +53,10 @@ class LeRobotPolicy(Policy):
         cfg = PreTrainedConfig.from_pretrained(self.config.path)
         cfg.device = self.config.device
         self.kind = cfg.type
-        self.model = get_policy_class(cfg.type).from_pretrained(self.config.path, config=cfg)
+        # LeRobot prints ("Loading weights from local directory"): to stderr, so stdout stays the command's own
+        # (`rio eval --json` prints one JSON object there)
+        with contextlib.redirect_stdout(sys.stderr):
+            self.model = get_policy_class(cfg.type).from_pretrained(self.config.path, config=cfg)
         self.model.eval()
         try:
             self.pre, self.post = make_pre_post_processors(cfg, pretrained_path=self.config.path)
