@@ -200,7 +200,7 @@ def train(py: Path, dataset: Path, work: Path, steps: int, minutes: float, batch
 def evaluate(py: Path, station: Path, checkpoint: str, trials: int, seed: int, work: Path) -> dict:
     meta = work / "eval.json"
     if meta.exists():
-        return json.loads(meta.read_text())
+        return eval_json(meta.read_text())
     policy = f"lerobot.local,path={checkpoint},rate_hz=30"
     cmd = [str(py.parent / "rio"), "eval", str(station), "--policy", policy, "--trials", str(trials),
            "--seed", str(seed), "--json"]
@@ -209,7 +209,14 @@ def evaluate(py: Path, station: Path, checkpoint: str, trials: int, seed: int, w
     if out.returncode != 0:
         raise SystemExit(f"rio eval failed (rc {out.returncode}):\n{out.stderr[-4000:]}")
     meta.write_text(out.stdout)
-    return json.loads(out.stdout)
+    return eval_json(out.stdout)
+
+
+def eval_json(text: str) -> dict:
+    """`rio eval --json`'s object (from its first line that opens one: a library may have printed before it)."""
+    lines = text.splitlines()
+    start = next((i for i, line in enumerate(lines) if line.startswith("{")), 0)
+    return json.loads("\n".join(lines[start:]))
 
 
 def table(demos: dict, trained: dict, result: dict, trials: int) -> str:
