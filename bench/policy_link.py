@@ -56,7 +56,7 @@ What it says:
 - The link shows in the frames' age. 3 raw 640x480 streams at 30 fps need ~660 Mbit/s: over 100 Mbit/s raw
   the frames the policy acts on are 1.5 s old (p50; 2.4 s p99) while obs -> action looks fine; JPEG brings
   them back to 35 ms. At 1 Gbit/s raw and JPEG are alike (37 / 32 ms; the capture period alone is 33 ms).
-- Before the send-path fix made with this bench (`rio.middleware.protocol.client.RecordSender`, zmq
+- Before the send-path fix made with this bench (`rio.runtime.buffers.RequestSender`, zmq
   `_send_parts`: the request's record copied once after its check, not four times), the same bench (load
   average ~10) measured zmq overheads of 13.8-15.4 ms p50 and the request enqueued 6.1 ms after `t_obs`.
 """

@@ -4,6 +4,7 @@ rate bound are the config's, with the kind's descriptions."""
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -93,3 +94,88 @@ def test_the_config_takes_the_model_the_defaults_and_the_rate_bound_from_the_tab
         Config(model="big")
     with pytest.raises(ValidationError, match="rate_hz"):
         Config(rate_hz=600.0)
+
+
+# -- without an IK solver: the published reach, and the extra that installs the solver -----------------------
+
+@dataclass(frozen=True)
+class ReachEntry(Entry):
+    reach: float = 0.6
+    shoulder_height: float = 0.2
+
+
+REACH_TABLE = {"small": ReachEntry(*(getattr(TABLE["small"], f) for f in ("name", "joint_names", "home", "limits")))}
+REACH_MODELS = ModelTable(REACH_TABLE, describe, default="small", ik_extra="rio-tabled[ik]")
+
+
+class ReachArm(TabledArm):
+    models = REACH_MODELS
+
+
+class CartesianArm(ReachArm):
+    """An arm whose controller takes poses, told to use RIO's IK instead (a vendor driver's eef_control = "ik")."""
+
+    class Config(ReachArm.Config):
+        native: bool = False
+
+    @property
+    def streams_poses(self) -> bool:
+        return self.config.native
+
+    def open(self) -> None:
+        super().open()
+        self.pose = np.array([0.3, 0.0, 0.4, 1.0, 0.0, 0.0, 0.0])
+
+    def read_joints(self):
+        return {**super().read_joints(), "eef_pose": self.pose.copy()}  # the controller measures it
+
+    def write_pose(self, eef_pose) -> None:
+        self.pose = np.array(eef_pose)
+
+
+@pytest.fixture
+def no_solver(monkeypatch):
+    """`import mujoco` fails, as where rio-core[ik] is not installed."""
+    monkeypatch.setitem(sys.modules, "mujoco", None)
+
+
+def test_without_a_solver_the_box_is_the_published_reach_and_ik_names_the_plugins_extra(no_solver):
+    from rio.errors import InvalidRequest
+    from rio.kinematics.reach import reach_box_from_table
+
+    assert REACH_MODELS.reach("small") == (0.6, 0.2) and MODELS.reach("small") is None
+    with lifecycle(ReachArm()) as arm:
+        assert arm.kinematics is None
+        box = arm.workspace()
+        assert box["source"] == "table"
+        np.testing.assert_allclose(box["lower"], [-0.75, -0.75, -0.55])  # the reach plus 25%, around the shoulder
+        np.testing.assert_allclose(box["upper"], [0.75, 0.75, 0.95])
+        np.testing.assert_allclose(box["upper"], reach_box_from_table(0.6, 0.2)[1])
+        assert np.isnan(arm.cycle()["eef_pose"]).all()
+        with pytest.raises(InvalidRequest, match=r"no IK solver .*mujoco.*: pip install 'rio-tabled\[ik\]'"):
+            arm.command_eef(np.array([0.3, 0.0, 0.3, 1.0, 0.0, 0.0, 0.0]), 0.0)
+    with lifecycle(TabledArm()) as arm:  # no reach in the table: unbounded, the core's extra named
+        assert arm.workspace()["source"] == "none"
+        with pytest.raises(InvalidRequest, match=r"pip install 'rio-core\[ik\]'"):
+            arm.command_eef(np.array([0.3, 0.0, 0.3, 1.0, 0.0, 0.0, 0.0]), 0.0)
+
+
+def test_an_arm_told_to_use_rios_ik_refuses_to_open_without_the_solver(no_solver):
+    with pytest.raises(ImportError, match=r"node '.*': no IK solver .*pip install 'rio-tabled\[ik\]'"):
+        with lifecycle(CartesianArm()):
+            pass
+    with lifecycle(CartesianArm(native=True)) as arm:  # the controller's Cartesian control needs no solver
+        assert arm.workspace()["source"] == "table" and arm.poses is not None
+
+
+def test_the_reach_computed_on_the_model_wins_where_the_solver_is_installed():
+    pytest.importorskip("mink")
+    with lifecycle(ReachArm()) as arm:
+        assert arm.kinematics is not None and arm.workspace()["source"] == "model"
+
+
+def test_a_published_reach_is_a_positive_distance():
+    from rio.kinematics.reach import reach_box_from_table
+
+    with pytest.raises(ValueError, match="positive"):
+        reach_box_from_table(0.0)

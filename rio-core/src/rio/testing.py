@@ -138,8 +138,12 @@ def run_scripted_square(station: str, side: float = 0.05, speed: float = 0.15) -
     assert np.linalg.norm(device_end) < 1e-4 and 3.6 * side < device["path_m"] < 4 * side + 0.002, stages
     # the target: the low-pass and the speed limit add and lose nothing (the device stays under the limit)
     assert np.linalg.norm(target_end - device_end) < 1e-4 and target["path_m"] <= device["path_m"] + 1e-6, stages
-    # the arm, measured: four edges, a little rounding either way, and back where it started
-    assert 3.6 * side < arm.path_m < 4.6 * side, stages
+    # the arm, measured: four edges, a little rounding either way, and back where it started. A stall of the
+    # process (a loaded machine; the loop's worst lateness says how long) lets an arm that keeps its last speed
+    # until the next command (Kinova's joint speeds) run on that long and come back: up to twice the stall's
+    # travel at the script's speed is the stall's, not the arm's (a swing would add far more)
+    stall_s = summary.lateness_us.get("max", 0.0) * 1e-6
+    assert 3.6 * side < arm.path_m < 4.6 * side + 2 * speed * stall_s, stages
     assert np.linalg.norm(measured_end) < 0.003, stages
     return summary
 

@@ -150,7 +150,13 @@ class FakeController:
 
             from .description import description
 
-            self._kin = solver_from_description(description(self.model.name), orientation_cost=1.0, damping=1e-4)
+            try:
+                self._kin = solver_from_description(description(self.model.name), orientation_cost=1.0,
+                                                    damping=1e-4)
+            except ImportError as e:
+                cause = e.__cause__ if isinstance(e.__cause__, ImportError) else e
+                raise ImportError(f"the fake Franka robot moves and measures its flange by IK on the arm model, "
+                                  f"which needs its solver ({cause}): pip install 'rio-franka[ik]'") from None
         return self._kin
 
     def flange_pose(self) -> np.ndarray:

@@ -43,6 +43,10 @@ class ArmModel:
     max_joint_speed: tuple[float, ...]
     mjcf: str
     home: tuple[float, ...] = READY
+    #: Franka's published reach (m, 855 mm for both) and the shoulder's height above the base (m, DH d1):
+    #: the workspace box of an arm installed without IK (`rio.kinematics.reach.reach_box_from_table`).
+    reach: float = 0.855
+    shoulder_height: float = 0.333
 
     @property
     def joint_names(self) -> list[str]:

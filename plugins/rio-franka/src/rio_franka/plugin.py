@@ -42,7 +42,10 @@ def rio_stations() -> list[Spec]:
 
 @hookimpl
 def rio_requirements() -> list[Requirement]:
-    return [Requirement("franky", "pip install franky-control", "every Franka driver (franky, bundling libfranka)")]
+    return [Requirement("franky", "pip install franky-control", "every Franka driver (franky, bundling libfranka)"),
+            Requirement("mink", "pip install 'rio-franka[ik]'",
+                        'eef_control = "ik", eef_pose from RIO\'s model, the fake robot '
+                        "(mink on MuJoCo)")]
 
 
 @hookimpl

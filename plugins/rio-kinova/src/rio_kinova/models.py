@@ -47,6 +47,10 @@ class ArmModel:
     mjcf: str
     #: Largest joint speed the base accepts in high-level joint speed mode (rad/s), per joint.
     max_joint_speed: tuple[float, ...]
+    #: Kinova's published reach (m) and the shoulder's height above the base (m, the DH table's first two
+    #: offsets): the workspace box of an arm installed without IK (`rio.kinematics.reach.reach_box_from_table`).
+    reach: float
+    shoulder_height: float
 
     @property
     def dof(self) -> int:
@@ -73,17 +77,17 @@ ARMS: dict[str, ArmModel] = {
         "gen3", "Gen3 7-DOF", _deg(None, 128.9, None, 147.8, None, 120.3, None),
         home=tuple(math.radians(a) for a in (0.0, 15.0, 180.0, -130.0, 0.0, 55.0, 90.0)),
         dh=dh.GEN3_7DOF, dh_base=dh.GEN3_7DOF_BASE, mjcf="gen3.xml",
-        max_joint_speed=(_LARGE,) * 4 + (_SMALL,) * 3),
+        max_joint_speed=(_LARGE,) * 4 + (_SMALL,) * 3, reach=0.902, shoulder_height=0.1564 + 0.1284),
     "gen3_6dof": ArmModel(
         "gen3_6dof", "Gen3 6-DOF", _deg(None, 128.9, 147.8, None, 120.3, None),
         home=tuple(math.radians(a) for a in (0.0, 15.0, -130.0, 0.0, 55.0, 90.0)),
         dh=dh.GEN3_6DOF, dh_base=dh.GEN3_7DOF_BASE, mjcf="gen3_6dof.xml",
-        max_joint_speed=(_LARGE,) * 3 + (_SMALL,) * 3),
+        max_joint_speed=(_LARGE,) * 3 + (_SMALL,) * 3, reach=0.891, shoulder_height=0.1564 + 0.1284),
     "gen3_lite": ArmModel(
         "gen3_lite", "Gen3 lite", _deg(154.1, 150.1, 150.1, 148.98, 144.97, 148.98),
         home=tuple(math.radians(a) for a in (0.0, -16.0, 75.0, 0.0, -60.0, 0.0)),
         dh=dh.GEN3_LITE, dh_base=None, mjcf="gen3_lite.xml",
-        max_joint_speed=(_LITE,) * 6),
+        max_joint_speed=(_LITE,) * 6, reach=0.76, shoulder_height=0.2433),
 }
 
 

@@ -41,4 +41,7 @@ def rio_stations() -> list[Spec]:
 
 @hookimpl
 def rio_requirements() -> list[Requirement]:
-    return [Requirement("kortex_api", INSTALL, "every Kinova driver with backend = \"kortex\" (Kinova's kortex_api)")]
+    return [Requirement("kortex_api", INSTALL, "every Kinova driver with backend = \"kortex\" (Kinova's kortex_api)"),
+            Requirement("mink", "pip install 'rio-kinova[ik]'",
+                        'eef_control = "ik" (the default; "native": the base\'s twists), '
+                        "eef_pose from RIO's model (mink on MuJoCo)")]

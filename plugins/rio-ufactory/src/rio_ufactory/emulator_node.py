@@ -38,8 +38,13 @@ class EmulatorNode(Node):
         from .emulator import XArmEmulator
 
         c = self.config
-        self.emulator = XArmEmulator(model=c.model, host=c.ip, backend=c.backend,
-                                     gripper=None if c.gripper == "none" else c.gripper)
+        emulator = XArmEmulator(model=c.model, host=c.ip, backend=c.backend,
+                                gripper=None if c.gripper == "none" else c.gripper)
+        if emulator.machine.kin is None:  # a station's arm streams poses: the box would refuse every one
+            emulator.stop()
+            raise ImportError(f"node '{self.name}': the xArm emulator's Cartesian commands and poses need RIO's "
+                              "kinematics of the arm (mujoco, mink): pip install 'rio-ufactory[ik]'")
+        self.emulator = emulator
         self.emulator.start()
 
     def read_state(self) -> dict[str, Any]:

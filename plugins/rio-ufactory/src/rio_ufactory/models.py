@@ -36,6 +36,10 @@ class ArmModel:
     home: tuple[float, ...]
     #: MJCF in `assets/`; its tool frame is the site `tcp` (the flange, z out of it).
     mjcf: str
+    #: UFACTORY's published reach (m) and the shoulder joint's height above the base (m, the MJCF's link1):
+    #: the workspace box of an arm installed without IK (`rio.kinematics.reach.reach_box_from_table`).
+    reach: float
+    shoulder_height: float
     #: Largest joint speed the controller accepts in servo mode (rad/s).
     max_joint_speed: float = math.pi
 
@@ -52,25 +56,28 @@ ARMS: dict[str, ArmModel] = {
     "xarm5": ArmModel(
         "xarm5", "xArm 5", 5, 5,
         (_TURN, (-2.059488, 2.094395), (-3.92699, 0.191986), (-1.692969, math.pi), _TURN),
-        home=(0.0, -0.4047, -0.3287, 0.7333, 0.0), mjcf="xarm5.xml"),
+        home=(0.0, -0.4047, -0.3287, 0.7333, 0.0), mjcf="xarm5.xml", reach=0.7,
+        shoulder_height=0.267),
     "xarm6": ArmModel(
         "xarm6", "xArm 6", 6, 6,
         (_TURN, (-2.059488, 2.094395), (-3.92699, 0.191986), _TURN, (-1.692969, math.pi), _TURN),
-        home=(0.0, -0.4047, -0.3287, 0.0, 0.7333, 0.0), mjcf="xarm6.xml"),
+        home=(0.0, -0.4047, -0.3287, 0.0, 0.7333, 0.0), mjcf="xarm6.xml", reach=0.7,
+        shoulder_height=0.267),
     "xarm7": ArmModel(
         "xarm7", "xArm 7", 7, 7,
         (_TURN, (-2.059488, 2.094395), _TURN, (-0.191986, 3.92699), _TURN, (-1.692969, math.pi), _TURN),
-        home=(0.0, -0.3653, 0.0, 0.3333, 0.0, 0.6986, 0.0), mjcf="xarm7.xml"),
+        home=(0.0, -0.3653, 0.0, 0.3333, 0.0, 0.6986, 0.0), mjcf="xarm7.xml", reach=0.7,
+        shoulder_height=0.267),
     "xarm850": ArmModel(
         "xarm850", "xArm 850", 6, 12,
         (_TURN, (-2.303834612632515, 2.303834612632515), (-4.223696789826278, 0.061086523819801536), _TURN,
          (-2.1642082724729685, 2.1642082724729685), _TURN),
-        home=(0.0, -0.0795, -0.379, 0.0, -0.2995, 0.0), mjcf="xarm850.xml"),
+        home=(0.0, -0.0795, -0.379, 0.0, -0.2995, 0.0), mjcf="xarm850.xml", reach=0.85, shoulder_height=0.364),
     "lite6": ArmModel(
         "lite6", "Lite 6", 6, 9,
         (_TURN, (-2.6179938779914944, 2.6179938779914944), (-0.061086523819801536, 5.235987755982989), _TURN,
          (-2.1642082724729685, 2.1642082724729685), _TURN),
-        home=(0.0, 0.2128, 0.8688, 0.0, 0.656, 0.0), mjcf="lite6.xml"),
+        home=(0.0, 0.2128, 0.8688, 0.0, 0.656, 0.0), mjcf="lite6.xml", reach=0.44, shoulder_height=0.2433),
 }
 
 

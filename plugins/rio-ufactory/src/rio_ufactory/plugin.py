@@ -68,7 +68,10 @@ def rio_stations() -> list[Spec]:
 
 @hookimpl
 def rio_requirements() -> list[Requirement]:
-    return [Requirement("xarm", "pip install xarm-python-sdk", "every UFACTORY driver (the xArm Python SDK)")]
+    return [Requirement("xarm", "pip install xarm-python-sdk", "every UFACTORY driver (the xArm Python SDK)"),
+            Requirement("mink", "pip install 'rio-ufactory[ik]'",
+                        'eef_control = "ik", eef_pose from RIO\'s model without the control box, '
+                        "the emulator's Cartesian commands (mink on MuJoCo)")]
 
 
 @hookimpl

@@ -36,6 +36,9 @@ class URModel:
     max_speed: tuple[float, float, float, float, float, float]
     #: Ready pose (rad): the flange about 0.4 m in front of the base (+x), tool pointing down.
     home: tuple[float, float, float, float, float, float]
+    #: Universal Robots' published reach (m): with the shoulder's height (DH d1) the workspace box of an arm
+    #: installed without IK (`rio.kinematics.reach.reach_box_from_table`).
+    reach: float
     limits: tuple[tuple[float, float], ...] = (_TURN,) * 6
     payload_kg: float = 5.0
 
@@ -52,8 +55,8 @@ class URModel:
         return list(JOINT_NAMES)
 
     @property
-    def reach(self) -> float:
-        return abs(self.a2) + abs(self.a3) + self.d[4]
+    def shoulder_height(self) -> float:
+        return self.d[0]
 
 
 def _deg(*v: float) -> tuple[float, ...]:
@@ -69,27 +72,27 @@ _UR20_D = (0.2363, 0.0, 0.0, 0.2010, 0.1593, 0.1543)
 ARMS: dict[str, URModel] = {m.name: m for m in (
     URModel("ur3e", "UR3e", (0.15185, 0.0, 0.0, 0.13105, 0.08535, 0.0921), -0.24355, -0.2132,
             _deg(180, 180, 180, 360, 360, 360),
-            home=(0.4521, -2.8747, 0.7045, 0.5994, -1.5708, 2.0229), payload_kg=3.0),
+            home=(0.4521, -2.8747, 0.7045, 0.5994, -1.5708, 2.0229), payload_kg=3.0, reach=0.5),
     URModel("ur5e", "UR5e", _UR5E_D, -0.425, -0.3922, _deg(180, 180, 180, 180, 180, 180),
-            home=(2.8018, -1.2766, 1.7239, 1.1235, 1.5708, 1.231)),
+            home=(2.8018, -1.2766, 1.7239, 1.1235, 1.5708, 1.231), reach=0.85),
     URModel("ur7e", "UR7e", _UR5E_D, -0.425, -0.3922, _deg(180, 180, 180, 180, 180, 180),
             home=(2.8018, -1.2766, 1.7239, 1.1235, 1.5708, 1.231),
-            payload_kg=7.5),
+            payload_kg=7.5, reach=0.85),
     URModel("ur10e", "UR10e", _UR10E_D, -0.6127, -0.57155, _deg(120, 120, 180, 180, 180, 180),
             home=(2.6911, -1.6449, 2.0499, 1.1659, 1.5708, 1.1203),
-            payload_kg=12.5),
+            payload_kg=12.5, reach=1.3),
     URModel("ur12e", "UR12e", _UR10E_D, -0.6127, -0.57155, _deg(120, 120, 180, 180, 180, 180),
             home=(2.6911, -1.6449, 2.0499, 1.1659, 1.5708, 1.1203),
-            payload_kg=12.0),
+            payload_kg=12.0, reach=1.3),
     URModel("ur16e", "UR16e", _UR10E_D, -0.4784, -0.36, _deg(120, 120, 180, 180, 180, 180),
             home=(2.6911, -1.1751, 1.7828, 0.963, 1.5708, 1.1203),
-            payload_kg=16.0),
+            payload_kg=16.0, reach=0.9),
     URModel("ur20", "UR20", _UR20_D, -0.8620, -0.7287, _deg(120, 120, 150, 210, 210, 210),
             home=(2.6151, -1.6069, 2.3507, 0.8269, 1.5708, 1.0443),
-            payload_kg=20.0),
+            payload_kg=20.0, reach=1.75),
     URModel("ur30", "UR30", _UR20_D, -0.6370, -0.5037, _deg(120, 120, 150, 210, 210, 210),
             home=(2.6151, -1.4506, 2.0032, 1.0182, 1.5708, 1.0443),
-            payload_kg=30.0),
+            payload_kg=30.0, reach=1.3),
 )}
 
 

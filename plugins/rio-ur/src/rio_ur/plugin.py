@@ -42,7 +42,10 @@ def rio_stations() -> list[Spec]:
 
 @hookimpl
 def rio_requirements() -> list[Requirement]:
-    return [Requirement("rtde_receive", "pip install ur-rtde", "every Universal Robots driver (ur-rtde)")]
+    return [Requirement("rtde_receive", "pip install ur-rtde", "every Universal Robots driver (ur-rtde)"),
+            Requirement("mink", "pip install 'rio-ur[ik]'",
+                        'eef_control = "ik", eef_pose from RIO\'s model, the emulator\'s servoL '
+                        "(mink on MuJoCo)")]
 
 
 @hookimpl

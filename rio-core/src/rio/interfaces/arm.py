@@ -21,11 +21,17 @@ joints on `robot_description()`; else NaN. So an arm that ships a model can be t
 and deployed in end-effector space without any Cartesian code of its own (docs/drivers.md).
 
 Every arm's tool is bounded in task space, whoever commands it (a policy, a replay, a teleop device): a
-workspace box (the station's `workspace`, else the model's reach, `rio.kinematics.reach`) and a Cartesian
+workspace box (the station's `workspace`, else the model's reach, `rio.kinematics.reach`: computed by the
+solver, or without one the published reach in the model table) and a Cartesian
 speed limit (`max_tool_speed_m_s`), in the commanders (`rio.control.workspace`): end-effector targets are
 clipped into the box; joint targets too, through forward kinematics, where the arm has a model. An arm
 without a model bounds its joint targets by its joint limits and `max_step_rad` only. Samples carry
 `clipped`, the number of targets the box has cut since the node started (the run's summary counts them).
+
+The IK solver is optional (`rio-core[ik]`, which a vendor plugin re-exports as its own `[ik]` extra): an
+arm whose controller does the Cartesian control needs none. A driver that has Cartesian control but was
+told to use RIO's IK instead (its `eef_control = "ik"`) refuses to open without the solver, naming the
+extra that installs it; any other arm without one reports NaN for `eef_pose` unless its hardware measures it.
 """
 
 from __future__ import annotations
@@ -63,7 +69,8 @@ class ArmNode(JointNode):
         workspace: tuple[tuple[float, float, float], tuple[float, float, float]] | None = Field(
             None, description="[[x, y, z] lower, [x, y, z] upper] (m, base frame): the box the tool stays in, "
                               "for end-effector targets and, where the arm has a model, joint targets; default: "
-                              "the model's reach (every pose its joints reach, plus 5%), else unbounded")
+                              "the model's reach (every pose its joints reach, plus 5%; without an IK solver: "
+                              "the published reach of the model table, plus 25%), else unbounded")
         max_tool_speed_m_s: float = Field(1.0, gt=0, description="largest tool speed (m/s) of every move the "
                                                                  "commander makes: end-effector goals, and joint "
                                                                  "goals where the arm has a model")
@@ -130,6 +137,12 @@ class ArmNode(JointNode):
     def streams_poses(self) -> bool:
         return type(self).write_pose is not ArmNode.write_pose
 
+    @property
+    def needs_solver(self) -> bool:
+        """Whether end-effector targets must go through RIO's IK although the driver can stream poses: its
+        config chose IK over the controller's Cartesian control (`eef_control = "ik"`)."""
+        return type(self).write_pose is not ArmNode.write_pose and not self.streams_poses
+
     def setup(self) -> None:
         super().setup()
         self.example_data = {**self.example_data, "eef_pose": IDENTITY_POSE.copy(), "clipped": np.int64(0)}
@@ -151,9 +164,13 @@ class ArmNode(JointNode):
             if peer is not None:
                 self.example_data.update(source_holds=0)
         self._eef_clipped = 0  # end-effector targets clipped before IK
+        self._no_solver: str | None = None  # why a robot description has no solver (its backend is missing)
 
     def opened(self) -> None:
         self.kinematics = self._load_kinematics()
+        if self._no_solver is not None and self.needs_solver:
+            raise ImportError(f"node '{self.name}': {self._no_solver}; end-effector targets through RIO's IK need "
+                              "it (or let the controller do them: eef_control = \"native\")")
         self.workspace_box = self._workspace()
         super().opened()
         if self.streams_poses:
@@ -181,6 +198,14 @@ class ArmNode(JointNode):
             desc_home = self.config.home if self.config.home is not None else self.default_home()
             ws = Workspace(*reach_box(self.kinematics, desc_home), step)
             log.info("node '%s': workspace from the model's reach: %s", self.name, ws.describe())
+            return ws
+        published = self.models.reach(self.config.model) if self.models is not None else None
+        if published is not None:
+            from rio.kinematics.reach import reach_box_from_table
+
+            ws = Workspace(*reach_box_from_table(*published), step)
+            log.info("node '%s': workspace from the published reach of model '%s' (%.3f m; no IK solver): %s",
+                     self.name, self.config.model, published[0], ws.describe())
             return ws
         log.info("node '%s': no workspace box (no robot model, none in the station): end-effector targets are "
                  "bounded by the tool speed only, joint targets by the joint limits", self.name)
@@ -211,8 +236,21 @@ class ArmNode(JointNode):
 
             return solver_from_description(desc, orientation_cost=1.0 if self.dof >= 6 else 0.1, damping=1e-4)
         except ImportError as e:
-            log.warning("node '%s': no forward kinematics (eef_pose is NaN): %s", self.name, e)
+            self._no_solver = self._solver_missing(e)
+            if self.streams_poses:  # the controller measures the pose and does the Cartesian control
+                log.info("node '%s': %s: the controller's Cartesian control and measured pose are used", self.name,
+                         self._no_solver)
+            elif not self.needs_solver:
+                log.warning("node '%s': %s: eef_pose is NaN unless the hardware measures it", self.name,
+                            self._no_solver)
             return None
+
+    def _solver_missing(self, e: ImportError) -> str:
+        """"no IK solver for its robot model (No module named 'mujoco'): pip install '<extra>'", the extra
+        being the plugin's own where its model table names one."""
+        cause = e.__cause__ if isinstance(e.__cause__, ImportError) else e
+        install = self.models.ik_install if self.models is not None else "pip install 'rio-core[ik]'"
+        return f"no IK solver for its robot model ({cause}): {install}"
 
     def _eef_of(self, sample: Any) -> np.ndarray:
         pose = sample.get("eef_pose")
@@ -298,6 +336,9 @@ class ArmNode(JointNode):
             self.mode = EEF
             return
         if self.kinematics is None:
+            if self._no_solver is not None:
+                raise InvalidRequest(self.name, "eef_pose", f"{type(self).__name__} has no Cartesian control and "
+                                                            f"{self._no_solver}")
             raise InvalidRequest(self.name, "eef_pose", f"{type(self).__name__} has no Cartesian control and no "
                                                         "robot_description() for IK: send joint targets")
         ws = self.workspace_box
@@ -311,11 +352,13 @@ class ArmNode(JointNode):
     @remote
     def workspace(self) -> dict[str, Any]:
         """The box the tool stays in and its step per cycle, as enforced: {"lower": [x, y, z], "upper": [x, y,
-        z] (m, base frame; inf where unbounded), "max_tool_step_m", "source": "station" | "model" | "none"}."""
+        z] (m, base frame; inf where unbounded), "max_tool_step_m", "source": "station" | "model" (the reach
+        computed on the robot model) | "table" (the model table's published reach) | "none"}."""
         ws = self.workspace_box
         if ws is None:
             raise InvalidRequest(self.name, None, "the arm is not open yet: it has no workspace")
         source = "station" if self.config.workspace is not None else "model" if self.kinematics is not None \
+            else "table" if self.models is not None and self.models.reach(self.config.model) is not None \
             else "none"
         step = self.poses.max_step_m if self.poses is not None else ws.max_step_m
         return {"lower": ws.lower.tolist(), "upper": ws.upper.tolist(), "max_tool_step_m": step, "source": source}

@@ -18,6 +18,10 @@ the controller takes. The driver names them once, and the arm kind (`ArmNode.mod
 From the station's model's entry the kind takes `default_joint_names()`, `default_home()`,
 `hardware_limits()` and `robot_description()` (`description(name, tcp_offset)` builds it); the station's
 own `joint_names`, `home` and `joint_limits` still win.
+
+An entry may also carry `reach` (m, the vendor's published reach) and `shoulder_height` (m, the shoulder
+joint's axis above the base): the arm's default workspace box where no IK solver is installed (a plugin
+installed without its kinematics extra, `ik_extra`, driving the controller's own Cartesian control).
 """
 
 from __future__ import annotations
@@ -31,13 +35,17 @@ from pydantic.fields import FieldInfo
 
 class ModelTable:
     def __init__(self, models: Mapping[str, Any], describe: Callable[[str, Any], dict[str, Any] | None], *,
-                 default: str, defaults: Mapping[str, Any] | None = None, max_rate_hz: float | None = None):
+                 default: str, defaults: Mapping[str, Any] | None = None, max_rate_hz: float | None = None,
+                 ik_extra: str | None = None):
         if default not in models:
             raise KeyError(f"default model '{default}' is not in the table ({', '.join(models)})")
         self.models, self.default = dict(models), default
         self._describe = describe
         self.defaults_given = dict(defaults or {})
         self.max_rate_hz = max_rate_hz
+        #: The plugin's extra that installs the IK solver of these models ("rio-ufactory[ik]"): named by the
+        #: errors of a node that needs it and finds it missing.
+        self.ik_extra = ik_extra
 
     def entry(self, name: str) -> Any:
         """The entry of model `name` (a KeyError naming the known models otherwise)."""
@@ -48,6 +56,19 @@ class ModelTable:
     def describe(self, name: str, tcp_offset: Any = None) -> dict[str, Any] | None:
         """RIO's robot description of model `name` with the tool at `tcp_offset` (None: the flange)."""
         return self._describe(self.entry(name).name, tcp_offset)
+
+    def reach(self, name: str) -> tuple[float, float] | None:
+        """(published reach, shoulder height) of model `name` (m), or None where the entry has no `reach`."""
+        entry = self.entry(name)
+        reach = getattr(entry, "reach", None)
+        if reach is None:
+            return None
+        return float(reach), float(getattr(entry, "shoulder_height", 0.0) or 0.0)
+
+    @property
+    def ik_install(self) -> str:
+        """The command that installs the IK solver of these models."""
+        return f"pip install '{self.ik_extra or 'rio-core[ik]'}'"
 
     @property
     def defaults(self) -> dict[str, Any]:

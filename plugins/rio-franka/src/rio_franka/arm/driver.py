@@ -26,7 +26,8 @@ from ..link import FrankaConfig, FrankaConnection, log
 from ..models import ARMS, MAX_RATE_HZ, NODE_DEFAULTS, get_arm
 from ..pose import ee_target, offset_pose, to_affine, tool_pose
 
-MODELS = ModelTable(ARMS, description, default="fr3", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ)
+MODELS = ModelTable(ARMS, description, default="fr3", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ,
+                    ik_extra="rio-franka[ik]")
 
 
 class FrankaArm(ArmNode):

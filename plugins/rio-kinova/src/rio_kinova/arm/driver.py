@@ -30,8 +30,10 @@ from ..link import KortexConfig, close_session, guarded, hold_faults_and_drops, 
 from ..models import ARMS, MAX_RATE_HZ, NODE_DEFAULTS, get_arm
 from ..pose import from_kinova
 
-MODELS = ModelTable(ARMS, description, default="gen3", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ)
+MODELS = ModelTable(ARMS, description, default="gen3", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ,
+                    ik_extra="rio-kinova[ik]")
 _TWO_PI = 2 * math.pi
+_GAP_DECAY = 0.98  # per command: a stall's gap is forgotten over a second or two of cycles
 
 
 def wrap(x):
@@ -64,9 +66,10 @@ class KinovaArm(ArmNode):
         hold_faults_and_drops(self)
         self._q: np.ndarray | None = None
         self._last: dict[str, Any] = {}  # the last sample read (stands while the session is lost)
-        self._goal: np.ndarray | None = None
-        self._t_goal = 0.0  # when `_goal` went out
         self._frame = 0
+        self._t_write: float | None = None  # when the last joint speeds went out
+        self._from: np.ndarray | None = None  # the commander's goal before this cycle's step
+        self._gap = 0.0  # the recent largest gap between them (s), decaying
 
     @property
     def streams_poses(self) -> bool:
@@ -88,6 +91,7 @@ class KinovaArm(ArmNode):
     def set_enabled(self, enabled: bool) -> None:
         s = self.session
         assert s is not None
+        self._t_write, self._gap, self._from = None, 0.0, None  # a pause while disabled is not a slow cycle
         mode = s.pb.Base_pb2.ServoingModeInformation()
         if enabled:
             mode.servoing_mode = (s.pb.Base_pb2.LOW_LEVEL_SERVOING if self.config.low_level
@@ -113,6 +117,11 @@ class KinovaArm(ArmNode):
             cont = np.array(self.kinova.continuous)
             q = np.where(cont, self._q + wrap(q - self._q), q)
         self._q = q
+        if self.enabled and not self.config.low_level:
+            # the base went on at the last joint speeds through a late cycle: the goal the commander steps next
+            # takes up from where that brought the arm (`JointCommander.follow_measured`) rather than pull it back
+            self.commander.follow_measured(q, clock.now())
+            self._from = self.commander.goal.copy()  # where this cycle's step starts
         sample: dict[str, Any] = {"joint_pos": q, "joint_vel": np.radians([a.velocity for a in fb.actuators])}
         if self.streams_poses:
             b = fb.base
@@ -127,13 +136,6 @@ class KinovaArm(ArmNode):
         self._last = sample
         return sample
 
-    def drive(self, now: float) -> None:
-        """High level: the base went on at the last joint speeds through a late cycle; the goal takes up
-        from where that brought the arm (`JointCommander.follow_measured`) rather than pull it back."""
-        if self.enabled and not self.config.low_level and self._q is not None:
-            self.commander.follow_measured(self._q, now)
-        super().drive(now)
-
     def write_joints(self, joint_pos: np.ndarray) -> None:
         s = self.session
         assert s is not None and self._q is not None
@@ -146,15 +148,19 @@ class KinovaArm(ArmNode):
                 a.command_id, a.flags, a.position = self._frame, 1, math.degrees(float(qi)) % 360.0
             guarded(self, s.cyclic.Refresh, cmd)
             return
-        now, period = clock.now(), 1.0 / self.config.rate_hz
-        if self._goal is None:
-            prev, dt = joint_pos, period
-        else:  # the goal's velocity over the time it took, not over a cycle assumed on time
-            prev, dt = self._goal, max(now - self._t_goal, 0.25 * period)
-        self._goal, self._t_goal = joint_pos.copy(), now
+        # The base keeps a speed until the next command, however late that comes. Sent: this cycle's step of
+        # the goal as a speed over the time cycles take now (a burst of short cycles after a stall would
+        # otherwise turn a catch-up step into a dash the base keeps up through the next late cycle), plus a
+        # pull toward the goal that gives way to slow cycles (one that closes the error in less than two
+        # cycle gaps overshoots and swings: the Gen3 fake with 0.1-0.4 s stalls ran 0.9 m of tool path for a
+        # 0.2 m square)
+        now = clock.now()
+        gap = max(now - self._t_write if self._t_write is not None else 0.0, 1.0 / self.config.rate_hz)
+        self._t_write, self._gap = now, max(gap, self._gap * _GAP_DECAY)
+        step = joint_pos - self._from if self._from is not None else np.zeros_like(joint_pos)
+        gain = min(self.config.gain, 0.5 / self._gap)
         vmax = np.array(self.kinova.max_joint_speed)
-        speed = (joint_pos - prev) / dt + self.config.gain * (joint_pos - self._q)
-        speed = np.clip(speed, -vmax, vmax)
+        speed = np.clip(step / gap + gain * (joint_pos - self._q), -vmax, vmax)
         msg = s.pb.Base_pb2.JointSpeeds()
         for i, v in enumerate(speed):
             js = msg.joint_speeds.add()

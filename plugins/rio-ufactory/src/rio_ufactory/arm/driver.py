@@ -24,7 +24,8 @@ from ..link import guarded, hold_faults_and_drops
 from ..models import ARMS, MAX_RATE_HZ, NODE_DEFAULTS
 from ..pose import from_xarm, to_xarm
 
-MODELS = ModelTable(ARMS, description, default="xarm7", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ)
+MODELS = ModelTable(ARMS, description, default="xarm7", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ,
+                    ik_extra="rio-ufactory[ik]")
 
 
 class XArm(ArmNode):

@@ -54,7 +54,7 @@ ORIENTATION_COST = 0.3
 
 def arm_kinematics(arm: ArmModel) -> IKSolver | None:
     """Core's IK solver for the flange (site `tcp`) of the arm's robot description, or None when its MJCF
-    or the IK backend (`rio-core[ik]`: mujoco, mink) is missing."""
+    or the IK backend (`rio-ufactory[ik]`: mujoco, mink) is missing."""
     if not arm.mjcf_path.exists():
         return None
     try:
@@ -89,8 +89,8 @@ class XArmEmulator:
             self.tool = ToolBoard(self.gripper)
             kin = kinematics if kinematics is not None else arm_kinematics(self.arm)
             if kin is None:
-                log.warning("%s: no kinematic model (%s, mujoco or mink missing): poses read 0, Cartesian "
-                            "commands are refused", self.arm.label, self.arm.mjcf_path.name)
+                log.warning("%s: no kinematic model (%s, mujoco or mink missing: pip install 'rio-ufactory[ik]'): "
+                            "poses read 0, Cartesian commands are refused", self.arm.label, self.arm.mjcf_path.name)
             self.machine = ArmMachine(self.arm, joints, self.tool, kin, sn=sn, box_sn="AC1300EMU0001",
                                       firmware=FIRMWARE)
         except Exception:

@@ -295,7 +295,8 @@ class ArmMachine:
         """Joints near `q0` putting the TCP at `tcp_goal` (a 7-vector pose); the best effort when out of
         reach. Joint limits hold (they are the model's)."""
         if self.kin is None:
-            raise Refused("no kinematic model for this arm (its MJCF, mujoco or mink is missing)")
+            raise Refused("no kinematic model for this arm (its MJCF, or mujoco and mink: pip install "
+                          "'rio-ufactory[ik]')")
         flange_goal = pose_mul(tcp_goal, pose_inv(from_xarm(self.tcp_offset)))
         return self.kin.solve(flange_goal, np.asarray(q0, dtype=float)[: self.axis], pos_tol=IK_POS_TOL,
                               rot_tol=IK_ROT_TOL, max_iters=iterations)

@@ -29,7 +29,8 @@ from ..faults import fault_of
 from ..models import ARMS, MAX_RATE_HZ, NODE_DEFAULTS
 
 log = logging.getLogger("rio_ur")
-MODELS = ModelTable(ARMS, description, default="ur5e", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ)
+MODELS = ModelTable(ARMS, description, default="ur5e", defaults=NODE_DEFAULTS, max_rate_hz=MAX_RATE_HZ,
+                    ik_extra="rio-ur[ik]")
 
 
 def from_ur(pose: Any) -> np.ndarray:

@@ -111,8 +111,13 @@ class ServoServer(TcpDevice):
     def _solver(self) -> Any:
         from rio.kinematics import solver_from_description
 
-        return solver_from_description(description(self.robot.model.name, self._tcp), orientation_cost=1.0,
-                                       damping=1e-4)
+        try:
+            return solver_from_description(description(self.robot.model.name, self._tcp), orientation_cost=1.0,
+                                           damping=1e-4)
+        except ImportError as e:
+            cause = e.__cause__ if isinstance(e.__cause__, ImportError) else e
+            raise ImportError(f"the UR emulator's servoL solves IK on the arm model, which needs its solver "
+                              f"({cause}): pip install 'rio-ur[ik]'") from None
 
     def _solve(self, tcp: np.ndarray) -> np.ndarray:
         from rio.control import rotvec_to_quat

@@ -20,7 +20,6 @@ import itertools
 import logging
 import threading
 import time
-from collections.abc import Callable, Mapping
 from functools import partial
 from typing import Any, ClassVar
 
@@ -34,8 +33,7 @@ from rio.middleware.protocol.config import NetworkConfig
 from rio.middleware.protocol.credits import CreditFlow, RequestStats
 from rio.middleware.protocol.requests import ANSWER_TIMEOUT_S
 from rio.runtime import wire
-from rio.runtime.buffers import RingBuffer
-from rio.runtime.layout import Layout
+from rio.runtime.buffers import RequestSender, RingBuffer
 from rio.runtime.node import Node
 from rio.runtime.transport import ClientTransport, NodeLayouts, ProcessWatch, machine_id
 
@@ -51,20 +49,6 @@ def local_process_watch(address: dict[str, Any], node: str) -> ProcessWatch | No
     if "pid" in address and address.get("machine") == machine_id():
         return ProcessWatch(int(address["pid"]), node)
     return None
-
-
-class RecordSender:
-    """The client side of a node's request queue on a network (what `rio.runtime.buffers.RequestSender` does, less
-    a copy): checks the values here and hands on the checked record's own memory, not a `tobytes()` copy of it;
-    the transport joins it with the request's id once (`NetworkClient._send_parts`), the only copy after the
-    check. A record can be megabytes (an observation with its camera frames)."""
-
-    def __init__(self, layout: Layout, send: Callable[[np.ndarray], None]):
-        self.layout, self._send = layout, send
-
-    def put(self, values: Mapping[str, Any]) -> None:
-        rec = self.layout.encode(values, fill_timestamp=clock.now())
-        self._send(rec.reshape(1).view(np.uint8))  # a fresh record, never written again: no copy needed
 
 
 class NetworkClient(ClientTransport):
@@ -87,7 +71,7 @@ class NetworkClient(ClientTransport):
         #: Decodes the samples a server sends compressed (`codecs`), made on the first one.
         self.decoder: RecordDecoder | None = None
         self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity) if layouts.data else None
-        self.request_queue = RecordSender(layouts.request, self._send_request) if layouts.request else None
+        self.request_queue = RequestSender(layouts.request, self._send_request) if layouts.request else None
         self._requests = CreditFlow(self.name, max(config.call_timeout, ANSWER_TIMEOUT_S),
                                     partial(self._send_parts, m.REQUEST), partial(self._recv_now, m.ACK),
                                     self.check_alive, recv_wait=partial(self._recv, m.ACK))
