@@ -50,7 +50,7 @@ def test_onnx_rl_policy(tmp_path):
 
 
 @pytest.mark.parametrize("kind", ["act", "diffusion"])
-def test_lerobot_policy_from_a_saved_directory(tmp_path, kind):
+def test_lerobot_policy_from_a_saved_directory(tmp_path, kind, capsys):
     pytest.importorskip("lerobot")
     from lerobot.configs.types import FeatureType, PolicyFeature
     from lerobot.policies.factory import get_policy_class, make_policy_config, make_pre_post_processors
@@ -68,6 +68,47 @@ def test_lerobot_policy_from_a_saved_directory(tmp_path, kind):
         processor.save_pretrained(tmp_path / "model")
     obs = SingleArmObs(proprio=np.zeros(4), cameras={"front": Camera(rgb=np.zeros((*size, 3), np.uint8))})
     pol = LeRobotPolicy(path=str(tmp_path / "model"), rate_hz=30)
+    capsys.readouterr()
     pol.load(ObsLayout.of(obs))
+    assert capsys.readouterr().out == ""  # LeRobot's own prints kept off stdout (`rio eval --json` prints there)
     chunk = pol(obs, None, t_obs=0.0)
     assert chunk.actions.shape[1] == 4 and chunk.horizon >= 1 and np.isfinite(chunk.actions).all()
+
+
+def test_lerobot_policy_trained_on_the_environment_state_reads_it(tmp_path):
+    """A checkpoint whose inputs name observation.environment_state (ACT on state + object poses, as trained on
+    `rio export --format lerobot`) is fed the observation's environment_state, through the saved normalizer:
+    moving only the cube moves the chunk. One without that input ignores it, and a station that measures no
+    object poses is told so, naming the input."""
+    pytest.importorskip("lerobot")
+    import torch
+    from lerobot.configs.types import FeatureType, PolicyFeature
+    from lerobot.policies.factory import get_policy_class, make_policy_config, make_pre_post_processors
+    from rio_policies.lerobot_policy import LeRobotPolicy
+
+    cfg = make_policy_config("act", device="cpu", chunk_size=5, n_action_steps=5, dim_model=32,
+                             dim_feedforward=64, n_heads=2, n_encoder_layers=1, use_vae=False)
+    cfg.input_features = {"observation.state": PolicyFeature(FeatureType.STATE, (4,)),
+                          "observation.environment_state": PolicyFeature(FeatureType.ENV, (3,))}
+    cfg.output_features = {"action": PolicyFeature(FeatureType.ACTION, (4,))}
+    torch.manual_seed(0)
+    policy = get_policy_class("act")(cfg)
+    policy.save_pretrained(tmp_path / "model")
+    stats = {"observation.state": {"mean": np.zeros(4), "std": np.ones(4)},
+             "observation.environment_state": {"mean": np.array([0.2, 0.05, 0.0]), "std": np.full(3, 0.02)},
+             "action": {"mean": np.zeros(4), "std": np.ones(4)}}
+    for processor in make_pre_post_processors(cfg, dataset_stats=stats):
+        processor.save_pretrained(tmp_path / "model")
+
+    def chunk(env):
+        obs = SingleArmObs(proprio=np.zeros(4), environment_state=None if env is None else np.asarray(env))
+        pol = LeRobotPolicy(path=str(tmp_path / "model"), rate_hz=30)
+        pol.load(ObsLayout.of(obs))
+        return pol(obs, None, t_obs=0.0).actions
+
+    here, there = chunk([0.2, 0.05, 0.02]), chunk([0.24, 0.09, 0.02])
+    assert here.shape == (5, 4) and np.isfinite(here).all()
+    assert np.abs(here - there).max() > 1e-3  # the cube's pose reached the model
+    np.testing.assert_allclose(chunk([0.2, 0.05, 0.02]), here, atol=1e-6)  # and nothing else changed it
+    with pytest.raises(ValueError, match="observation.environment_state"):
+        chunk(None)
