@@ -36,3 +36,17 @@ def test_an_old_dataset_exports_and_imports_under_the_new_name(native, old, tmp_
     f.import_(tmp_path / "old.zarr", tmp_path / "back")
     for e0, e1 in zip(Dataset(native), Dataset(tmp_path / "back"), strict=True):
         np.testing.assert_array_equal(e0.column("obs.gripper_width"), e1.column("obs.gripper_width"))
+
+
+def test_an_export_made_before_the_rename_imports_under_the_new_name(native, tmp_path):
+    """A zarr export from before Core v3 has `data/gripper_position`: importing it keeps the opening."""
+    zarr = pytest.importorskip("zarr")
+    f = get_format("zarr")
+    f.export(Dataset(native), tmp_path / "old.zarr")
+    data = zarr.open_group(str(tmp_path / "old.zarr"), mode="r+")["data"]
+    width = data["gripper_width"]
+    data.create_array("gripper_position", data=width[:], chunks=width.chunks)
+    del data["gripper_width"]
+    f.import_(tmp_path / "old.zarr", tmp_path / "back")
+    for e0, e1 in zip(Dataset(native), Dataset(tmp_path / "back"), strict=True):
+        np.testing.assert_array_equal(e0.column("obs.gripper_width"), e1.column("obs.gripper_width"))

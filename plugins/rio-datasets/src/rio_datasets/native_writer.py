@@ -13,7 +13,7 @@ import numpy as np
 
 from rio.recording import Recorder
 from rio.recording.flatten import load_class
-from rio.schema import Camera, Observation, Step
+from rio.schema import RENAMED_FIELDS, Camera, Observation, Step
 
 from .common import ENVIRONMENT_STATE, WRENCH_PREFIX, native_actions
 
@@ -52,7 +52,8 @@ def episode_steps(lowdim: dict[str, np.ndarray], images: dict[tuple[str, str], I
     fields = set(cls.__dataclass_fields__)
     n = len(next(iter(lowdim.values())))
     times = np.arange(n) / fps if t is None else np.asarray(t, dtype=np.float64)
-    lowdim = dict(lowdim)
+    # an export made before a field was renamed (`gripper_position`) imports under today's name
+    lowdim = {RENAMED_FIELDS.get(k, k): v for k, v in lowdim.items()}
     if "action" in lowdim:
         lowdim["action"] = native_actions(np.asarray(lowdim["action"]), (rio_meta or {}).get("first_action"))
     env = lowdim.pop(ENVIRONMENT_STATE, None)
