@@ -91,8 +91,11 @@ def turned(rotvec) -> np.ndarray:
 
 # -- the frame -------------------------------------------------------------------------------------------
 def test_the_published_frame_is_the_sdks_z_up_frame_turned_to_the_robot_axes():
-    from avp_stream.streamer import JOINT_NAMES, YUP2ZUP
+    from rio_teleop.avp.loader import import_avp  # (a bare import of the SDK takes over SIGINT and SIGTERM)
     from rio_teleop.webxr.mapping import XR_TO_ROBOT
+
+    streamer = import_avp()
+    JOINT_NAMES, YUP2ZUP = streamer.JOINT_NAMES, streamer.YUP2ZUP  # noqa: N806 (the SDK's names)
 
     # the SDK's YUP2ZUP, then ours: the visionOS world in robot axes, the same turn as the WebXR page's
     assert np.array_equal(SDK_TO_ROBOT @ YUP2ZUP[0, :3, :3], APP_TO_ROBOT)

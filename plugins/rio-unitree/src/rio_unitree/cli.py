@@ -8,6 +8,8 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Annotated
 
 import typer
@@ -82,53 +84,67 @@ def bridge(
     is brought up on its hoist, until you press Enter (or --release-after passes once its legs are held)."""
     from .bridge import Bridge
 
-    if threading.current_thread() is threading.main_thread():  # `kill` stops it as Ctrl-C does
-        signal.signal(signal.SIGTERM, _interrupt)
-    if release_after is not None and not gantry:
-        typer.echo("error: --release-after releases the gantry: add --gantry", err=True)
-        raise typer.Exit(1)
-    free = free or gantry
-    try:
-        b = Bridge(domain_id=domain_id, interface=interface, model=model, mounted=not free, state_rate_hz=state_rate_hz,
-                   gantry=gantry, release_after_s=release_after, lower_s=lower_s,
-                   hands="inspire" if inspire else None)
-    except (ValueError, OSError) as e:
-        typer.echo(f"error: {e}", err=True)
-        raise typer.Exit(1) from None
-    with b:
-        hands = f", hands {' and '.join(sorted(b.sim.hands))}" if b.sim.hands else ", Inspire hands" if inspire else ""
+    with _sigterm_as_ctrl_c():
+        if release_after is not None and not gantry:
+            typer.echo("error: --release-after releases the gantry: add --gantry", err=True)
+            raise typer.Exit(1)
+        free = free or gantry
+        try:
+            b = Bridge(domain_id=domain_id, interface=interface, model=model, mounted=not free,
+                       state_rate_hz=state_rate_hz, gantry=gantry, release_after_s=release_after, lower_s=lower_s,
+                       hands="inspire" if inspire else None)
+        except (ValueError, OSError) as e:
+            typer.echo(f"error: {e}", err=True)
+            raise typer.Exit(1) from None
+        with b:
+            hands = (f", hands {' and '.join(sorted(b.sim.hands))}" if b.sim.hands
+                     else ", Inspire hands" if inspire else "")
+            typer.echo(
+                f"G1 bridge on {interface}, DDS domain {domain_id}: model {b.sim.source}{hands}, "
+                f"{'on its gantry' if gantry else 'free' if free else 'mounted'}, {1 / b.dt:.0f} Hz; Ctrl-C to stop",
+                err=True,
+            )
+            enter = gantry and sys.stdin.isatty()
+            if gantry:
+                when = ([f"{release_after:g} s after its legs are held stiff on rt/lowcmd"]
+                        if release_after is not None else [])
+                when += ["when you press Enter"] if enter else []
+                typer.echo(f"the gantry holds it; it is lowered onto its feet over {lower_s:g} s "
+                           + (" or ".join(when) or "never (no terminal, no --release-after)"), err=True)
+            t_end = None if seconds is None else time.monotonic() + seconds
+            try:
+                while t_end is None or time.monotonic() < t_end:
+                    if enter and _enter_pressed(0.1):
+                        b.release_gantry()
+                        enter = False
+                        typer.echo("lowering the gantry", err=True)
+                    else:
+                        time.sleep(0.1)
+                    if not b.running:
+                        typer.echo("error: the bridge stopped (see the log above)", err=True)
+                        raise typer.Exit(1)
+            except KeyboardInterrupt:
+                pass
+            c = b.counts
         typer.echo(
-            f"G1 bridge on {interface}, DDS domain {domain_id}: model {b.sim.source}{hands}, "
-            f"{'on its gantry' if gantry else 'free' if free else 'mounted'}, {1 / b.dt:.0f} Hz; Ctrl-C to stop",
+            f"stopped: {c.steps} steps, {c.lowstate} lowstate sent, {c.lowcmd} lowcmd and {c.arm_sdk} arm_sdk "
+            f"received, {c.bad_crc} with a bad CRC ignored",
             err=True,
         )
-        enter = gantry and sys.stdin.isatty()
-        if gantry:
-            when = [f"{release_after:g} s after its legs are held stiff on rt/lowcmd"] if release_after is not None \
-                else []
-            when += ["when you press Enter"] if enter else []
-            typer.echo(f"the gantry holds it; it is lowered onto its feet over {lower_s:g} s "
-                       + (" or ".join(when) or "never (no terminal, no --release-after)"), err=True)
-        t_end = None if seconds is None else time.monotonic() + seconds
-        try:
-            while t_end is None or time.monotonic() < t_end:
-                if enter and _enter_pressed(0.1):
-                    b.release_gantry()
-                    enter = False
-                    typer.echo("lowering the gantry", err=True)
-                else:
-                    time.sleep(0.1)
-                if not b.running:
-                    typer.echo("error: the bridge stopped (see the log above)", err=True)
-                    raise typer.Exit(1)
-        except KeyboardInterrupt:
-            pass
-        c = b.counts
-    typer.echo(
-        f"stopped: {c.steps} steps, {c.lowstate} lowstate sent, {c.lowcmd} lowcmd and {c.arm_sdk} arm_sdk "
-        f"received, {c.bad_crc} with a bad CRC ignored",
-        err=True,
-    )
+
+
+@contextmanager
+def _sigterm_as_ctrl_c() -> Iterator[None]:
+    """`kill` stops the bridge as Ctrl-C does; the process's own SIGTERM handler is back afterwards (the command
+    may run inside another program: a test, a notebook)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, before)
 
 
 def _enter_pressed(timeout: float) -> bool:
