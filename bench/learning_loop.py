@@ -39,40 +39,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: sim-so100 (its scene, arm, gripper and task starts) without cameras or teleop device; a 15 s time limit
-#: (the expert needs ~6 s) so a failing trial does not hold the evaluation for sim-so100's 30 s
-STATION = """\
-name = "sim-so100-loop"
-rate_hz = 30
-
-[middleware]
-name = "shm"
-
-[components.world_sensor]
-driver = "sim.world"
-scene = "so100"
-
-[components.world_sensor.task]
-seed = 0
-time_limit_s = 15
-
-[components.world_sensor.task.start.cube]
-x = [0.16, 0.24]
-y = [0.02, 0.10]
-yaw = [-3.1416, 3.1416]
-
-[components.world_sensor.task.start.pad]
-x = [0.16, 0.24]
-y = [-0.10, -0.02]
-
-[components.arm]
-driver = "sim.arm"
-robot = "so100"
-
-[components.gripper]
-driver = "sim.gripper"
-robot = "so100"
-"""
+#: the packaged station: sim-so100 (its scene, arm, gripper and task starts) without cameras or teleop device,
+#: 15 s per trial
+STATION = "sim-so100-loop"
 
 #: torch and torchvision that pip takes from this machine's disk and that import together (PyPI's torchvision 0.28
 #: beside the CPU torch 2.13.0 fails: its extension links the CUDA libraries, `torchvision::nms does not exist`);
@@ -96,7 +65,7 @@ def single_thread_env() -> dict[str, str]:
             "HF_DATASETS_OFFLINE": "1", "WANDB_MODE": "disabled"}
 
 
-def record(work: Path, station: Path, demos: int, seed: int) -> dict:
+def record(work: Path, station: str, demos: int, seed: int) -> dict:
     """The expert's demonstrations (kept: the successful ones) and their completion times."""
     out, meta = work / "demos", work / "demos.json"
     if meta.exists() and out.exists():
@@ -106,7 +75,7 @@ def record(work: Path, station: Path, demos: int, seed: int) -> dict:
 
     shutil.rmtree(out, ignore_errors=True)
     log(f"recording {demos} expert demonstrations (seed {seed})")
-    rollouts = record_expert_demos(out, str(station), episodes=range(demos), seed=seed)
+    rollouts = record_expert_demos(out, station, episodes=range(demos), seed=seed)
     times = [r.time_s - HOLD_S for r in rollouts if r.success]
     info = {"episodes": demos, "kept": len(times), "seed": seed, "completion_s": times}
     meta.write_text(json.dumps(info))
@@ -197,12 +166,12 @@ def train(py: Path, dataset: Path, work: Path, steps: int, minutes: float, batch
     return info
 
 
-def evaluate(py: Path, station: Path, checkpoint: str, trials: int, seed: int, work: Path) -> dict:
+def evaluate(py: Path, station: str, checkpoint: str, trials: int, seed: int, work: Path) -> dict:
     meta = work / "eval.json"
     if meta.exists():
         return eval_json(meta.read_text())
     policy = f"lerobot.local,path={checkpoint},rate_hz=30"
-    cmd = [str(py.parent / "rio"), "eval", str(station), "--policy", policy, "--trials", str(trials),
+    cmd = [str(py.parent / "rio"), "eval", station, "--policy", policy, "--trials", str(trials),
            "--seed", str(seed), "--json"]
     log("evaluating: " + " ".join(cmd))
     out = subprocess.run(cmd, capture_output=True, text=True, env=single_thread_env())
@@ -258,14 +227,11 @@ def main() -> None:
     if a.fresh:
         shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True, exist_ok=True)
-    station = work / "sim-so100-loop.toml"
-    station.write_text(STATION)
-
-    demos = record(work, station, a.demos, a.demo_seed)
+    demos = record(work, STATION, a.demos, a.demo_seed)
     dataset = export(work)
     py = training_env(a.cache.resolve())
     trained = train(py, dataset, work, a.steps, a.train_minutes, a.batch, a.chunk, a.save_every)
-    result = evaluate(py, station, trained["checkpoint"], a.trials, a.eval_seed, work)
+    result = evaluate(py, STATION, trained["checkpoint"], a.trials, a.eval_seed, work)
     print(table(demos, trained, result, a.trials))
     print(f"\nmachine: {os.cpu_count()} cores, load average at the end of training {trained['load_1min']:.1f}; "
           f"demonstrations seed {a.demo_seed}, evaluation seed {a.eval_seed}; checkpoint {trained['checkpoint']}")

@@ -42,43 +42,8 @@ pytestmark = pytest.mark.slow
 
 from rio_sim.expert import HOLD_S  # noqa: E402
 
-from rio.station.load import load_station  # noqa: E402
+from rio.station.load import load_station, read_station_text  # noqa: E402
 from rio.testing import run_rio  # noqa: E402
-
-#: sim-so100 (its scene, arm and task) without its cameras and teleop device, the time limit cut to 10 s: the
-#: policy reads state and environment state only, and the baseline's trials run to the limit.
-STATION = """
-name = "sim-so100-loop"
-rate_hz = 30
-
-[middleware]
-name = "shm"
-
-[components.world_sensor]
-driver = "sim.world"
-scene = "so100"
-
-[components.world_sensor.task]
-seed = 0
-time_limit_s = 10
-
-[components.world_sensor.task.start.cube]
-x = [0.16, 0.24]
-y = [0.02, 0.10]
-yaw = [-3.1416, 3.1416]
-
-[components.world_sensor.task.start.pad]
-x = [0.16, 0.24]
-y = [-0.10, -0.02]
-
-[components.arm]
-driver = "sim.arm"
-robot = "so100"
-
-[components.gripper]
-driver = "sim.gripper"
-robot = "so100"
-"""
 
 DEMOS = 30
 TRIALS, BASELINE_TRIALS = 4, 2
@@ -93,8 +58,11 @@ HORIZON = 4
 
 @pytest.fixture(scope="module")
 def station(tmp_path_factory):
+    # the packaged sim-so100-loop with its time limit cut to 10 s: the baseline's trials run to the limit
+    text, _ = read_station_text("sim-so100-loop")
+    assert "time_limit_s = 15" in text
     path = tmp_path_factory.mktemp("station") / "sim-so100-loop.toml"
-    path.write_text(STATION)
+    path.write_text(text.replace("time_limit_s = 15", "time_limit_s = 10"))
     ours, theirs = (load_station(s).components["world_sensor"].config.task for s in (str(path), "sim-so100"))
     assert ours.start == theirs.start and ours.min_distance_m == theirs.min_distance_m  # sim-so100's starts
     return str(path)

@@ -43,6 +43,7 @@ def rio_drivers() -> list[Spec]:
 
 _STATIONS = {
     "sim-so100": "SO-100 arm + gripper, wrist and front cameras; task: the cube onto the pad, random starts (MuJoCo)",
+    "sim-so100-loop": "sim-so100 without cameras: its task for state-based policies, 15 s per trial (MuJoCo)",
     "sim-bimanual": "two SO-100 arms + grippers, wrist and front cameras; task: each cube onto its pad (MuJoCo)",
     "sim-xarm7": "xArm7 + gripper, wrist and front (RGB-D) cameras, end-effector actions (MuJoCo)",
     "sim-g1": "Unitree G1 + Dex3-1 hands on a stand at a table, head camera, scripted hand tracking (MuJoCo)",
