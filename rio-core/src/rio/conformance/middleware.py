@@ -288,8 +288,9 @@ class MiddlewareConformance(FloodConformance):
             t.join()
         assert not errors, errors
         c = running[2]
-        assert wait_until(lambda: len(c.handled()) - before >= 2 * n, timeout=self.wait_s), (
-            "timed out waiting for all requests handled")
+        # none lost, not how fast: 400 queued requests drain at the node's pace, which a loaded machine slows
+        assert wait_until(lambda: len(c.handled()) - before >= 2 * n, timeout=max(self.wait_s, 15.0)), (
+            f"timed out waiting for all requests handled ({len(c.handled()) - before} of {2 * n})")
         got = [tuple(x) for x in c.handled()[before:]]
         assert len(got) == 2 * n
         for cid in (1, 2):
