@@ -90,6 +90,36 @@ def test_pty_device_started_later_serves_in_a_named_thread():
     assert closed == [True] and not any(t.name.startswith("rio-test-upper") for t in threading.enumerate())
 
 
+class _SdkPort:
+    """The part of a servo SDK's `PortHandler` that `port_handler` changes (a stand-in for the SDK's class):
+    its own packet timeout, 34 ms."""
+
+    def __init__(self, port: str):
+        self.port = port
+
+    def setPacketTimeout(self, packet_length: int) -> None:  # noqa: N802 (SDK name)
+        self.packet_timeout = 34.0
+
+
+def test_a_servo_port_this_process_emulates_waits_longer_for_its_answers():
+    """Whoever opens a pty a `PtyDevice` of this process serves gets the slack a thread needs on a loaded
+    machine; a real port, or the pty once its device closed, keeps the SDK's own timeout."""
+    from rio.machine.servo_port import EMULATED_SLACK_MS, port_handler
+
+    def timeout(port: str) -> float:
+        ph = port_handler(_SdkPort, port)
+        ph.setPacketTimeout(10)
+        return ph.packet_timeout
+
+    dev = Upper(start=False)
+    try:
+        assert timeout(dev.port) == EMULATED_SLACK_MS
+        assert timeout("/dev/ttyUSB0") == 34.0
+    finally:
+        dev.close()
+    assert timeout(dev.port) == 34.0
+
+
 # -- Modbus ------------------------------------------------------------------------------------------------
 def h(text: str) -> bytes:
     return bytes.fromhex(text)

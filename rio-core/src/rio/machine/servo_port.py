@@ -3,11 +3,11 @@
 dynamixel-sdk and Feetech's scservo_sdk (and the SDKs forked from them) share one `PortHandler` API,
 which polls a zero-timeout port while it waits for a status packet: a driver node spinning there takes
 the CPU, and the GIL, from the rest of its process. Their drivers therefore use `port_handler`: reads
-block for at most `READ_SLICE_S` (the SDK still checks its packet timeout between reads), and the packet
-timeout can be raised to `min_timeout_ms` (an emulated servo answering from a thread on a loaded machine
-needs more than the SDK's own, which suits a real bus). A port that a device of this very process emulates
-(`rio.emulation.PtyDevice` marks its pty here) gets `EMULATED_SLACK_MS` whoever opens it: the station's own
-emulator or one a script or test made and handed the driver by its path."""
+block for at most `READ_SLICE_S` (the SDK still checks its packet timeout between reads), and a port that
+a device of this very process emulates (`rio.emulation.PtyDevice` marks its pty here) waits at least
+`EMULATED_SLACK_MS` for a status packet, whoever opens it (the station's own emulator, or one a script or test
+made and handed the driver by its path): an emulated servo answers from a thread, which a loaded machine may
+not schedule within the SDK's own timeout (that suits a real bus)."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def emulated_here(port: str) -> bool:
     return port in _EMULATED
 
 
-def port_handler(base: type, port: str, min_timeout_ms: float = 0.0) -> Any:
+def port_handler(base: type, port: str) -> Any:
     """An instance, for `port`, of the SDK's `PortHandler` class `base` with the two changes above."""
 
     class PortHandler(base):
@@ -44,7 +44,7 @@ def port_handler(base: type, port: str, min_timeout_ms: float = 0.0) -> Any:
 
         def setPacketTimeout(self, packet_length: Any) -> None:  # noqa: N802 (SDK name)
             super().setPacketTimeout(packet_length)
-            self.packet_timeout = max(self.packet_timeout, min_timeout_ms,
-                                      EMULATED_SLACK_MS if emulated_here(port) else 0.0)
+            if emulated_here(port):
+                self.packet_timeout = max(self.packet_timeout, EMULATED_SLACK_MS)
 
     return PortHandler(port)

@@ -63,11 +63,8 @@ class FeetechBus:
     """One serial bus. `names` maps servo ids to joint names for error messages."""
 
     def __init__(self, port: str, *, baudrate: int = 1_000_000, retries: int = 2,
-                 names: Mapping[int, str] | None = None, min_timeout_ms: float = 0.0):
-        """`min_timeout_ms`: wait at least this long for a status packet (the SDK's own timeout, ~34 ms,
-        suits a real bus; an emulated servo answering from a thread on a loaded machine needs more)."""
+                 names: Mapping[int, str] | None = None):
         self.port, self.baudrate, self.retries = port, int(baudrate), int(retries)
-        self.min_timeout_ms = float(min_timeout_ms)
         self.names = dict(names or {})
         self._ph = self._pk = None
         self._lock: PortLock | None = None
@@ -80,7 +77,7 @@ class FeetechBus:
     def open(self) -> FeetechBus:
         scs = _sdk()
         self._lock = PortLock(self.port)
-        ph = port_handler(_sdk().PortHandler, self.port, self.min_timeout_ms)
+        ph = port_handler(_sdk().PortHandler, self.port)
         try:
             with self._lock:  # opening flushes the tty's input: not in the middle of someone's exchange
                 ok = ph.openPort() and ph.setBaudRate(self.baudrate)

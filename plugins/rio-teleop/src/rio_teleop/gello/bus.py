@@ -36,19 +36,18 @@ def _sdk():
 
 class DynamixelBus:
     def __init__(self, port: str, *, baudrate: int = 57600, retries: int = 2, names: Mapping[int, str] | None = None,
-                 label: str | None = None, min_timeout_ms: float = 0.0):
+                 label: str | None = None):
         """`label`: how errors name the port (the station's "emulator" rather than a pty path)."""
         self.port, self.baudrate, self.retries = port, int(baudrate), int(retries)
         self.label = label or port
         self.names = dict(names or {})
-        self.min_timeout_ms = float(min_timeout_ms)
         self._ph = self._pk = None
         self._reader = None
         self.retried = 0
 
     def open(self) -> DynamixelBus:
         sdk = _sdk()
-        ph = port_handler(_sdk().PortHandler, self.port, self.min_timeout_ms)
+        ph = port_handler(_sdk().PortHandler, self.port)
         try:
             ok = ph.openPort() and ph.setBaudRate(self.baudrate)
         except Exception as e:  # serial.SerialException, OSError
