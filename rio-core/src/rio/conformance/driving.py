@@ -214,6 +214,7 @@ def run_with_fault(node: Node, hook: str, after: int = 3,
         error = e
     finally:
         timer.cancel()
+        timer.join()  # a cancelled Timer's thread still takes a moment to end: none is left behind
         transport.close()
     return error, calls
 

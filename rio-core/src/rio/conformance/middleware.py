@@ -247,16 +247,25 @@ class MiddlewareConformance(FloodConformance):
 
     # -- cases on the shared echo server ------------------------------------------------------------
     def test_latest_state_advances_and_last_k_is_ordered(self, running):
+        """A network client's mirror holds what reached it: a state stream may skip a sample (one published
+        before this client's subscription reached the server, or dropped under congestion: the newest
+        matters more than every one), never repeats or reorders one. A shared ring skips none."""
         _, _, c = running
+        k = 5
         s1 = c.get_state()
-        assert wait_until(lambda: c.get_state()["tick"] > s1["tick"] + 3, timeout=self.wait_s), (
+        # k + 3 newer samples: the mirror then holds k that arrived after s1 even if a few were skipped
+        assert wait_until(lambda: c.get_state()["tick"] > s1["tick"] + k + 3, timeout=self.wait_s), (
             "timed out waiting for new samples")
         s2 = c.get_state()
         assert s2["timestamp"] > s1["timestamp"]
         np.testing.assert_array_equal(s2["q"], np.full(6, float(s2["tick"])))
-        last = c.get_state(k=5)
-        assert last["q"].shape == (5, 6) and last["tick"].shape == (5,)
-        assert np.all(np.diff(last["tick"]) == 1), last["tick"]
+        last = c.get_state(k=k)
+        assert last["q"].shape == (k, 6) and last["tick"].shape == (k,)
+        steps = np.diff(last["tick"])
+        if isinstance(c._transport, NetworkClient):  # type: ignore[attr-defined]  # (a NodeClient)
+            assert np.all(steps >= 1), last["tick"]
+        else:
+            assert np.all(steps == 1), last["tick"]
         assert np.all(np.diff(last["timestamp"]) > 0)
         assert last["tick"][-1] >= s2["tick"]
 
