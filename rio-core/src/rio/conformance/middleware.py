@@ -262,7 +262,7 @@ class MiddlewareConformance(FloodConformance):
         last = c.get_state(k=k)
         assert last["q"].shape == (k, 6) and last["tick"].shape == (k,)
         steps = np.diff(last["tick"])
-        if isinstance(c._transport, NetworkClient):  # type: ignore[attr-defined]  # (a NodeClient)
+        if isinstance(c._transport, NetworkClient):
             assert np.all(steps >= 1), last["tick"]
         else:
             assert np.all(steps == 1), last["tick"]
