@@ -20,7 +20,9 @@ which pytest 9.2 no longer reads (pytest-dev/pytest-xdist#1386). The scheduler b
 so the shared resources are named here, by file.
 
 Units are handed out in the order the workers collected them, and a worker collects the units holding the
-most `slow` tests first: a unit of several minutes started last would leave the other workers idle.
+most `slow` tests first, then those with the most tests: a unit of several minutes started last would leave
+the other workers idle (seen: the xArm conformance file, 126 tests and 2.5 minutes of waiting on the SDK,
+none slow, handed out last and ending the run 80 s after the other workers).
 """
 
 from __future__ import annotations
@@ -49,9 +51,11 @@ def pytest_collection_modifyitems(config: Any, items: list[Any]) -> None:
         if hardware:
             config.hook.pytest_deselected(items=hardware)
             items[:] = [item for item in items if item.get_closest_marker("hardware") is None]
-    if hasattr(config, "workerinput"):  # an xdist worker: the units with the most slow tests first
+    if hasattr(config, "workerinput"):  # an xdist worker: the units with the most slow tests first, then the largest
         slow = Counter(unit_of(item.nodeid) for item in items if item.get_closest_marker("slow") is not None)
-        items.sort(key=lambda item: -slow[unit_of(item.nodeid)])  # stable: a unit's tests keep their order
+        size = Counter(unit_of(item.nodeid) for item in items)
+        # stable: a unit's tests keep their order
+        items.sort(key=lambda item: (-slow[unit_of(item.nodeid)], -size[unit_of(item.nodeid)]))
 
 
 def pytest_sessionstart(session: Any) -> None:

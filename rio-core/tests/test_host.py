@@ -116,10 +116,12 @@ def test_file_lock_is_exclusive_across_descriptors(tmp_path):
 
 @pytest.mark.slow
 def test_shared_memory_suites_pass_on_the_portable_paths():
-    """The whole middleware conformance kit (every middleware watches its node processes through
-    rio.machine.host), the shm middleware and call-channel tests, crash-safe recording and the sim world bus,
-    re-run with RIO_HOST_FALLBACK=1: what macOS runs, on this Linux machine."""
-    suites = ["rio-core/tests/test_conformance.py", "rio-core/tests/test_mw_shm.py",
+    """The middleware conformance kit on shm (its memory, locks and process watch) and on zmq (the process
+    watch of every network middleware's client, `rio.runtime.transport.ProcessWatch`; zenoh's and the
+    portal's are the same code), the shm middleware and call-channel tests, crash-safe recording and the sim
+    world bus, re-run with RIO_HOST_FALLBACK=1: what macOS runs, on this Linux machine."""
+    suites = ["rio-core/tests/test_conformance.py::TestShm", "rio-core/tests/test_conformance.py::TestZmq",
+              "rio-core/tests/test_mw_shm.py",
               "rio-core/tests/test_shm_calls.py", "rio-core/tests/test_recording_crash.py",
               "plugins/rio-sim/tests/test_bus.py"]
     env = {**os.environ, "RIO_HOST_FALLBACK": "1"}

@@ -14,17 +14,6 @@ def test_fake_station_traces_the_scripted_square():
     run_scripted_square("fr3-fake")
 
 
-@pytest.mark.slow
-def test_sim_station_picks_the_cube_and_places_it_on_the_pad():
-    pytest.importorskip("rio_sim")
-    pytest.importorskip("mujoco")
-    from rio_sim.testing import check_cube_on_pad
-
-    summary = run_teleop("panda-sim", "scripted", device_config={"script": "pick_place", "speed": 0.15,
-                                                                 "grasp_s": 1.5}, middleware="thread", log=None)
-    check_cube_on_pad(summary, "panda")
-
-
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
     """One scripted pick-and-place recorded by the code of `rio teleop panda-sim --teleop scripted --record`."""
@@ -39,7 +28,7 @@ def recorded(tmp_path_factory):
 def test_the_sim_station_records_the_pick_and_place(recorded):
     from rio_sim.testing import check_recorded_pick_and_place
 
-    check_recorded_pick_and_place(recorded)
+    check_recorded_pick_and_place(recorded, "panda")
 
 
 @pytest.mark.slow

@@ -1,7 +1,7 @@
 """The packaged stations end to end through the real loop (thread middleware): on `gen3-fake` the fake
 base traces the scripted square; on `gen3-sim` it drives rio-sim's Gen3 (joints through physics, the
 2F-85's goal to the simulated fingers) through the scripted pick-and-place, and the world's ground truth
-says the cube was carried to the pad. The sim station also records a run (the code of `rio teleop
+says the cube was carried to the pad, in a run the sim station records (the code of `rio teleop
 --record`) that `run_deploy` replays, putting the cube down where it was taught. The sim arm must be the
 driver's arm for any of this to work: its kinematics are checked against Kinova's DH table."""
 
@@ -15,7 +15,6 @@ from rio_kinova import dh
 from rio_kinova.models import get_arm
 
 from rio.testing import run_scripted_square
-from rio.workflows.teleop import run_teleop
 
 SIM = "gen3-sim"
 
@@ -62,22 +61,6 @@ def test_the_sim_gen3_is_the_drivers_arm_with_the_stations_tool():
             np.testing.assert_allclose(span, (low, high), atol=1e-6)
 
 
-@pytest.mark.slow
-def test_sim_station_picks_the_cube_and_places_it_on_the_pad():
-    needs_sim()
-    from rio_sim.scenes import CUBE
-    from rio_sim.testing import check_cube_on_pad
-
-    widths: list[float] = []
-    summary = run_teleop(SIM, "scripted", middleware="thread", log=None,
-                         on_tick=lambda tick: widths.append(float(tick.step.observation.gripper_width)))
-    check_cube_on_pad(summary, "gen3")  # the world's ground truth
-    # the gripper node reports the simulated fingers: stopped by the cube while carrying it, open at the end
-    assert abs(min(widths) - CUBE) < 0.006, (min(widths), summary.format())
-    arm = next(a for a in summary.arms if a.role == "arm")
-    assert arm.gripper is not None and arm.gripper > 0.08, summary.format()
-
-
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
     """One scripted pick-and-place recorded by the code of `rio teleop gen3-sim --teleop scripted --record`."""
@@ -89,9 +72,13 @@ def recorded(tmp_path_factory):
 
 @pytest.mark.slow
 def test_the_recording_holds_the_pick_arm_gripper_and_cameras(recorded):
+    from rio_sim.scenes import CUBE
     from rio_sim.testing import check_recorded_pick_and_place
 
-    check_recorded_pick_and_place(recorded)
+    ep = check_recorded_pick_and_place(recorded, "gen3")  # the world's ground truth: the cube on the pad
+    # the gripper node reports the simulated fingers: stopped by the cube while carrying it, open at the end
+    widths = ep.column("obs.gripper_width")
+    assert abs(widths.min() - CUBE) < 0.006 and widths[-1] > 0.08, (widths.min(), widths[-1])
 
 
 @pytest.mark.slow

@@ -75,12 +75,16 @@ def cube_path(root: Any) -> Any:
     return Dataset(root).episode(0).column("meta.sensors.world.object_poses")[:, 0, :3]
 
 
-def check_recorded_pick_and_place(root: Any) -> None:
+def check_recorded_pick_and_place(root: Any, robot: str | None = None, tolerance_m: float = 0.015) -> Any:
     """Episode 0 of `root` holds the cameras and enough steps, verifies, and its ground truth shows the
-    cube carried over to the pad (12 cm away), lifted on the way and put down."""
+    cube carried over to the pad (12 cm away; with `robot`, within `tolerance_m` of its scene's pad),
+    lifted on the way and put down. Returns the episode."""
     import numpy as np
 
     from rio.recording.dataset import Dataset
+
+    from .robots import get_robot
+    from .scenes import PLACE_OFFSET
 
     ep = Dataset(root).episode(0)
     assert set(ep.cameras) >= {"front", "wrist"}, ep.cameras
@@ -89,7 +93,11 @@ def check_recorded_pick_and_place(root: Any) -> None:
     assert np.linalg.norm(cube[-1, :2] - cube[0, :2]) > 0.10, cube[[0, -1]]
     assert cube[:, 2].max() > cube[0, 2] + 0.04, cube[:, 2].max()
     assert abs(cube[-1, 2] - cube[0, 2]) < 0.005, cube[[0, -1]]
+    if robot is not None:
+        pad = np.asarray(get_robot(robot).home_tool) + PLACE_OFFSET
+        assert np.linalg.norm(cube[-1, :2] - pad[:2]) < tolerance_m, (cube[-1], pad)
     assert not ep.verify()
+    return ep
 
 
 def check_replay_repeats_the_task(station: str, root: Any, rollout: Any, duration: float = 20.0,
