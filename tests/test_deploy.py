@@ -74,9 +74,15 @@ def test_replay_reproduces_a_recorded_rollout(tmp_path):
     t_rec = np.array([k.step.meta["t_obs"] - r0 for k in recorded])
     t_rep = np.array([k.step.meta["t_obs"] - p0 for k in replayed])
     mid = (t_rep > 0.2) & (t_rep < min(t_rec[-1], t_rep[-1]) - 0.1)
+    # until a chunk came late, if one did: the replay then held its last command (a loaded machine's stall
+    # in the policy node, seen in CI at load 10), which the recording did not
+    late = [i for i, k in enumerate(replayed) if k.info["sample"] is not None and k.info["sample"].late]
+    if late:
+        mid &= t_rep < t_rep[late[0]]
+    assert mid.sum() >= 5, (late, summary.format())
     for j in range(q_rec.shape[1]):
         err = np.abs(q_rep[mid, j] - np.interp(t_rep[mid], t_rec, q_rec[:, j]))
-        assert err.max() < 0.4 * 0.04 + 1e-6, (j, err.max())  # within two control periods of motion
+        assert err.max() < 0.4 * 0.04 + 1e-6, (j, err.max(), summary.format())  # within two periods of motion
 
 
 def test_crashing_policy_is_reported_by_name_and_the_robot_holds():
