@@ -169,7 +169,9 @@ def test_demonstrations_exported_fitted_and_deployed_beat_a_blind_replay(station
     exported = tmp_path / "pick.zarr"
     run_rio("export", str(root), "--format", "zarr", str(exported))
     data = load_zarr(exported)
-    assert data["obs"].shape == (len(data["action"]), 41) and data["state_dim"] == 6
+    # state 6, tool pose 7, the cube's and the pad's poses 7 each (the loop's station reports no other object)
+    assert data["obs"].shape == (len(data["action"]), 27) and data["state_dim"] == 6
+    assert [n.split(".")[0] for n in data["env_names"][::7]] == ["cube", "pad"]
     # each loaded observation is paired with the command the expert decided on it (the last row holds its own)
     kept = [r for r in rollouts if r.success]
     assert len(data["ends"]) == len(kept)

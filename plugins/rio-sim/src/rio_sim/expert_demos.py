@@ -89,7 +89,8 @@ def record_expert_demos(root: str | Path, station: Any = "sim-so100", episodes: 
         raise ValueError(f"station '{st.name}': expert demonstrations are recorded for a single arm with a gripper, "
                          "commanded in joint space, the scene's one pick-and-place arm")
     seed = world.task.seed if seed is None else int(seed)
-    ticks = _Ticks(scene, arm.robot, arm.arm, sensor_name(worlds[0]), world.task.time_limit_s, emb_config)
+    ticks = _Ticks(scene, arm.robot, arm.arm, sensor_name(worlds[0]), world.task.time_limit_s, emb_config,
+                   scene.reported_objects(world.objects))
     out = []
     with Recorder(root, fps=float(st.rate_hz), station=st.name, cameras=False,
                   metadata={"source": "rio_sim.expert_demos"}) as rec:
@@ -112,7 +113,8 @@ def record_expert_demos(root: str | Path, station: Any = "sim-so100", episodes: 
 class _Ticks:
     """`expert_rollout`'s `on_tick`: each tick as the step a control loop would record (module docstring)."""
 
-    def __init__(self, scene: Any, robot_name: str, arm: str, sensor: str, time_limit_s: float, emb_config: Any):
+    def __init__(self, scene: Any, robot_name: str, arm: str, sensor: str, time_limit_s: float, emb_config: Any,
+                 objects: list[str]):
         from rio.embodiments.single_arm import SingleArm
         from rio.kinematics import solver_from_description
 
@@ -123,7 +125,7 @@ class _Ticks:
 
         robot = get_robot(robot_name)
         model = build_model(scene.name)
-        self.names = [o.name for o in scene.free_objects]
+        self.names = objects  # the world node's object_poses rows (`SimWorld.Config.objects`)
         self.qadr = [model.joint(n).qposadr[0] for n in self.names]
         self.idx = arm_indices(model, arm, robot)
         dof = len(robot.arm_joints)

@@ -134,6 +134,19 @@ class Scene:
     def free_objects(self) -> list[SceneObject]:
         return [o for o in self.objects if o.free]
 
+    def reported_objects(self, chosen: list[str] | None = None) -> list[str]:
+        """The free objects whose poses a world reports (`object_poses`, the recorded environment state):
+        `chosen`, in its order, or all of them. ValueError naming an object the scene does not move."""
+        free = [o.name for o in self.free_objects]
+        if chosen is None:
+            return free
+        unknown = [n for n in chosen if n not in free]
+        why = (f"scene '{self.name}' does not move {unknown}" if unknown else "name at least one" if not chosen
+               else "each once" if len(set(chosen)) != len(chosen) else None)
+        if why:
+            raise ValueError(f"{why} (the scene's free objects: {', '.join(free)})")
+        return list(chosen)
+
     def object(self, name: str) -> SceneObject:
         for o in self.objects:
             if o.name == name:

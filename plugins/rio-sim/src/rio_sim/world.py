@@ -28,7 +28,7 @@ import copy
 from typing import Any
 
 import numpy as np
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from rio import clock
 from rio.control.interpolators import LinearInterpolator
@@ -54,6 +54,17 @@ class SimWorld(Node):
                                                 "floating base, which falls without a locomotion policy")
         task: TaskConfig | None = Field(None, description="episodes with randomized starts, success and a time "
                                                           "limit (see rio_sim.task)")
+        objects: list[str] | None = Field(None, description="the free objects whose poses object_poses reports "
+                                                            "(and a recording's environment state holds), in this "
+                                                            "order; default: all of the scene's. A state-based "
+                                                            "policy learns better without distractors' poses")
+
+        @field_validator("objects")
+        @classmethod
+        def _objects_of_scene(cls, objects: list[str] | None, info: ValidationInfo) -> list[str] | None:
+            if objects is not None and info.data.get("scene") in SCENES:
+                get_scene(info.data["scene"]).reported_objects(objects)
+            return objects
 
         @model_validator(mode="after")
         def _task_fits_scene(self):
@@ -65,7 +76,7 @@ class SimWorld(Node):
         c = self.config
         self.scene_name, self.world, self.max_steps = scene_key(c.scene, c.mounted), c.world, int(c.max_steps_per_tick)
         self.scene = get_scene(self.scene_name)
-        self.objects = [o.name for o in self.scene.free_objects]
+        self.objects = self.scene.reported_objects(c.objects)
         n = max(len(self.objects), 1)
         self.example_data = {"sim_time": 0.0, "rtf": 1.0, "object_poses": np.zeros((n, 7))}
         self.task = c.task
