@@ -161,11 +161,14 @@ def test_deploy_on_the_free_floating_g1_stands_for_10_s(tmp_path):
         s = bus[0].read_state()
         x, y, z, w, qx, qy, qz = s["qpos"][adr:adr + 7]
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, 1 - 2 * (qx * qx + qy * qy)))))
-        touching = on_table(s["qpos"]) if s["sim_time"] > 5.0 and len(trace) % 10 == 0 else 0
+        # simulated time since the episode began (the world stood the G1 up then, however long the station
+        # took to come up: on a loaded machine, seconds of physics in which it tipped onto the table)
+        t = s["sim_time"] - (trace[0][0] if trace else s["sim_time"])
+        touching = on_table(s["qpos"]) if t > 5.0 and len(trace) % 10 == 0 else 0
         trace.append((s["sim_time"], z + TABLE_HEIGHT, tilt, touching))
         if tick.info.get("chunk") is not None:
             chunks.append(tick.info["chunk"])
-        if s["sim_time"] > 10.0:
+        if t > 10.0:
             raise KeyboardInterrupt  # the loop's stop: 10 s of simulated time, however fast the machine runs
 
     try:
@@ -174,6 +177,7 @@ def test_deploy_on_the_free_floating_g1_stands_for_10_s(tmp_path):
         for b in bus:
             b.close()
     t, h, tilt, touching = np.array(trace).T
+    t = t - t[0]
     assert t[-1] > 10.0, summary.format()
     assert summary.details["stats"]["chunks"] > 0.9 * summary.ticks, summary.format()  # the model ran at 50 Hz
     assert h.min() > 0.6 and tilt.max() < 20.0, (h.min(), tilt.max(), summary.format())

@@ -122,7 +122,8 @@ gains = { arms = [100.0, 4.0], left_knee_joint = [150.0, 4.0] }
 
 
 def test_free_floating_it_tips_over_its_imu_says_so_and_its_group_and_joint_gains_reach_the_world(tmp_path):
-    """No locomotion policy: the G1 leans forward onto the table (~0.13 rad in 2 s)."""
+    """No locomotion policy: the G1 leans forward onto the table (~0.13 rad in 2 s); an episode's start stands
+    it up again (no task: nothing else moves)."""
     from rio_sim.bus import WorldBus
 
     from rio.control.rotations import quat_angle
@@ -131,9 +132,14 @@ def test_free_floating_it_tips_over_its_imu_says_so_and_its_group_and_joint_gain
     path = tmp_path / "free.toml"
     path.write_text(FREE)
     servers, clients, _ = make_station(str(path))
-    with ServerManager(servers), clients["humanoid"]() as body:
-        assert wait_until(lambda: quat_angle(body.get_state()["base_quat"], [1, 0, 0, 0]) > 0.05, 10.0), \
-            body.get_state()["base_quat"]
+    with ServerManager(servers), clients["humanoid"]() as body, clients["world_sensor"]() as world:
+        def tilt() -> float:
+            return quat_angle(body.get_state()["base_quat"], [1, 0, 0, 0])
+
+        assert wait_until(lambda: tilt() > 0.05, 10.0), body.get_state()["base_quat"]
+        assert world.start_episode(0, 0) is None
+        assert wait_until(lambda: tilt() < 0.02, 5.0), tilt()  # on its feet again, tipping from there
+        assert wait_until(lambda: tilt() > 0.05, 10.0), tilt()
         bus = WorldBus.attach("g1free", timeout=5)
         try:
             idx = joint_indices(build_model("g1:floating"), "g1", g1.JOINTS)

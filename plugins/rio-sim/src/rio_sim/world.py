@@ -221,12 +221,35 @@ class SimWorld(Node):
         start never depends on the episodes before it on the same world), at rest, and its clock restarts.
         Returns what to record of it (`rio_sim.task.EpisodeStart.to_json`, with the task's kind and time limit);
         None without a task (nothing moves). The arms stay where they are: a workflow starts each episode on a
-        station just started, its arms at home, or sends them home first (`rio eval`)."""
+        station just started, its arms at home, or sends them home first (`rio eval`). A free-floating humanoid
+        (`mounted = false`) starts every episode standing at home, at rest, task or not: without it, what a
+        locomotion policy starts from would be however far the body tipped while the station came up."""
+        stood = self._stand_free_humanoid()
         if self.task is None:
+            if stood:
+                self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl,
+                                     self.data.sensordata)
             return None
         start = self._start(self.task.seed if seed is None else int(seed), int(episode))
         self.bus.write_state(self.data.time, self.data.qpos, self.data.qvel, self.data.ctrl, self.data.sensordata)
         return {"kind": self.task.kind, "time_limit_s": self.task.time_limit_s, **start.to_json()}
+
+    def _stand_free_humanoid(self) -> bool:
+        """A free-floating humanoid back on its feet where the scene stands it: base pose and joints at home,
+        nothing moving. False (nothing done) for a mounted one, or a scene without one."""
+        h = self.scene.humanoid
+        if h is None or h.mounted:
+            return False
+        from .humanoid_models import get_humanoid
+
+        m, d, robot = self.model, self.data, get_humanoid(h.robot)
+        base = m.joint(f"{h.name}/{robot.FREE_JOINT}")
+        q, v = int(base.qposadr[0]), int(base.dofadr[0])
+        d.qpos[q:q + 7], d.qvel[v:v + 6] = m.qpos0[q:q + 7], 0.0
+        idx = joint_indices(m, h.name, robot.JOINTS)
+        d.qpos[idx.qpos], d.qvel[idx.dof] = robot.home(), 0.0
+        self._mj.mj_forward(m, d)
+        return True
 
     def _start(self, seed: int, episode: int) -> Any:
         start = sample_start(self.task, self.scene, seed, episode)
