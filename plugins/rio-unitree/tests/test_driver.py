@@ -218,6 +218,20 @@ def test_no_lowstate_at_open_is_a_named_error_within_the_timeout(domain_id):
     assert node.dds is None  # its participant is closed
 
 
+def test_a_station_that_stops_ends_the_wait_for_lowstate(domain_id):
+    """Another node of the station failed while this one waited for its robot: the station's stop ends the
+    wait (seen: a thread left waiting out its 30 s after the bridge beside it failed to start)."""
+    import threading
+
+    node = g1(domain_id, connect_timeout_s=60.0)
+    threading.Timer(0.3, node.exit_event.set).start()
+    t0 = time.monotonic()
+    with pytest.raises(ConnectionAbortedError, match="stopped while waiting for rt/lowstate on 'lo'"):
+        node.open()
+    assert time.monotonic() - t0 < 10.0  # not the 60 s timeout
+    assert node.dds is None
+
+
 def test_a_lowstate_with_a_wrong_crc_is_not_believed(domain_id):
     wrong = LowState()
     wrong.crc = 1

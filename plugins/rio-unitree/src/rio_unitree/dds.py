@@ -117,14 +117,18 @@ class Participant:
         from cyclonedds.topic import Topic
 
         if name not in self._topics:
-            self._topics[name] = Topic(self.participant, name, _types()[name])
+            with _lock:  # two nodes of one process (thread middleware) creating the same topic at once: seen
+                # failing in cyclonedds ("Non specific error" upon a Topic's initialisation) on a loaded machine
+                self._topics[name] = Topic(self.participant, name, _types()[name])
             self._entities.append(self._topics[name])
         return self._topics[name]
 
     def writer(self, name: str) -> Writer:
         from cyclonedds.pub import DataWriter
 
-        w = DataWriter(self.participant, self._topic(name))
+        topic = self._topic(name)
+        with _lock:
+            w = DataWriter(self.participant, topic)
         self._entities.append(w)
         return Writer(w, name)
 
@@ -133,7 +137,9 @@ class Participant:
         from cyclonedds.qos import Policy, Qos
         from cyclonedds.sub import DataReader
 
-        r = DataReader(self.participant, self._topic(name), Qos(Policy.History.KeepLast(depth)))
+        topic = self._topic(name)
+        with _lock:
+            r = DataReader(self.participant, topic, Qos(Policy.History.KeepLast(depth)))
         self._entities.append(r)
         return Reader(r, name, depth)
 

@@ -109,7 +109,8 @@ class G1(HumanoidNode):
                         f"{c.connect_timeout_s} s{self._refused()}: is the robot on, and this interface on its "
                         f"network (192.168.123.x)? `rio unitree check --interface {c.interface} --domain-id "
                         f"{c.domain_id}` tells (a simulator: its interface and domain, unitree_mujoco's are lo and 1)")
-                time.sleep(0.005)
+                if self.exit_event.wait(0.005):  # the station stops (another node failed): stop waiting
+                    raise ConnectionAbortedError(f"stopped while waiting for rt/lowstate on '{c.interface}'")
             if not self._out.wait_matched(max(1.0, c.connect_timeout_s) if c.control == "arm_sdk" else 1.0):
                 if c.control == "arm_sdk":  # commands nobody reads: the run would end "normally", arms never moved
                     raise ConnectionError(
