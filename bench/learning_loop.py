@@ -98,6 +98,9 @@ def training_env(cache: Path) -> Path:
     venv = cache / "venv"
     py = venv / "bin" / "python"
     if (venv / ".complete").exists():
+        if not runs_this_workspace(py):  # made from another checkout (since moved or deleted): install this one
+            log("the training environment's rio is another checkout's: installing this one's")
+            install_workspace(py, cache)
         return py
     shutil.rmtree(venv, ignore_errors=True)  # a half-made one (no .complete): made again
     cache.mkdir(parents=True, exist_ok=True)
@@ -107,16 +110,33 @@ def training_env(cache: Path) -> Path:
     subprocess.run([str(py), "-m", "pip", "install", "--quiet", "--upgrade", "pip"], check=True)
     subprocess.run([str(py), "-m", "pip", "install", "--quiet", *TORCH], check=True)  # pip takes the wheels on disk
     # lerobot 0.4.4 asks for torch<2.11: uv's overrides keep the torch just installed (pip cannot override)
-    overrides = cache / "overrides.txt"
-    overrides.write_text("\n".join(OVERRIDES) + "\n")
-    uv = [shutil.which("uv") or "uv", "pip", "install", "--python", str(py), "--overrides", str(overrides)]
-    subprocess.run([*uv, LEROBOT], check=True)
-    subprocess.run([*uv, "-e", str(ROOT / "rio-core"), "-e", str(ROOT / "plugins" / "rio-sim"),
-                    "-e", str(ROOT / "plugins" / "rio-policies")], check=True)
+    subprocess.run([*uv_install(py, cache), LEROBOT], check=True)
+    install_workspace(py, cache)
     check = "import torchvision.ops, lerobot.scripts.lerobot_train, rio_policies, rio_sim"
     subprocess.run([str(py), "-c", check], check=True)
     (venv / ".complete").touch()
     return py
+
+
+def uv_install(py: Path, cache: Path) -> list[str]:
+    """`uv pip install` into the training environment, with overrides keeping its torch."""
+    overrides = cache / "overrides.txt"
+    overrides.write_text("\n".join(OVERRIDES) + "\n")
+    return [shutil.which("uv") or "uv", "pip", "install", "--python", str(py), "--overrides", str(overrides)]
+
+
+def install_workspace(py: Path, cache: Path) -> None:
+    """This checkout's rio-core, rio-sim and rio-policies, editable: `rio eval` runs there on this code."""
+    subprocess.run([*uv_install(py, cache), "-e", str(ROOT / "rio-core"), "-e", str(ROOT / "plugins" / "rio-sim"),
+                    "-e", str(ROOT / "plugins" / "rio-policies")], check=True)
+
+
+def runs_this_workspace(py: Path) -> bool:
+    """Whether the environment's rio, rio_sim and rio_policies are this checkout's."""
+    where = subprocess.run([str(py), "-c", "import rio, rio_sim, rio_policies; "
+                                           "print(rio.__file__, rio_sim.__file__, rio_policies.__file__)"],
+                           capture_output=True, text=True)
+    return where.returncode == 0 and all(Path(f).resolve().is_relative_to(ROOT) for f in where.stdout.split())
 
 
 def complete_checkpoints(run: Path) -> list[Path]:
@@ -215,7 +235,7 @@ def main() -> None:
     ap.add_argument("--demo-seed", type=int, default=0)
     ap.add_argument("--eval-seed", type=int, default=1, help="held out: differs from --demo-seed")
     ap.add_argument("--trials", type=int, default=20)
-    ap.add_argument("--steps", type=int, default=20000, help="lerobot-train's --steps (the time budget stops first)")
+    ap.add_argument("--steps", type=int, default=200000, help="lerobot-train's --steps (the time budget stops first)")
     ap.add_argument("--train-minutes", type=float, default=30.0, help="wall-clock training budget")
     ap.add_argument("--save-every", type=int, default=250, help="checkpoint period in steps")
     ap.add_argument("--batch", type=int, default=32)
