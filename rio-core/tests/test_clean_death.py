@@ -331,3 +331,39 @@ def test_a_manager_start_sweeps_and_says_what_it_swept(monkeypatch, caplog):
     finally:
         host.shm_unlink(name)
         shutil.rmtree(base, ignore_errors=True)
+
+
+def test_a_ctrl_c_while_a_node_process_starts_does_not_kill_it():
+    """Ctrl-C in a terminal reaches every process of its group, node processes included. One that arrived
+    while a node's interpreter was still starting (importing `site`, before the node ignores SIGINT) killed
+    it with "Fatal Python error: init_import_site" and a traceback (seen when a `rio teleop` was interrupted
+    during start-up on a loaded machine). Node processes now start with SIGINT blocked: here every new one is
+    sent SIGINT every millisecond from its first moment, and the station still comes up."""
+    import threading
+
+    import psutil
+
+    me, stop, hit = psutil.Process(), threading.Event(), set()
+
+    def interrupt_every_new_node() -> None:
+        while not stop.is_set():
+            for child in me.children():
+                try:
+                    if "spawn_main" in " ".join(child.cmdline()):
+                        child.send_signal(signal.SIGINT)
+                        hit.add(child.pid)
+                except psutil.Error:  # gone, or not yet readable
+                    pass
+            time.sleep(0.001)
+
+    flood = threading.Thread(target=interrupt_every_new_node, daemon=True)
+    flood.start()
+    try:
+        with ServerManager("shm", [serve(Counter, name="counter")]) as mgr:
+            pid = mgr.pids()["counter"]
+            stop.set()
+            flood.join()
+            assert psutil.pid_exists(pid) and pid in hit, (pid, hit)
+    finally:
+        stop.set()
+        flood.join()

@@ -30,6 +30,7 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
+from multiprocessing import resource_tracker
 from typing import Any, TypeVar, cast
 
 from pydantic import ValidationError
@@ -165,6 +166,7 @@ def _child_main(cls: type[Node], name: str, config: dict, mw_cls: type[Middlewar
     """A node's process: build the node (once), tell the manager its layouts, take the resources the manager
     made for them (shared memory that must outlive this process), serve until told to stop."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # blocked since the exec: see _ProcessHandle
     host.exit_with_parent(parent_pid)
     clock.set_timer_slack()
     node = None
@@ -304,7 +306,16 @@ class _ProcessHandle:
             args=(spec.cls, spec.name, spec.config.model_dump(), type(mw), mw.station, mw.config.model_dump(),
                   child_conn, os.getpid()),
         )
-        self.proc.start()
+        # SIGINT stays blocked from the child's exec until `_child_main` ignores it (the manager stops its nodes
+        # itself): a Ctrl-C while the child's interpreter started killed it there, with "Fatal Python error:
+        # init_import_site" and a traceback. multiprocessing's resource tracker unblocks SIGINT in this thread
+        # when it starts: started first.
+        resource_tracker.ensure_running()
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            self.proc.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
         child_conn.close()
         self.address: dict[str, Any] | None = None
         self.error: str | None = None
