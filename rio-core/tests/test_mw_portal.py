@@ -26,7 +26,7 @@ from rio.middleware.portal import PortalMiddleware
 from rio.runtime import wire
 from rio.runtime.manager import ServerManager, connect, serve
 from rio.runtime.transport import NodeLayouts
-from rio.testing import EchoNode, ImageNode, wait_until
+from rio.testing import EchoNode, ImageNode, freeze_process, wait_until
 
 MW = "portal"
 
@@ -143,7 +143,7 @@ def test_heartbeat_detects_silent_remote_server():
             time.sleep(0.3)
             c.get_state()  # heartbeats keep it alive while idle
             pid = mgr.pids()["echo"]
-            os.kill(pid, signal.SIGSTOP)
+            freeze_process(pid)
             try:
                 t0 = time.monotonic()
                 with pytest.raises(rio.NodeDiedError, match="heartbeat"):

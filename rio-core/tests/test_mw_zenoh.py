@@ -20,7 +20,7 @@ from rio.conformance.middleware import send_in_turn
 from rio.errors import ConfigError  # noqa: E402
 from rio.middleware.zenoh import _SESSIONS, ZenohMiddleware, _config, _free_port  # noqa: E402
 from rio.runtime.transport import NodeLayouts  # noqa: E402
-from rio.testing import EchoNode, ImageNode, wait_until  # noqa: E402
+from rio.testing import EchoNode, ImageNode, freeze_process, wait_until  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -148,7 +148,7 @@ def test_remote_client_uses_heartbeats(echo):
         assert client.echo(3) == 3
         time.sleep(0.3)
         client.get_state()  # heartbeats keep it alive while idle
-        os.kill(pid, signal.SIGSTOP)
+        freeze_process(pid)
         t0 = time.monotonic()
         with pytest.raises(rio.NodeDiedError, match="heartbeat"):
             client.echo(4)

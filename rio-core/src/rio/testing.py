@@ -49,6 +49,26 @@ def wait_until(pred: Any, timeout: float = 3.0, period: float = 0.005) -> bool:
     return bool(pred())
 
 
+def freeze_process(pid: int, timeout: float = 5.0) -> None:
+    """SIGSTOP `pid` and wait until the kernel says it is stopped: the signal takes effect asynchronously,
+    and on a loaded machine a process can still answer a call after `os.kill` returned (seen: a zenoh
+    server that was to be silent replied). /proc on Linux; elsewhere a short pause."""
+    import signal
+
+    os.kill(pid, signal.SIGSTOP)
+    status = f"/proc/{pid}/stat"
+    if not os.path.exists(status):
+        time.sleep(0.05)
+        return
+
+    def stopped() -> bool:
+        with open(status) as f:
+            return f.read().rsplit(")", 1)[1].split()[0] in ("T", "t")
+
+    if not wait_until(stopped, timeout=timeout, period=0.001):
+        raise TimeoutError(f"process {pid} not stopped {timeout} s after SIGSTOP")
+
+
 def nudge_last_joint(arm: Any, rad: float = 0.1, seconds: float = 2.0, tol: float = 0.01,
                      timeout: float = 5.0) -> None:
     """A hardware test's first motion: turn an enabled arm's last joint by `rad` over `seconds` and back,
