@@ -55,17 +55,13 @@ def freeze_process(pid: int, timeout: float = 5.0) -> None:
     server that was to be silent replied). /proc on Linux; elsewhere a short pause."""
     import signal
 
+    from rio.machine.host import process_state
+
     os.kill(pid, signal.SIGSTOP)
-    status = f"/proc/{pid}/stat"
-    if not os.path.exists(status):
+    if process_state(pid) is None:  # the kernel does not say (no /proc)
         time.sleep(0.05)
         return
-
-    def stopped() -> bool:
-        with open(status) as f:
-            return f.read().rsplit(")", 1)[1].split()[0] in ("T", "t")
-
-    if not wait_until(stopped, timeout=timeout, period=0.001):
+    if not wait_until(lambda: process_state(pid) in ("T", "t"), timeout=timeout, period=0.001):
         raise TimeoutError(f"process {pid} not stopped {timeout} s after SIGSTOP")
 
 

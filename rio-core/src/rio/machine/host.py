@@ -130,13 +130,19 @@ def process_exit_watch(pid: int) -> Any | None:
     return None
 
 
-def _zombie(pid: int) -> bool:
-    """An exited child not yet reaped still answers kill(pid, 0); /proc tells (Linux only)."""
+def process_state(pid: int) -> str | None:
+    """The kernel's one-letter state of process `pid` ("R", "S", "T" stopped, "Z" zombie, ...), from /proc
+    (Linux only); None where it cannot tell (no /proc, no such process)."""
     try:
         with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] == "Z"
+            return f.read().rsplit(")", 1)[1].split()[0]
     except (OSError, IndexError):
-        return False
+        return None
+
+
+def _zombie(pid: int) -> bool:
+    """An exited child not yet reaped still answers kill(pid, 0); /proc tells (Linux only)."""
+    return process_state(pid) == "Z"
 
 
 def _windows_pid_alive(pid: int) -> bool:
