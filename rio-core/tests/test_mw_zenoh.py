@@ -421,8 +421,17 @@ def test_calls_whose_callers_gave_up_are_not_run():
         with connect(_Counter, mw, name=node.name, address=addr) as first, \
                 connect(_Counter, mw, name=node.name, address=addr) as second, \
                 connect(_Counter, mw, name=node.name, address=addr) as late:
-            calls = [threading.Thread(target=lambda: first.sleep(0.9), daemon=True),
-                     threading.Thread(target=lambda: second.sleep(1.5), daemon=True)]
+            outcomes = []
+
+            def call(client, seconds):
+                try:
+                    client.sleep(seconds)
+                    outcomes.append((seconds, "ran"))
+                except rio.NodeTimeout:
+                    outcomes.append((seconds, "timed out"))
+
+            calls = [threading.Thread(target=call, args=(first, 0.9), daemon=True),
+                     threading.Thread(target=call, args=(second, 1.5), daemon=True)]
             for c in calls:  # the first holds the API thread, the second queues behind it
                 c.start()
                 time.sleep(0.15)
@@ -430,6 +439,8 @@ def test_calls_whose_callers_gave_up_are_not_run():
                 late.bump()  # behind ~0.6 + 1.5 s of calls: its caller gives up after 1 s
             for c in calls:
                 c.join(10)
+            # the second call started in time, so it ran, but past its caller's patience
+            assert sorted(outcomes) == [(0.9, "ran"), (1.5, "timed out")]
             time.sleep(1.0)
             assert node.runs == 0
             assert late.bump() == 1  # the stale call never ran; fresh calls are served

@@ -20,7 +20,15 @@ _handed_out: dict[int, int] = {}
 _order = itertools.count()
 
 
-def free_domain_id(interface: str = "lo", lo: int = 100, hi: int = 200, listen_s: float = 0.15) -> int:
+#: Cyclone DDS binds UDP ports 7400 + 250 * domain + 0..249 (its default port mapping). Domains up to 100 keep
+#: them under Linux's ephemeral range (32768 and up): above it, a port the kernel had handed to any other
+#: socket on the machine fails the domain's start ("failed to bind to ANY:42150: address in use", seen for
+#: domain 139 in a loaded parallel test run). Domain 0 is the robot's and 1 the simulators' (unitree_mujoco's).
+TEST_DOMAINS = (2, 100)
+
+
+def free_domain_id(interface: str = "lo", lo: int = TEST_DOMAINS[0], hi: int = TEST_DOMAINS[1],
+                   listen_s: float = 0.15) -> int:
     """A DDS domain in [lo, hi] with no participant but ours after `listen_s` of discovery, preferring one
     this process has not handed out before; a pytest-xdist worker draws from its own share of the range
     (`rio.machine.parallel`: two workers probing at once would both find the same domain free).
