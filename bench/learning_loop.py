@@ -52,8 +52,7 @@ LEROBOT = "lerobot==0.4.4"
 OVERRIDES = TORCH
 #: ACT sized for a CPU: a 128-wide transformer (1 M parameters instead of the default 40 M)
 ACT = ["--policy.type=act", "--policy.use_vae=false", "--policy.dim_model=128", "--policy.dim_feedforward=512",
-       "--policy.n_heads=4", "--policy.n_encoder_layers=2", "--policy.n_decoder_layers=1",
-       "--policy.optimizer_lr=1e-4"]
+       "--policy.n_heads=4", "--policy.n_encoder_layers=2", "--policy.n_decoder_layers=1"]
 
 
 def log(msg: str) -> None:
@@ -150,7 +149,7 @@ def complete_checkpoints(run: Path) -> list[Path]:
     return out
 
 
-def train(py: Path, dataset: Path, work: Path, steps: int, minutes: float, batch: int, chunk: int,
+def train(py: Path, dataset: Path, work: Path, steps: int, minutes: float, batch: int, chunk: int, lr: float,
           save_every: int) -> dict:
     """lerobot-train, stopped at `minutes` of wall time; the last whole checkpoint and how it was reached."""
     meta = work / "train.json"
@@ -159,7 +158,8 @@ def train(py: Path, dataset: Path, work: Path, steps: int, minutes: float, batch
     run = work / "act"
     shutil.rmtree(run, ignore_errors=True)
     cmd = [str(py.parent / "lerobot-train"), "--dataset.repo_id=local/sim_so100_pick", f"--dataset.root={dataset}",
-           *ACT, f"--policy.chunk_size={chunk}", f"--policy.n_action_steps={chunk}", "--policy.device=cpu",
+           *ACT, f"--policy.optimizer_lr={lr}", f"--policy.chunk_size={chunk}", f"--policy.n_action_steps={chunk}",
+           "--policy.device=cpu",
            "--policy.push_to_hub=false", f"--output_dir={run}", "--job_name=act_sim_so100", f"--steps={steps}",
            f"--batch_size={batch}", "--num_workers=1", "--log_freq=100", f"--save_freq={save_every}",
            "--eval_freq=0", "--wandb.enable=false", "--seed=1000"]
@@ -180,7 +180,7 @@ def train(py: Path, dataset: Path, work: Path, steps: int, minutes: float, batch
     if not done:
         raise SystemExit(f"lerobot-train saved no whole checkpoint in {wall:.0f} s (rc {rc}): see {logfile}")
     info = {"checkpoint": str(done[-1]), "steps": int(done[-1].parent.name), "wall_s": wall,
-            "batch": batch, "chunk": chunk, "flags": ACT, "cores": os.cpu_count(),
+            "batch": batch, "chunk": chunk, "lr": lr, "flags": ACT, "cores": os.cpu_count(),
             "load_1min": os.getloadavg()[0]}
     meta.write_text(json.dumps(info))
     return info
@@ -240,6 +240,7 @@ def main() -> None:
     ap.add_argument("--save-every", type=int, default=250, help="checkpoint period in steps")
     ap.add_argument("--batch", type=int, default=32)
     ap.add_argument("--chunk", type=int, default=20, help="ACT chunk size (actions per inference, 30 fps)")
+    ap.add_argument("--lr", type=float, default=2e-4, help="ACT's learning rate (its backbone has none: no images)")
     a = ap.parse_args()
     if a.eval_seed == a.demo_seed:
         ap.error("--eval-seed must differ from --demo-seed: the evaluation's starts are held out")
@@ -250,7 +251,7 @@ def main() -> None:
     demos = record(work, STATION, a.demos, a.demo_seed)
     dataset = export(work)
     py = training_env(a.cache.resolve())
-    trained = train(py, dataset, work, a.steps, a.train_minutes, a.batch, a.chunk, a.save_every)
+    trained = train(py, dataset, work, a.steps, a.train_minutes, a.batch, a.chunk, a.lr, a.save_every)
     result = evaluate(py, STATION, trained["checkpoint"], a.trials, a.eval_seed, work)
     print(table(demos, trained, result, a.trials))
     print(f"\nmachine: {os.cpu_count()} cores, load average at the end of training {trained['load_1min']:.1f}; "

@@ -86,11 +86,17 @@ def test_replay_reproduces_a_recorded_rollout(tmp_path):
     if late:
         mid &= t_rep < t_rep[late[0]]
     assert mid.sum() >= 5, (late, summary.format())
-    for j in range(q_rec.shape[1]):
-        err = np.abs(q_rep[mid, j] - np.interp(t_rep[mid], t_rec, q_rec[:, j]))
-        # typically within two control periods of motion, and nine in ten within 0.1 s of it; a fake arm's
-        # thread descheduled in either run lags for a moment (tens of ms at load 8, 0.27 s once in CI)
-        assert np.median(err) < 0.4 * 0.04 and np.quantile(err, 0.9) < 0.4 * 0.1, (j, err, summary.format())
+    # typically within two control periods of motion. Either run's fake arm may have been descheduled for a
+    # moment (tens of ms at load 8, 0.27 s in CI, the arm then catching up at its speed limit), which puts the
+    # two runs' positions off in time, not off the path: compare each replayed position with the recording
+    # at the nearest time within 0.3 s, so a stall reads as a lag and a wrong position still reads as one
+    lags = np.arange(-0.3, 0.3001, 0.01)
+    err = np.full((len(lags), int(mid.sum())), np.inf)
+    for i, lag in enumerate(lags):
+        ref = np.stack([np.interp(t_rep[mid] - lag, t_rec, q_rec[:, j]) for j in range(q_rec.shape[1])], axis=1)
+        err[i] = np.abs(q_rep[mid] - ref).max(axis=1)
+    best = err.min(axis=0)
+    assert np.median(best) < 0.4 * 0.04 and np.quantile(best, 0.9) < 0.4 * 0.04, (best, summary.format())
 
 
 def test_crashing_policy_is_reported_by_name_and_the_robot_holds():
