@@ -58,8 +58,10 @@ def stop_spinners(spinners: list[subprocess.Popen]) -> None:
 
 def run_once(command: list[str]) -> int:
     """The command's exit status; a signal sent to this process (Ctrl+C, a CI timeout's SIGTERM) is
-    passed on to the command, whose status then counts as usual."""
-    proc = subprocess.Popen(command)
+    passed on to the command, whose status then counts as usual. The command gets SIGINT's default action
+    even when this script was started with it ignored (`&` in a script: POSIX has background jobs ignore
+    SIGINT when job control is off), or every test of Ctrl+C in the suite would fail."""
+    proc = subprocess.Popen(command, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     forwarded = {}
 
     def forward(signum, _frame):
