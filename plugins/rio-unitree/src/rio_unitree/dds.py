@@ -95,8 +95,11 @@ class Participant:
                     domain = Domain(self.domain_id, _CONFIG.format(interface=interface))
                 except DDSException as e:
                     if e.code != _PRECONDITION_NOT_MET:
+                        port = 7400 + 250 * self.domain_id  # Cyclone's default port mapping
                         raise ValueError(f"DDS could not start on interface '{interface}' (domain {domain_id}): "
-                                         f"{e}") from None
+                                         f"{e}; it binds UDP ports {port}-{port + 249}, and a socket already "
+                                         "on one of them stops it (Cyclone's own message above names the "
+                                         "port)") from None
                     domain = None  # made elsewhere in this process (the SDK's factory): use it as it is
                     log.info("DDS domain %d exists already in this process; its interface setting applies",
                              domain_id)
