@@ -89,7 +89,9 @@ def test_replay_reproduces_a_recorded_rollout(tmp_path):
     # typically within two control periods of motion. Either run's fake arm may have been descheduled for a
     # moment (tens of ms at load 8, 0.27 s in CI, the arm then catching up at its speed limit), which puts the
     # two runs' positions off in time, not off the path: compare each replayed position with the recording
-    # at the nearest time within 0.3 s, so a stall reads as a lag and a wrong position still reads as one
+    # at the nearest time within 0.3 s, so a stall reads as a lag. An arm that does not follow the replayed
+    # commands still fails (it falls more than 0.3 s of the ramp behind, or leaves it); the commands
+    # themselves were compared exactly above
     lags = np.arange(-0.3, 0.3001, 0.01)
     err = np.full((len(lags), int(mid.sum())), np.inf)
     for i, lag in enumerate(lags):
