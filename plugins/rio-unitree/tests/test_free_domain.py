@@ -9,7 +9,7 @@ import socket
 
 import pytest
 from rio_unitree import testing
-from rio_unitree.dds import Participant
+from rio_unitree.dds import Participant, udp_ports
 
 from rio.machine.parallel import worker_share
 
@@ -32,14 +32,14 @@ def test_test_domains_keep_cyclones_ports_below_the_ephemeral_range():
     lo, hi = testing.TEST_DOMAINS
     with open("/proc/sys/net/ipv4/ip_local_port_range") as f:
         first_ephemeral = int(f.read().split()[0])
-    assert lo >= 2 and 7400 + 250 * hi + 249 < first_ephemeral
+    assert lo >= 2 and udp_ports(hi)[-1] < first_ephemeral
 
 
 def test_a_port_taken_by_another_socket_is_named_in_the_error():
 
 
     domain = 230  # outside every range the tests draw from
-    port = 7400 + 250 * domain
+    port = udp_ports(domain)[0]
     holder = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)  # no SO_REUSEADDR: Cyclone cannot share it
     try:
         holder.bind(("0.0.0.0", port))

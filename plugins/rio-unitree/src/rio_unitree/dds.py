@@ -51,6 +51,13 @@ _lock = threading.Lock()
 _domains: dict[int, list[Any]] = {}  # id -> [Domain or None (not ours), users, interface]
 
 
+def udp_ports(domain_id: int) -> range:
+    """The UDP ports Cyclone DDS binds for `domain_id` (its default mapping: 7400 + 250 * domain, 250 of them):
+    a socket already on one of them stops the domain from starting."""
+    base = 7400 + 250 * int(domain_id)
+    return range(base, base + 250)
+
+
 def interfaces() -> list[str]:
     return [name for _, name in socket.if_nameindex()]
 
@@ -95,9 +102,9 @@ class Participant:
                     domain = Domain(self.domain_id, _CONFIG.format(interface=interface))
                 except DDSException as e:
                     if e.code != _PRECONDITION_NOT_MET:
-                        port = 7400 + 250 * self.domain_id  # Cyclone's default port mapping
+                        ports = udp_ports(self.domain_id)
                         raise ValueError(f"DDS could not start on interface '{interface}' (domain {domain_id}): "
-                                         f"{e}; it binds UDP ports {port}-{port + 249}, and a socket already "
+                                         f"{e}; it binds UDP ports {ports[0]}-{ports[-1]}, and a socket already "
                                          "on one of them stops it (Cyclone's own message above names the "
                                          "port)") from None
                     domain = None  # made elsewhere in this process (the SDK's factory): use it as it is

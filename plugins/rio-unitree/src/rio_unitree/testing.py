@@ -20,7 +20,7 @@ _handed_out: dict[int, int] = {}
 _order = itertools.count()
 
 
-#: Cyclone DDS binds UDP ports 7400 + 250 * domain + 0..249 (its default port mapping). Domains up to 100 keep
+#: Cyclone DDS binds UDP ports 7400 + 250 * domain + 0..249 (`dds.udp_ports`). Domains up to 100 keep
 #: them under Linux's ephemeral range (32768 and up): above it, a port the kernel had handed to any other
 #: socket on the machine fails the domain's start ("failed to bind to ANY:42150: address in use", seen for
 #: domain 139 in a loaded parallel test run). Domain 0 is the robot's and 1 the simulators' (unitree_mujoco's).
