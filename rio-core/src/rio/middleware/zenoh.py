@@ -10,7 +10,7 @@ handshake and uses its publishers only once zenoh reports them matched. A node a
 through a publisher of its own (~4.5 us less than `session.put`), anyone else by `session.put` (a made-up
 client id costs no state). A message over the node's limit is dropped by zenoh before reassembly
 (`transport/link/rx/max_message_size`). With `keys` every link is mutual TLS and zenoh's access control
-admits only trusted machines (`_secure`). Clients in one process share one session per set of endpoints
+admits only trusted machines (`secure_links`). Clients in one process share one session per set of endpoints
 (and keys). The lowlatency transport stays off: it has no fragmentation and silently drops large frames.
 """
 
@@ -19,7 +19,6 @@ from __future__ import annotations
 import json
 import logging
 import os
-import queue
 import re
 import socket
 import threading
@@ -31,7 +30,6 @@ from pydantic import model_validator
 from rio import clock
 from rio.errors import ConfigError, NodeDiedError
 from rio.middleware.protocol import NetworkClient, NetworkConfig, NetworkServer, is_loopback
-from rio.middleware.protocol.client import POLL_S
 from rio.middleware.protocol.messages import ACK, CALL, REPLY, REQUEST
 from rio.runtime.node import Node
 from rio.runtime.transport import Middleware, NodeLayouts
@@ -71,15 +69,10 @@ def _config(mode: str, listen: list[str], connect: list[str], connect_timeout: f
     if max_message is not None:  # a node's session: zenoh refuses a bigger message before reassembling it
         options["transport/link/rx/max_message_size"] = max_message
     if keys is not None:
-        options.update(_secure(keys, station))
+        options.update(secure_links(keys, [f"rio/{station}/**"], _ACL_MESSAGES))  # RIO's kinds only
     for key, value in options.items():
         c.insert_json5(key, json.dumps(value))
     return c
-
-
-def _secure(keys: MachineKeys, station: str) -> dict[str, Any]:
-    """Mutual TLS on every link and access control for RIO's message kinds under `rio/<station>/**`."""
-    return secure_links(keys, [f"rio/{station}/**"], _ACL_MESSAGES)
 
 
 def secure_links(keys: MachineKeys, key_exprs: list[str], messages: list[str]) -> dict[str, Any]:
@@ -125,8 +118,6 @@ def _endpoint(host: str, port: int, proto: str = "tcp") -> str:
 def _proto(endpoint: str) -> str:
     return endpoint.split("/", 1)[0] if "/" in endpoint else ""
 
-
-_tls = tls_endpoints
 
 
 def _prefix(station: str, node: str) -> str:
@@ -207,7 +198,7 @@ class ZenohServer(NetworkServer):
 
     def _open_session(self) -> tuple[Any, list[str]]:
         o, keys = self.config, self._keys
-        connect, proto = (list(o.connect), "tcp") if keys is None else (_tls(o.connect), "tls")
+        connect, proto = (list(o.connect), "tcp") if keys is None else (tls_endpoints(o.connect), "tls")
         if o.mode == "client":
             if not connect:
                 raise ConfigError("zenoh middleware: mode 'client' needs at least one router in 'connect'")
@@ -302,7 +293,6 @@ class ZenohClient(NetworkClient):
         self.station = station
         self._session_key: tuple[str, ...] | None = None
         self._entities: list[Any] = []
-        self._answers: dict[bytes, queue.SimpleQueue[Any]] = {ACK: queue.SimpleQueue(), REPLY: queue.SimpleQueue()}
         try:
             self._connect(endpoints, keys)
         except BaseException:
@@ -322,7 +312,8 @@ class ZenohClient(NetworkClient):
             self._declare(s.declare_subscriber(f"{p}/state", self._on_state))
         self._declare(s.declare_subscriber(f"{p}/hb", lambda smp: self._on_stream(smp.payload.to_bytes(), None)))
         for kind in (ACK, REPLY):
-            self._declare(s.declare_subscriber(f"{p}/{_KEYS[kind]}/{cid}", self._answers[kind].put))
+            self._declare(s.declare_subscriber(f"{p}/{_KEYS[kind]}/{cid}",
+                                               lambda smp, k=kind: self._answered(k, smp.payload.to_bytes())))
         # BLOCK: a request or call is never dropped silently; zenoh keeps one publisher's order.
         options = {"congestion_control": z.CongestionControl.BLOCK, "priority": z.Priority.INTERACTIVE_HIGH}
         self._call_pub = self._declare(s.declare_publisher(f"{p}/call/{cid}", **options))
@@ -363,18 +354,6 @@ class ZenohClient(NetworkClient):
 
     def _send(self, kind: bytes, body: bytes) -> None:
         (self._req_pub if kind == REQUEST else self._call_pub).put(body)
-
-    def _recv(self, kind: bytes) -> bytes | None:
-        try:
-            return self._answers[kind].get(timeout=POLL_S).payload.to_bytes()
-        except queue.Empty:
-            return None
-
-    def _recv_now(self, kind: bytes) -> bytes | None:
-        try:
-            return self._answers[kind].get_nowait().payload.to_bytes()
-        except queue.Empty:
-            return None
 
     def close(self) -> None:
         _undeclare(*self._entities)
@@ -418,7 +397,7 @@ class ZenohMiddleware(Middleware):
         (client mode); `tls/` with keys. The address has no pid: clients there go by heartbeats."""
         prefix, keyed = _prefix(self.station, node), self.config.keys is not None
         if self.config.mode == "client":
-            routers = _tls(self.config.connect) if keyed else list(self.config.connect)
+            routers = tls_endpoints(self.config.connect) if keyed else list(self.config.connect)
             return {}, {"prefix": prefix, "endpoints": routers}
         port = section.port + index
         options = {"host": section.bind or section.address, "port": port}

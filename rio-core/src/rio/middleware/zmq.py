@@ -287,11 +287,10 @@ class ZmqServer(NetworkServer):
             self.admission.established(fd)
 
     def _disconnect(self, peer: Any, why: str) -> None:
-        """Shut the connection's socket down (`peer`: its file descriptor): libzmq sees it end and closes it.
-        Only if the descriptor still is that connection's (a closed one's number may have been reused)."""
+        """Shut the connection's socket down (`peer`: its file descriptor)."""
         where = self._conns.get(peer)
         if where is not None:
-            _shut_down(peer, where)
+            _peer_of(peer, shut_down_if=where)
 
     def _shut(self, busy: bool) -> None:
         if busy:  # a call still running may yet send through these sockets: the process ends them
@@ -308,23 +307,18 @@ class ZmqServer(NetworkServer):
         self._ctx.term()
 
 
-def _peer_of(fd: int) -> tuple[str, int] | None:
-    """(host, port) of the peer of socket `fd` (a duplicate of it is asked), None when it is gone."""
+def _peer_of(fd: int, shut_down_if: tuple[str, int] | None = None) -> tuple[str, int] | None:
+    """(host, port) of the peer of socket `fd` (a duplicate of it is asked), None when it is gone. With
+    `shut_down_if`, the socket is shut down if its peer is still that one (the number may have been reused);
+    libzmq owns the descriptor, sees the connection end and closes it itself."""
     try:
         with socket.socket(fileno=os.dup(fd)) as s:
-            return s.getpeername()[:2]
+            peer = s.getpeername()[:2]
+            if shut_down_if is not None and peer == shut_down_if:
+                s.shutdown(socket.SHUT_RDWR)
+            return peer
     except OSError:
         return None
-
-
-def _shut_down(fd: int, where: tuple[str, int]) -> None:
-    """Shut down socket `fd` if its peer is still `where` (libzmq owns the descriptor and closes it itself)."""
-    try:
-        with socket.socket(fileno=os.dup(fd)) as s:
-            if s.getpeername()[:2] == where:
-                s.shutdown(socket.SHUT_RDWR)
-    except OSError:
-        pass
 
 
 class ZmqClient(NetworkClient):
@@ -421,7 +415,8 @@ class ZmqClient(NetworkClient):
                 raise NodeTimeout(self.name, "sending (the server takes nothing)", self.config.call_timeout)
             time.sleep(0.0005)
 
-    def _recv(self, kind: bytes) -> memoryview | None:
+    def _recv(self, kind: bytes, wait_s: float = POLL_S) -> memoryview | None:
+        """From the socket (its RCVTIMEO is the wait: `POLL_S`)."""
         sock, t_end = (self._req_sock if kind == ACK else self._call_sock), 0.0
         while True:
             try:

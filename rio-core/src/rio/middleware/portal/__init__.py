@@ -28,7 +28,6 @@ from rio.errors import NodeDiedError, NodeError, TooManyConnections
 from rio.middleware.portal import wire as pw
 from rio.middleware.portal.server import TAKEN, PortalServer
 from rio.middleware.protocol import NetworkClient, NetworkConfig
-from rio.middleware.protocol.client import POLL_S
 from rio.middleware.protocol.codecs import CODED_HEAD
 from rio.middleware.protocol.messages import ACK, CODED, OK, REPLY, REQUEST, REQUEST_ID, STATE, STREAM_HEAD, pack_ack
 from rio.runtime import wire
@@ -54,7 +53,6 @@ class PortalClient(NetworkClient):
         super().__init__(node, layouts, address, config)
         self._closing = False
         self._refused: str | None = None  # why the server refused this connection, if it did
-        self._answers: dict[bytes, queue.SimpleQueue[Answer]] = {k: queue.SimpleQueue() for k in (ACK, REPLY)}
         self._pending: dict[int, OnAnswer] = {}  # reqnum -> who takes its answer
         self._reqnums = itertools.count(1)
         self._lock = threading.Lock()
@@ -131,31 +129,20 @@ class PortalClient(NetworkClient):
                 on_answer(why, None)
 
     def _send(self, kind: bytes, body: bytes) -> None:
-        answers = self._answers[ACK if kind == REQUEST else REPLY]
-        if kind != REQUEST:
-            return self._ask(b"call", body, lambda error, data: answers.put((error, data)))
-        rid = REQUEST_ID.unpack_from(body)[0]
+        answer = ACK if kind == REQUEST else REPLY
 
-        def ack(error: str | None, data: Any) -> None:  # the protocol's acknowledgement, with our id
-            if error is None:
+        def take(error: str | None, data: Any) -> None:  # the protocol's answer, or the error it stands for
+            if error is not None:
+                data = NodeDiedError(self.name, self._gone or error) if self._link.closed else \
+                    NodeError(self.name, "PortalError", error)
+            elif kind == REQUEST:  # the protocol's acknowledgement, with our id
                 data = pack_ack(rid, OK) if data == TAKEN else pack_ack(rid, *wire.unpack(data)[1:])
-            answers.put((error, data))
+            self._answered(answer, data)
 
-        return self._ask(b"req", memoryview(body)[REQUEST_ID.size:], ack)
-
-    def _recv(self, kind: bytes, wait_s: float | None = POLL_S) -> Any:
-        try:
-            error, data = self._answers[kind].get(timeout=wait_s) if wait_s else self._answers[kind].get_nowait()
-        except queue.Empty:
-            return None
-        if error is None:
-            return data
-        if self._link.closed:
-            raise NodeDiedError(self.name, self._gone or error)
-        raise NodeError(self.name, "PortalError", error)
-
-    def _recv_now(self, kind: bytes) -> Any:
-        return self._recv(kind, 0.0)
+        if kind != REQUEST:
+            return self._ask(b"call", body, take)
+        rid = REQUEST_ID.unpack_from(body)[0]
+        return self._ask(b"req", memoryview(body)[REQUEST_ID.size:], take)
 
     def _poll_loop(self) -> None:
         """The state stream: one long poll at a time, each answered with the messages after our newest."""

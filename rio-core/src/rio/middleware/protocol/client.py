@@ -1,6 +1,5 @@
 """The protocol's client side for one node. An adapter subclasses `NetworkClient`, supplies `_send(kind,
-body)` and `_recv(kind)` (the next answer of that kind, waiting at most `POLL_S`, so a waiting caller looks
-at the server's liveness that often), passes the server's HELLO answer to `_handshake` and every
+body)`, hands every answer (ACK, REPLY) to `_answered`, the server's HELLO answer to `_handshake` and every
 state-stream message to `_on_stream`. This class does the rest:
 
 - handshake: the protocol version and both layouts' fingerprints must match (else a ConfigError naming the
@@ -18,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import queue
 import threading
 import time
 from functools import partial
@@ -72,6 +72,8 @@ class NetworkClient(ClientTransport):
         self.decoder: RecordDecoder | None = None
         self.ring_buffer = RingBuffer(layouts.data, layouts.buffer_capacity) if layouts.data else None
         self.request_queue = RequestSender(layouts.request, self._send_request) if layouts.request else None
+        #: Answers handed over by the adapter's receiving thread (`_answered`), taken by `_recv`.
+        self._answers: dict[bytes, queue.SimpleQueue[Any]] = {m.ACK: queue.SimpleQueue(), m.REPLY: queue.SimpleQueue()}
         self._requests = CreditFlow(self.name, max(config.call_timeout, ANSWER_TIMEOUT_S),
                                     partial(self._send_parts, m.REQUEST), partial(self._recv_now, m.ACK),
                                     self.check_alive, recv_wait=partial(self._recv, m.ACK))
@@ -80,8 +82,21 @@ class NetworkClient(ClientTransport):
     def _send(self, kind: bytes, body: bytes) -> None:
         raise NotImplementedError
 
-    def _recv(self, kind: bytes) -> bytes | memoryview | None:
-        raise NotImplementedError
+    def _answered(self, kind: bytes, answer: bytes | memoryview | Exception) -> None:
+        """An answer of `kind` (ACK, REPLY) arrived, or the error that stands for it (the adapter's thread)."""
+        self._answers[kind].put(answer)
+
+    def _recv(self, kind: bytes, wait_s: float = POLL_S) -> bytes | memoryview | None:
+        """The next answer of that kind, waiting at most `wait_s` (so a waiting caller looks at the server's
+        liveness that often); None when none came. An adapter whose sockets keep the answers (zmq) reads
+        them there instead."""
+        try:
+            got = self._answers[kind].get(timeout=wait_s) if wait_s else self._answers[kind].get_nowait()
+        except queue.Empty:
+            return None
+        if isinstance(got, Exception):
+            raise got
+        return got
 
     def _send_parts(self, kind: bytes, *parts: bytes | memoryview) -> None:
         """Send one message of `kind` whose body is `parts` back to back (a request: its id, then its record).
@@ -93,7 +108,7 @@ class NetworkClient(ClientTransport):
     def _recv_now(self, kind: bytes) -> bytes | memoryview | None:
         """The next answer of that kind if one has arrived, else None at once (request acknowledgements are
         taken in this way: `send_request` never waits for the network)."""
-        raise NotImplementedError
+        return self._recv(kind, 0.0)
 
     # -- liveness ------------------------------------------------------------------------------------
     def check_alive(self) -> None:
