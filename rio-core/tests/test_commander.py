@@ -106,6 +106,21 @@ def test_pose_targets_are_clipped_to_the_workspace_and_step_limited():
     assert zs[-1] == pytest.approx(0.0)          # stops at the workspace floor
 
 
+def test_a_pose_goal_takes_up_where_a_coasting_tool_already_is_in_position_only():
+    """A base streaming twists went on through a late cycle: the position takes up from the tool, as joints do;
+    the orientation stays the goal's, even when the tool reports its orientation as the other sign of the
+    same quaternion (a per-element clamp would then make up a rotation)."""
+    c = _pose_cmd(max_m=0.05, max_rad=0.05)
+    turned = rotvec_to_quat([0.0, 0.0, 0.4])
+    c.command([0.5, 0.0, 0.2, *turned], t_target=0.4, now=0.0)
+    goal = c.step(0.1).copy()  # on time: 5 cm along x, 0.05 rad about z
+    c.follow_measured([0.25, 0.01, 0.2, *(-rotvec_to_quat([0.0, 0.0, 0.2]))], now=0.3)  # 0.2 s late
+    assert np.allclose(c.goal[:3], [0.25, 0.0, 0.2])  # along x as far as the tool went; y, not on the way: goal's
+    assert quat_angle(c.goal[3:], goal[3:]) < 1e-9 and np.allclose(c.goal[3:], goal[3:])
+    c.follow_measured([0.9, 0.0, 0.2, *goal[3:]], now=0.35)  # past where the move is now: up to there only
+    assert c.goal[0] == pytest.approx(0.45, abs=1e-9)  # 0.1 m + 0.4 m * 0.35 s / 0.4 s
+
+
 def test_pose_rotation_moves_along_the_slerp_arc_at_bounded_speed():
     c = _pose_cmd(max_rad=0.05)
     target = rotvec_to_quat([0.0, 0.0, 1.0])  # 1 rad about z

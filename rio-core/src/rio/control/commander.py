@@ -276,6 +276,14 @@ class PoseCommander(_Commander):
             self.clipped += 1
         return p
 
+    def follow_measured(self, measured, now: float) -> None:
+        """The position as `_Commander.follow_measured` (a base streaming twists keeps its last one through a
+        late cycle); the orientation stays the goal's (a quaternion is not clamped element by element: q and
+        -q are the same rotation)."""
+        m = as_pose(measured)
+        m[3:] = self.goal[3:]
+        super().follow_measured(m, now)
+
     def _arrived(self) -> bool:
         target = self._interp.goal
         return bool(np.allclose(self.goal[:3], target[:3], rtol=0.0, atol=1e-9)

@@ -24,6 +24,7 @@ from pydantic import Field
 from rio import clock
 from rio.control import quat_conj, quat_mul, quat_to_rotvec
 from rio.interfaces import ArmNode, ModelTable
+from rio.interfaces.arm import EEF
 
 from ..description import description
 from ..link import KortexConfig, close_session, guarded, hold_faults_and_drops, open_session, watch
@@ -117,16 +118,18 @@ class KinovaArm(ArmNode):
             cont = np.array(self.kinova.continuous)
             q = np.where(cont, self._q + wrap(q - self._q), q)
         self._q = q
-        if self.enabled and not self.config.low_level:
-            # the base went on at the last joint speeds through a late cycle: the goal the commander steps next
-            # takes up from where that brought the arm (`JointCommander.follow_measured`) rather than pull it back
-            self.commander.follow_measured(q, clock.now())
-            self._from = self.commander.goal.copy()  # where this cycle's step starts
         sample: dict[str, Any] = {"joint_pos": q, "joint_vel": np.radians([a.velocity for a in fb.actuators])}
         if self.streams_poses:
             b = fb.base
             sample["eef_pose"] = from_kinova([b.tool_pose_x, b.tool_pose_y, b.tool_pose_z, b.tool_pose_theta_x,
                                               b.tool_pose_theta_y, b.tool_pose_theta_z])
+        if self.enabled and not self.config.low_level:
+            # the base went on at the last joint speeds (or twist) through a late cycle: the goal the commander
+            # steps next takes up from where that brought the arm (`follow_measured`) rather than pull it back
+            twists = self.mode == EEF and self.poses is not None
+            commander = self.poses if twists else self.commander
+            commander.follow_measured(sample["eef_pose"] if twists else q, clock.now())
+            self._from = commander.goal.copy()  # where this cycle's step starts
         if self.faults.fault is None and self.enabled:
             state = s._name(s.pb.Common_pb2.ArmState, fb.base.active_state)
             if state == "ARMSTATE_IN_FAULT":  # a missed notification: the cyclic feedback says so too
@@ -148,17 +151,8 @@ class KinovaArm(ArmNode):
                 a.command_id, a.flags, a.position = self._frame, 1, math.degrees(float(qi)) % 360.0
             guarded(self, s.cyclic.Refresh, cmd)
             return
-        # The base keeps a speed until the next command, however late that comes. Sent: this cycle's step of
-        # the goal as a speed over the time cycles take now (a burst of short cycles after a stall would
-        # otherwise turn a catch-up step into a dash the base keeps up through the next late cycle), plus a
-        # pull toward the goal that gives way to slow cycles (one that closes the error in less than two
-        # cycle gaps overshoots and swings: the Gen3 fake with 0.1-0.4 s stalls ran 0.9 m of tool path for a
-        # 0.2 m square)
-        now = clock.now()
-        gap = max(now - self._t_write if self._t_write is not None else 0.0, 1.0 / self.config.rate_hz)
-        self._t_write, self._gap = now, max(gap, self._gap * _GAP_DECAY)
+        gap, gain = self._pace()
         step = joint_pos - self._from if self._from is not None else np.zeros_like(joint_pos)
-        gain = min(self.config.gain, 0.5 / self._gap)
         vmax = np.array(self.kinova.max_joint_speed)
         speed = np.clip(step / gap + gain * (joint_pos - self._q), -vmax, vmax)
         msg = s.pb.Base_pb2.JointSpeeds()
@@ -170,10 +164,13 @@ class KinovaArm(ArmNode):
     def write_pose(self, eef_pose: np.ndarray) -> None:
         s = self.session
         assert s is not None
-        now = self._eef
-        lin = self.config.gain * (eef_pose[:3] - now[:3])
-        dq = quat_mul(eef_pose[3:], quat_conj(now[3:]))
-        ang = self.config.gain * quat_to_rotvec(dq if dq[0] >= 0 else -dq)
+        # as write_joints: the goal's step of travel over the cycle gap, and a pull toward the goal; the rotation is
+        # pulled only (its step too moved the tool point: 3.8 cm of travel during a 0.3 rad turn in place on the fake)
+        gap, gain = self._pace()
+        step = (eef_pose[:3] - self._from[:3]) / gap if self._from is not None else np.zeros(3)
+        dq = quat_mul(eef_pose[3:], quat_conj(self._eef[3:]))
+        lin = step + gain * (eef_pose[:3] - self._eef[:3])
+        ang = gain * quat_to_rotvec(dq if dq[0] >= 0 else -dq)
         cmd = s.pb.Base_pb2.TwistCommand()
         cmd.reference_frame = s.pb.Base_pb2.CARTESIAN_REFERENCE_FRAME_BASE
         cmd.duration = 0
@@ -182,3 +179,14 @@ class KinovaArm(ArmNode):
         t.angular_x, t.angular_y, t.angular_z = (math.degrees(float(v)) for v in ang)
         guarded(self, s.base.SendTwistCommand, cmd)
 
+    def _pace(self) -> tuple[float, float]:
+        """(the time since the last speed command, the pull gain the recent cycles allow). The base keeps a
+        speed until the next command, however late that comes. So a command is this cycle's step of the goal
+        as a speed over the time cycles take now (a burst of short cycles after a stall would otherwise turn a
+        catch-up step into a dash the base keeps up through the next late cycle), plus a pull toward the goal
+        that gives way to slow cycles (one that closes the error in less than two cycle gaps overshoots and
+        swings: the Gen3 fake with 0.1-0.4 s stalls ran 0.9 m of tool path for a 0.2 m square)."""
+        now = clock.now()
+        gap = max(now - self._t_write if self._t_write is not None else 0.0, 1.0 / self.config.rate_hz)
+        self._t_write, self._gap = now, max(gap, self._gap * _GAP_DECAY)
+        return gap, min(self.config.gain, 0.5 / self._gap)
