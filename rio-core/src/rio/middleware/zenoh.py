@@ -119,7 +119,6 @@ def _proto(endpoint: str) -> str:
     return endpoint.split("/", 1)[0] if "/" in endpoint else ""
 
 
-
 def _prefix(station: str, node: str) -> str:
     for part in (station, node):
         if not part or any(ch in part for ch in "/*$?#"):
