@@ -240,7 +240,7 @@ def main() -> None:
     ap.add_argument("--save-every", type=int, default=250, help="checkpoint period in steps")
     ap.add_argument("--batch", type=int, default=32)
     ap.add_argument("--chunk", type=int, default=20, help="ACT chunk size (actions per inference, 30 fps)")
-    ap.add_argument("--lr", type=float, default=2e-4, help="ACT's learning rate (its backbone has none: no images)")
+    ap.add_argument("--lr", type=float, default=1e-4, help="ACT's learning rate (its backbone has none: no images)")
     a = ap.parse_args()
     if a.eval_seed == a.demo_seed:
         ap.error("--eval-seed must differ from --demo-seed: the evaluation's starts are held out")
