@@ -36,8 +36,6 @@ def test_test_domains_keep_cyclones_ports_below_the_ephemeral_range():
 
 
 def test_a_port_taken_by_another_socket_is_named_in_the_error():
-
-
     domain = 230  # outside every range the tests draw from
     port = udp_ports(domain)[0]
     holder = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)  # no SO_REUSEADDR: Cyclone cannot share it

@@ -22,7 +22,7 @@ import numpy as np
 from pydantic import Field
 
 from rio import clock
-from rio.control import quat_conj, quat_mul, quat_to_rotvec
+from rio.control import twist_between
 from rio.interfaces import ArmNode, ModelTable
 from rio.interfaces.arm import EEF
 
@@ -167,10 +167,10 @@ class KinovaArm(ArmNode):
         # as write_joints: the goal's step of travel over the cycle gap, and a pull toward the goal; the rotation is
         # pulled only (its step too moved the tool point: 3.8 cm of travel during a 0.3 rad turn in place on the fake)
         gap, gain = self._pace()
-        step = (eef_pose[:3] - self._from[:3]) / gap if self._from is not None else np.zeros(3)
-        dq = quat_mul(eef_pose[3:], quat_conj(self._eef[3:]))
-        lin = step + gain * (eef_pose[:3] - self._eef[:3])
-        ang = gain * quat_to_rotvec(dq if dq[0] >= 0 else -dq)
+        twist = gain * twist_between(self._eef, eef_pose, 1.0)  # the error: travel, and rotation the short way
+        if self._from is not None:
+            twist[:3] += (eef_pose[:3] - self._from[:3]) / gap
+        lin, ang = twist[:3], twist[3:]
         cmd = s.pb.Base_pb2.TwistCommand()
         cmd.reference_frame = s.pb.Base_pb2.CARTESIAN_REFERENCE_FRAME_BASE
         cmd.duration = 0
